@@ -1,0 +1,68 @@
+//! Command-line interface: argument parsing (clap) and the subcommands.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::{Parser, Subcommand};
+
+use cuberay::info::SceneInfo;
+use cuberay::load::{self, LoadOptions, Loaded};
+
+#[derive(Parser, Debug)]
+#[command(name = "cuberay", version, about = "GPU Whitted ray tracing with direction-cube candidate tables")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Print what a scene holds and which effects it calls for.
+    Info {
+        /// Scene file (.nff, .gltf, .glb).
+        scene: PathBuf,
+        /// Print one JSON object instead of text.
+        #[arg(long)]
+        json: bool,
+        /// glTF: index of the camera to use.
+        #[arg(long)]
+        camera: Option<usize>,
+    },
+}
+
+pub fn main() -> ExitCode {
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Info { scene, json, camera } => {
+            let loaded = load_scene(&scene, camera)?;
+            let info = SceneInfo::of(&loaded.scene);
+            if json {
+                println!("{}", serde_json::to_string_pretty(&info)?);
+            } else {
+                print!("{}", info.to_text());
+            }
+            Ok(())
+        }
+    }
+}
+
+/// Loads a scene and reports the loader's warnings on stderr.
+fn load_scene(path: &std::path::Path, camera: Option<usize>) -> anyhow::Result<Loaded> {
+    let loaded = load::load(path, &LoadOptions { camera }).context("cannot load the scene")?;
+    for w in &loaded.warnings {
+        log::warn!("{}: {w}", path.display());
+    }
+    Ok(loaded)
+}

@@ -1,0 +1,112 @@
+//! What `cuberay info` reports about a scene: primitive counts, lights, materials, bounds
+//! and the effects the scene calls for, as text or as one JSON object.
+
+use serde::Serialize;
+
+use crate::scene::{LightSource, Projection, Scene};
+
+/// The scene summary. Serialised as-is by `cuberay info --json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct SceneInfo {
+    pub spheres: usize,
+    /// After triangulation, counted per instance.
+    pub triangles: usize,
+    /// Cylinders and cones.
+    pub cylinders: usize,
+    pub primitives: usize,
+    /// Lights in the file (not the loader's default light).
+    pub lights: usize,
+    /// True when the file has no light and the default headlight was added.
+    pub default_light: bool,
+    pub materials: usize,
+    pub textures: usize,
+    /// World-space box of the geometry, `[[min x,y,z],[max x,y,z]]`, in the file's axes.
+    pub bounds: Option<[[f64; 3]; 2]>,
+    /// The effects the scene calls for, from: shadows, reflection, refraction, textures,
+    /// emission.
+    pub effects: Vec<&'static str>,
+    pub camera: CameraInfo,
+    /// The resolution the file asks for, if any.
+    pub resolution: Option<[u32; 2]>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct CameraInfo {
+    pub projection: &'static str,
+    pub eye: [f64; 3],
+    pub forward: [f64; 3],
+    pub up: [f64; 3],
+    /// Full vertical field of view in degrees (perspective cameras).
+    pub fov_y_degrees: Option<f64>,
+    /// Half height of the view volume (orthographic cameras).
+    pub half_height: Option<f64>,
+}
+
+impl SceneInfo {
+    pub fn of(scene: &Scene) -> SceneInfo {
+        let counts = scene.counts();
+        let b = scene.bounds();
+        let cam = &scene.camera;
+        let (projection, fov, half) = match cam.projection {
+            Projection::Perspective { fov_y, .. } => ("perspective", Some(fov_y.to_degrees()), None),
+            Projection::Orthographic { half_height } => ("orthographic", None, Some(half_height)),
+        };
+        SceneInfo {
+            spheres: counts.spheres,
+            triangles: counts.triangles,
+            cylinders: counts.cylinders,
+            primitives: scene.primitives.len(),
+            lights: scene.file_lights().count(),
+            default_light: scene.lights.iter().any(|l| l.source == LightSource::Default),
+            materials: scene.materials.len(),
+            textures: scene.textures.len(),
+            bounds: (!b.is_empty()).then(|| [b.min.to_array(), b.max.to_array()]),
+            effects: scene.effects().names(),
+            camera: CameraInfo {
+                projection,
+                eye: cam.eye.to_array(),
+                forward: cam.forward.to_array(),
+                up: cam.up.to_array(),
+                fov_y_degrees: fov,
+                half_height: half,
+            },
+            resolution: scene.resolution.map(|(w, h)| [w, h]),
+        }
+    }
+
+    /// A human-readable multi-line summary.
+    pub fn to_text(&self) -> String {
+        let mut s = String::new();
+        let f3 = |v: [f64; 3]| format!("({:.6}, {:.6}, {:.6})", v[0], v[1], v[2]);
+        s += &format!(
+            "primitives: {} ({} spheres, {} triangles, {} cylinders/cones)\n",
+            self.primitives, self.spheres, self.triangles, self.cylinders
+        );
+        s += &format!(
+            "lights:     {}{}\n",
+            self.lights,
+            if self.default_light { " (none in the file: using the default headlight)" } else { "" }
+        );
+        s += &format!("materials:  {}\n", self.materials);
+        s += &format!("textures:   {}\n", self.textures);
+        match self.bounds {
+            Some([lo, hi]) => s += &format!("bounds:     {} .. {}\n", f3(lo), f3(hi)),
+            None => s += "bounds:     (empty)\n",
+        }
+        let effects = if self.effects.is_empty() { "none".to_string() } else { self.effects.join(", ") };
+        s += &format!("effects:    {effects}\n");
+        let c = &self.camera;
+        s += &format!("camera:     {} at {} looking along {}", c.projection, f3(c.eye), f3(c.forward));
+        if let Some(f) = c.fov_y_degrees {
+            s += &format!(", vertical field of view {f:.3} degrees");
+        }
+        if let Some(h) = c.half_height {
+            s += &format!(", half height {h}");
+        }
+        s += "\n";
+        if let Some([w, h]) = self.resolution {
+            s += &format!("resolution: {w}x{h}\n");
+        }
+        s
+    }
+}

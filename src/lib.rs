@@ -1,0 +1,19 @@
+//! cuberay: a GPU Whitted ray tracer that traces Ohta and Maekawa's direction-cube
+//! candidate tables ("ray coherence", 1987) in WGSL compute shaders.
+//!
+//! Data flows one way:
+//!
+//! ```text
+//! scene file ──load──▶ Scene ──coherence──▶ candidate tables ──flatten──▶ GPU buffers ──WGSL──▶ image
+//!                        └──────────────reference (CPU, f64)──────────────────────────────────▶ image
+//! ```
+//!
+//! - [`scene`]: the plain-data scene model both renderers read;
+//! - [`load`]: NFF and glTF loaders that produce a validated [`scene::Scene`];
+//! - [`info`]: the summary `cuberay info` prints.
+
+pub mod coherence;
+pub mod info;
+pub mod load;
+pub mod reference;
+pub mod scene;

@@ -1,0 +1,59 @@
+//! Scene loaders: NFF (Haines' Standard Procedural Databases) and glTF 2.0 (.gltf, .glb).
+//!
+//! Every loader returns a validated [`Scene`] (see the invariants in [`crate::scene`]) or a
+//! [`LoadError`] that names the file, the place in it (NFF: line and token; glTF: the JSON
+//! path of the node, mesh, accessor...) and what was wrong. Loaders never panic on input.
+
+use std::path::{Path, PathBuf};
+
+use crate::scene::Scene;
+
+pub mod gltf;
+pub mod nff;
+
+/// Options that select among what a file offers.
+#[derive(Clone, Debug, Default)]
+pub struct LoadOptions {
+    /// glTF: index of the camera to use (default: the first camera in the scene's node
+    /// hierarchy; with none, a camera framing the scene's bounds).
+    pub camera: Option<usize>,
+}
+
+/// A loaded scene and the warnings the loader gathered (dropped degenerate triangles,
+/// ignored extensions, the default light...).
+#[derive(Clone, Debug)]
+pub struct Loaded {
+    pub scene: Scene,
+    pub warnings: Vec<String>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum LoadError {
+    #[error("{}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// NFF syntax or value error. `line` is 1-based; `token` is the offending token, if any.
+    #[error("{}:{line}: {message}{}", path.display(), token.as_ref().map(|t| format!(" (at token '{t}')")).unwrap_or_default())]
+    Nff { path: PathBuf, line: usize, token: Option<String>, message: String },
+    /// glTF error. `location` is a JSON path such as `meshes[2].primitives[0].attributes.POSITION`.
+    #[error("{}: {location}: {message}", path.display())]
+    Gltf { path: PathBuf, location: String, message: String },
+    /// The file parsed but the scene cannot be rendered (no geometry, bad camera...).
+    #[error("{}: {message}", path.display())]
+    Invalid { path: PathBuf, message: String },
+    #[error("{}: unknown scene format (expected a .nff, .gltf or .glb file)", path.display())]
+    UnknownFormat { path: PathBuf },
+}
+
+/// Loads a scene file, choosing the format by extension.
+pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, LoadError> {
+    let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
+    match ext.as_deref() {
+        Some("nff") => nff::load(path),
+        Some("gltf") | Some("glb") => gltf::load(path, options),
+        _ => Err(LoadError::UnknownFormat { path: path.to_owned() }),
+    }
+}

@@ -1,0 +1,398 @@
+//! The scene model: plain data that every renderer reads and every loader writes.
+//!
+//! A [`Scene`] holds a camera, lights, materials, textures and a flat list of
+//! primitives (spheres, triangles, cylinders/cones). There is no file parsing and no
+//! GPU code here: loaders live in [`crate::load`], renderers elsewhere.
+//!
+//! Invariants every loader guarantees (checked by [`Scene::validate`]):
+//! - every number is finite; every direction is non-zero;
+//! - sphere and cylinder radii are strictly positive (a negative radius in a file becomes
+//!   `inside_only = true` with the absolute radius);
+//! - triangles are non-degenerate (degenerate ones are dropped by the loader, with a count
+//!   in a warning);
+//! - every `material` index is in range, every texture index is in range;
+//! - a primitive's **object id** is its index in [`Scene::primitives`]. Ids are stable:
+//!   the same file always gives the same ids, in the order the file defines them.
+//!
+//! Geometry is stored in f64 so that the CPU reference can render exactly and the GPU path
+//! can re-centre the scene on the camera before converting to f32.
+//!
+//! # Mapping file formats onto the Whitted material
+//!
+//! The material is the classic Whitted/NFF one (see [`Material`]). Loaders map:
+//!
+//! **NFF `f r g b Kd Ks Shine T ior`** (Haines' SPD):
+//! `color = (r,g,b)`, `kd = Kd`, `ks = Ks` (Phong highlight weight), `shine = Shine`,
+//! `mirror = (Ks, Ks, Ks)` (Ks also weights the reflected ray), `transmittance = T`,
+//! `ior = ior`, no emission, no texture. T > 0 makes the surface two-sided and refracting.
+//!
+//! **glTF metallic-roughness** (m = metallicFactor, ρ = roughnessFactor, base = baseColorFactor.rgb,
+//! t = KHR_materials_transmission factor, η = KHR_materials_ior, default 1.5):
+//! - `color = base` (times the base colour texture, when present, at shading time);
+//! - `transmittance = t·(1 − m)`; `ior = η`;
+//! - `kd = (1 − m)·(1 − transmittance)`;
+//! - `ks = (1 − ρ)·(0.04 + 0.96·m)` and `shine = clamp(2/α² − 2, 1, 10000)` with α = ρ²
+//!   (the usual Blinn-Phong ↔ GGX width correspondence);
+//! - `mirror = (1 − ρ)²·F0` with `F0 = mix(0.04, base, m)` for metals (m > 0), and
+//!   `F0 = ((η − 1)/(η + 1))²` for transmitting surfaces; a rough or non-metallic opaque
+//!   surface (m = 0, t = 0) gets `mirror = 0` and so spawns no reflection ray;
+//! - `emission = emissiveFactor · emissive_strength` (KHR_materials_emissive_strength);
+//!   emissive textures are not sampled.
+
+use glam::{DVec2, DVec3};
+use serde::Serialize;
+
+mod camera;
+mod light;
+mod material;
+
+pub use camera::{Camera, FovSpan, Projection};
+pub use light::{Light, LightKind, LightSource};
+pub use material::{Material, Texture, TextureRef, Wrap};
+
+/// A sphere. `inside_only` means only the inside surface is visible (NFF negative radius).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sphere {
+    pub center: DVec3,
+    /// Strictly positive.
+    pub radius: f64,
+    pub inside_only: bool,
+    pub material: u32,
+}
+
+/// A cylinder or truncated cone without end caps (NFF `c`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Cylinder {
+    pub base: DVec3,
+    /// Strictly positive.
+    pub base_radius: f64,
+    pub apex: DVec3,
+    /// Strictly positive; equal to `base_radius` for a cylinder.
+    pub apex_radius: f64,
+    pub inside_only: bool,
+    pub material: u32,
+}
+
+/// A triangle with optional per-vertex shading normals and texture coordinates.
+///
+/// The geometric normal is `(p1 − p0) × (p2 − p0)`; the winding is counter-clockwise seen
+/// from the front. Renderers intersect both sides.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Triangle {
+    pub p: [DVec3; 3],
+    /// Unit shading normals (NFF `pp`, glTF NORMAL).
+    pub n: Option<[DVec3; 3]>,
+    /// Texture coordinates (glTF TEXCOORD_n for the material's base colour texture).
+    pub uv: Option<[DVec2; 3]>,
+    pub material: u32,
+}
+
+impl Triangle {
+    /// Unnormalised geometric normal.
+    pub fn cross(&self) -> DVec3 {
+        (self.p[1] - self.p[0]).cross(self.p[2] - self.p[0])
+    }
+
+    /// True when the triangle has (numerically) no area relative to its size, or a
+    /// non-finite coordinate. Such triangles can never be hit reliably and are dropped.
+    pub fn is_degenerate(&self) -> bool {
+        if !self.p.iter().all(|p| p.is_finite()) {
+            return true;
+        }
+        let e0 = (self.p[1] - self.p[0]).length_squared();
+        let e1 = (self.p[2] - self.p[1]).length_squared();
+        let e2 = (self.p[0] - self.p[2]).length_squared();
+        let longest = e0.max(e1).max(e2);
+        let area2 = self.cross().length_squared();
+        // |cross|² = (2·area)²; compare with the squared longest edge to be scale free:
+        // the triangle's height over its longest edge is below ~1e-12 of that edge.
+        longest == 0.0 || area2 <= longest * longest * 1e-24
+    }
+}
+
+/// One renderable primitive. Its object id is its index in [`Scene::primitives`].
+#[derive(Clone, Debug, PartialEq)]
+pub enum Primitive {
+    Sphere(Sphere),
+    Triangle(Triangle),
+    Cylinder(Cylinder),
+}
+
+impl Primitive {
+    pub fn material(&self) -> u32 {
+        match self {
+            Primitive::Sphere(s) => s.material,
+            Primitive::Triangle(t) => t.material,
+            Primitive::Cylinder(c) => c.material,
+        }
+    }
+
+    /// Axis-aligned bounds of the primitive.
+    pub fn bounds(&self) -> Aabb {
+        match self {
+            Primitive::Sphere(s) => {
+                Aabb { min: s.center - DVec3::splat(s.radius), max: s.center + DVec3::splat(s.radius) }
+            }
+            Primitive::Triangle(t) => {
+                let mut b = Aabb::EMPTY;
+                for p in t.p {
+                    b.grow(p);
+                }
+                b
+            }
+            Primitive::Cylinder(c) => {
+                // Each end is a disc; a disc of radius r with unit normal a spans
+                // r·sqrt(1 − a_i²) along axis i.
+                let axis = (c.apex - c.base).normalize();
+                let ext = (DVec3::ONE - axis * axis).max(DVec3::ZERO).map(f64::sqrt);
+                let mut b = Aabb::EMPTY;
+                b.grow(c.base - ext * c.base_radius);
+                b.grow(c.base + ext * c.base_radius);
+                b.grow(c.apex - ext * c.apex_radius);
+                b.grow(c.apex + ext * c.apex_radius);
+                b
+            }
+        }
+    }
+
+    /// A bounding sphere (centre, radius) of the primitive.
+    pub fn bounding_sphere(&self) -> (DVec3, f64) {
+        match self {
+            Primitive::Sphere(s) => (s.center, s.radius),
+            _ => {
+                let b = self.bounds();
+                let c = b.center();
+                let r = match self {
+                    Primitive::Triangle(t) => t.p.iter().map(|p| (*p - c).length()).fold(0.0, f64::max),
+                    _ => (b.max - b.min).length() * 0.5,
+                };
+                (c, r)
+            }
+        }
+    }
+}
+
+/// An axis-aligned box. `EMPTY` has min = +∞ and max = −∞ so that growing it works.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    pub min: DVec3,
+    pub max: DVec3,
+}
+
+impl Aabb {
+    pub const EMPTY: Aabb = Aabb { min: DVec3::INFINITY, max: DVec3::NEG_INFINITY };
+
+    pub fn grow(&mut self, p: DVec3) {
+        self.min = self.min.min(p);
+        self.max = self.max.max(p);
+    }
+
+    pub fn union(&self, o: &Aabb) -> Aabb {
+        Aabb { min: self.min.min(o.min), max: self.max.max(o.max) }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
+    }
+
+    pub fn center(&self) -> DVec3 {
+        (self.min + self.max) * 0.5
+    }
+
+    pub fn diagonal(&self) -> f64 {
+        if self.is_empty() {
+            0.0
+        } else {
+            (self.max - self.min).length()
+        }
+    }
+}
+
+/// Which Whitted effects a scene calls for. Renderers build tables and compile code only
+/// for the effects that are `true`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize)]
+pub struct Effects {
+    /// At least one light: shadow rays are traced.
+    pub shadows: bool,
+    /// Some used material has a mirror reflectance or transmits (reflection rays).
+    pub reflection: bool,
+    /// Some used material transmits (refraction rays).
+    pub refraction: bool,
+    /// Some used material has a base colour texture and its primitives carry UVs.
+    pub textures: bool,
+    /// Some used material emits light.
+    pub emission: bool,
+}
+
+impl Effects {
+    /// The names of the effects that are on, in a fixed order.
+    pub fn names(&self) -> Vec<&'static str> {
+        let mut v = Vec::new();
+        for (on, name) in [
+            (self.shadows, "shadows"),
+            (self.reflection, "reflection"),
+            (self.refraction, "refraction"),
+            (self.textures, "textures"),
+            (self.emission, "emission"),
+        ] {
+            if on {
+                v.push(name);
+            }
+        }
+        v
+    }
+}
+
+/// Per-kind primitive counts.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct PrimitiveCounts {
+    pub spheres: usize,
+    pub triangles: usize,
+    pub cylinders: usize,
+}
+
+/// A complete scene, ready to render.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub camera: Camera,
+    /// Lights, in file order. A light with `source == LightSource::Default` was added by
+    /// the loader because the file had none (see [`Light::default_for`]).
+    pub lights: Vec<Light>,
+    /// Ambient light colour (multiplies `kd·color`).
+    pub ambient: DVec3,
+    pub background: DVec3,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    pub primitives: Vec<Primitive>,
+    /// The image size the file asks for (NFF `resolution`), if any.
+    pub resolution: Option<(u32, u32)>,
+}
+
+impl Scene {
+    pub fn counts(&self) -> PrimitiveCounts {
+        let mut c = PrimitiveCounts::default();
+        for p in &self.primitives {
+            match p {
+                Primitive::Sphere(_) => c.spheres += 1,
+                Primitive::Triangle(_) => c.triangles += 1,
+                Primitive::Cylinder(_) => c.cylinders += 1,
+            }
+        }
+        c
+    }
+
+    /// Lights that came from the file (not the loader's default).
+    pub fn file_lights(&self) -> impl Iterator<Item = &Light> {
+        self.lights.iter().filter(|l| l.source == LightSource::File)
+    }
+
+    /// World-space bounds of the geometry (no lights, no camera). Empty for an empty scene.
+    pub fn bounds(&self) -> Aabb {
+        self.primitives.iter().fold(Aabb::EMPTY, |b, p| b.union(&p.bounds()))
+    }
+
+    /// The effects this scene calls for, judged from the materials its primitives use.
+    pub fn effects(&self) -> Effects {
+        let mut used = vec![false; self.materials.len()];
+        let mut has_uv = vec![false; self.materials.len()];
+        for p in &self.primitives {
+            let m = p.material() as usize;
+            used[m] = true;
+            if let Primitive::Triangle(t) = p {
+                has_uv[m] |= t.uv.is_some();
+            }
+        }
+        let mut e =
+            Effects { shadows: !self.lights.is_empty() && !self.primitives.is_empty(), ..Effects::default() };
+        for (i, m) in self.materials.iter().enumerate() {
+            if !used[i] {
+                continue;
+            }
+            e.reflection |= m.reflects() || m.transmits();
+            e.refraction |= m.transmits();
+            e.textures |= m.base_color_texture.is_some() && has_uv[i];
+            e.emission |= m.emits();
+        }
+        e
+    }
+
+    /// Checks the invariants listed in the module documentation. Loaders call this last;
+    /// an error here is a loader bug or an unchecked input, described in words.
+    pub fn validate(&self) -> Result<(), String> {
+        let finite3 = |v: DVec3, what: &str| -> Result<(), String> {
+            if v.is_finite() {
+                Ok(())
+            } else {
+                Err(format!("{what} is not finite: {v}"))
+            }
+        };
+        self.camera.validate()?;
+        finite3(self.background, "background")?;
+        finite3(self.ambient, "ambient")?;
+        for (i, l) in self.lights.iter().enumerate() {
+            l.validate().map_err(|e| format!("light {i}: {e}"))?;
+        }
+        for (i, m) in self.materials.iter().enumerate() {
+            m.validate(self.textures.len()).map_err(|e| format!("material {i}: {e}"))?;
+        }
+        for (i, t) in self.textures.iter().enumerate() {
+            if t.width == 0 || t.height == 0 || t.texels.len() != (t.width as usize) * (t.height as usize) {
+                return Err(format!(
+                    "texture {i}: size {}x{} does not match its {} texels",
+                    t.width,
+                    t.height,
+                    t.texels.len()
+                ));
+            }
+        }
+        let nmat = self.materials.len();
+        for (id, p) in self.primitives.iter().enumerate() {
+            let ctx = |e: String| format!("primitive {id}: {e}");
+            if p.material() as usize >= nmat {
+                return Err(ctx(format!(
+                    "material index {} out of range ({} materials)",
+                    p.material(),
+                    nmat
+                )));
+            }
+            match p {
+                Primitive::Sphere(s) => {
+                    finite3(s.center, "sphere centre").map_err(ctx)?;
+                    if !(s.radius.is_finite() && s.radius > 0.0) {
+                        return Err(ctx(format!("sphere radius {} is not positive and finite", s.radius)));
+                    }
+                }
+                Primitive::Cylinder(c) => {
+                    finite3(c.base, "cylinder base").map_err(ctx)?;
+                    finite3(c.apex, "cylinder apex").map_err(ctx)?;
+                    for r in [c.base_radius, c.apex_radius] {
+                        if !(r.is_finite() && r > 0.0) {
+                            return Err(ctx(format!("cylinder radius {r} is not positive and finite")));
+                        }
+                    }
+                    if c.base == c.apex {
+                        return Err(ctx("cylinder base and apex coincide".into()));
+                    }
+                }
+                Primitive::Triangle(t) => {
+                    if t.is_degenerate() {
+                        return Err(ctx("degenerate or non-finite triangle".into()));
+                    }
+                    if let Some(n) = &t.n {
+                        for v in n {
+                            if !v.is_finite() || (v.length() - 1.0).abs() > 1e-6 {
+                                return Err(ctx(format!("shading normal {v} is not a finite unit vector")));
+                            }
+                        }
+                    }
+                    if let Some(uv) = &t.uv {
+                        if !uv.iter().all(|u| u.is_finite()) {
+                            return Err(ctx("texture coordinate is not finite".into()));
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
