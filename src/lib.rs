@@ -10,10 +10,13 @@
 //!
 //! - [`scene`]: the plain-data scene model both renderers read;
 //! - [`load`]: NFF and glTF loaders that produce a validated [`scene::Scene`];
-//! - [`info`]: the summary `cuberay info` prints.
+//! - [`info`]: the summary `cuberay info` prints;
+//! - [`coherence`]: the direction-cube candidate tables, flattened for the GPU, and their CPU walker;
+//! - [`mirror`]: f32 Rust twins of the WGSL functions (cell lookup, intersections, table walk).
 
 pub mod coherence;
 pub mod info;
 pub mod load;
+pub mod mirror;
 pub mod reference;
 pub mod scene;

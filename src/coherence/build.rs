@@ -1,0 +1,937 @@
+//! Building the candidate tables: one table per origin, in parallel (rayon), then flattened.
+//!
+//! For an origin (a sphere: a point inflated by the spawn offset, or a cluster's bounding
+//! sphere) the builder walks the target hierarchy nearest first. For each target it computes
+//! a direction bound (sphere cone, triangle edge functions, capsule arc) and rasterises it into
+//! the origin's cells, with a per-cell lower bound `d_min` on the hit distance. A target that
+//! certainly covers a cell (every ray of the cell hits it before `t_far`) lowers the cell's
+//! cut-off; entries whose `d_min` exceeds the final cut-off are dropped, since the walker's
+//! distance interval test would never reach them, and whole hidden subtrees are skipped. For
+//! clusters, targets near the cluster are bounded member by member (the union of the members'
+//! bounds, with the smallest member `d_min` per cell), which keeps self and neighbour lists
+//! short. Targets meeting most cells of a surface origin go to its always-test list.
+
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+use std::sync::Arc;
+use std::time::Instant;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::flat::{FlatTables, GpuEntry, GpuFace, GpuOrigin, OriginKind, MAX_BINDING_BYTES};
+use super::geom::{
+    cell_cone, cell_span, point_segment_distance, point_triangle_distance, sphere_cone, sphere_inner_cone,
+    ArcBound, CellCone, Cone, TriEdges,
+};
+use super::origins::{bounding_sphere, cluster, Bvh, Shape, Target};
+use crate::scene::{LightKind, Projection, Scene};
+
+/// Where shadow rays are looked up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ShadowMode {
+    /// Light-buffer style: each point or spot light has a table; a shadow ray is traced from
+    /// the light toward the shaded point with `t_max = |P − L|·(1 − ε)`.
+    LightBuffer,
+    /// From the hit object's table toward the light: every primitive belongs to a surface
+    /// origin.
+    HitObject,
+}
+
+/// Build parameters. [`BuildParams::default`] is what `cuberay` uses.
+#[derive(Clone, Debug)]
+pub struct BuildParams {
+    /// Total bytes the flattened tables should stay under; the builder picks the surface
+    /// resolution and cluster size to fit (default 64 MiB). Each buffer also stays under
+    /// wgpu's 128 MiB binding limit, or the build fails.
+    pub budget_bytes: usize,
+    /// Angular widening of every bound, radians (default 2e-5): covers the f32 cell lookup.
+    pub delta: f64,
+    /// Largest distance between a ray origin and the surface point it leaves from (the
+    /// spawn offset) plus f32 rounding of the geometry. `None`: computed from the scene for
+    /// [`crate::mirror::offset_ray_origin`] after re-centring on the camera.
+    pub spawn_offset: Option<f64>,
+    /// Cells per face edge for the eye; `None`: about two image pixels per cell.
+    pub eye_n: Option<u32>,
+    /// Cells per face edge for lights; `None`: from `light_cells`.
+    pub light_n: Option<u32>,
+    /// Cells per face edge for surface origins; `None`: chosen by the budget.
+    pub surface_n: Option<u32>,
+    /// Primitives per surface origin cluster; `None`: chosen by the budget.
+    pub cluster_size: Option<usize>,
+    /// The image size primary rays are made for: the eye table covers only that frustum.
+    /// `None`: the scene's resolution, or the camera's default.
+    pub image: Option<(u32, u32)>,
+    pub shadow_mode: ShadowMode,
+    /// A target meeting at least this fraction of a surface origin's cells goes to its
+    /// always-test list (default 0.6).
+    pub always_fraction: f64,
+    /// Image pixels per eye cell, along one axis (default 2).
+    pub eye_pixels_per_cell: f64,
+    /// Cells a light's table aims for over the directions where objects are (default 2^20).
+    pub light_cells: usize,
+}
+
+impl Default for BuildParams {
+    fn default() -> Self {
+        BuildParams {
+            budget_bytes: 64 << 20,
+            delta: 2e-5,
+            spawn_offset: None,
+            eye_n: None,
+            light_n: None,
+            surface_n: None,
+            cluster_size: None,
+            image: None,
+            shadow_mode: ShadowMode::LightBuffer,
+            always_fraction: 0.6,
+            eye_pixels_per_cell: 2.0,
+            light_cells: 1 << 20,
+        }
+    }
+}
+
+/// Why tables could not be built.
+#[derive(Debug, thiserror::Error)]
+pub enum BuildError {
+    #[error("the candidate tables need {bytes} bytes in one buffer, over wgpu's {limit}-byte binding limit, even at the coarsest resolution and clustering")]
+    TooLarge { bytes: usize, limit: usize },
+}
+
+/// One origin before building: its kind, its sphere (already inflated), its members and its
+/// resolution and stored windows.
+#[derive(Clone, Debug)]
+pub struct OriginDef {
+    pub kind: OriginKind,
+    pub center: DVec3,
+    pub radius: f64,
+    /// Surface origins: the primitives whose rays use this table.
+    pub members: Vec<u32>,
+    /// Light origins: the light index.
+    pub light: Option<usize>,
+    pub n: u32,
+    /// Per face, the cells searched: `[iu0, iv0, width, height]`, or `None`.
+    pub window: [Option<[u32; 4]>; 6],
+}
+
+/// One origin's built table, before flattening.
+#[derive(Clone, Debug, Default)]
+pub struct OriginTable {
+    pub kind: Option<OriginKind>,
+    pub n: u32,
+    /// Per face, the stored window `[iu0, iv0, width, height]` (width 0: nothing stored).
+    pub faces: [[u32; 4]; 6],
+    /// Local CSR: the list of stored cell `c` is `entries[starts[c]..starts[c+1]]`.
+    pub starts: Vec<u32>,
+    pub entries: Vec<GpuEntry>,
+    pub always: Vec<GpuEntry>,
+}
+
+/// Shared, read-only inputs of the per-origin builds.
+pub struct Ctx<'a> {
+    pub targets: &'a [Target],
+    pub bvh: &'a Bvh,
+    pub eps: f64,
+    pub delta: f64,
+    pub always_fraction: f64,
+    cells: std::sync::Mutex<std::collections::HashMap<u32, Arc<Vec<CellCone>>>>,
+}
+
+impl<'a> Ctx<'a> {
+    pub fn new(targets: &'a [Target], bvh: &'a Bvh, eps: f64, delta: f64, always_fraction: f64) -> Self {
+        Ctx { targets, bvh, eps, delta, always_fraction, cells: Default::default() }
+    }
+
+    /// All cells of an `n`-cube, cached when the cube is small.
+    fn cube(&self, n: u32) -> Option<Arc<Vec<CellCone>>> {
+        if n > 64 {
+            return None;
+        }
+        let mut map = self.cells.lock().unwrap();
+        Some(
+            map.entry(n)
+                .or_insert_with(|| {
+                    let mut v = Vec::with_capacity(6 * (n * n) as usize);
+                    for f in 0..6 {
+                        for iv in 0..n {
+                            for iu in 0..n {
+                                v.push(cell_cone(f, iu, iv, n));
+                            }
+                        }
+                    }
+                    Arc::new(v)
+                })
+                .clone(),
+        )
+    }
+}
+
+/// The largest spawn offset for a scene re-centred on the camera, plus f32 rounding.
+pub fn default_spawn_offset(scene: &Scene) -> f64 {
+    let eye = scene.camera.eye;
+    let b = scene.bounds();
+    let mut m: f64 = 0.0;
+    if !b.is_empty() {
+        m = m.max((b.min - eye).abs().max_element()).max((b.max - eye).abs().max_element());
+    }
+    for l in &scene.lights {
+        if l.kind != LightKind::Directional {
+            m = m.max((l.position - eye).abs().max_element());
+        }
+    }
+    let off = crate::mirror::max_origin_offset(m as f32) as f64;
+    // Plus a few ULPs of the largest coordinate for the geometry's own rounding to f32.
+    off + 8.0 * m * f32::EPSILON as f64
+}
+
+/// A direction bound from an origin sphere to one target, with its cover test.
+struct Pair {
+    dmin: f64,
+    cone: Option<Cone>,
+    edges: Option<TriEdges>,
+    arc: Option<ArcBound>,
+    inner: Option<(Cone, f64)>,
+    tri_cover: bool,
+}
+
+impl Pair {
+    fn new(c: DVec3, r: f64, t: &Target, eps: f64, delta: f64) -> Pair {
+        let mut p = Pair { dmin: 0.0, cone: None, edges: None, arc: None, inner: None, tri_cover: false };
+        match t.shape {
+            Shape::Sphere { c: cb, r: rb } => {
+                p.cone = sphere_cone(c, r, cb, rb + eps, delta);
+                p.dmin = ((cb - c).length() - r - rb - eps).max(0.0);
+                if t.occluder {
+                    p.inner = sphere_inner_cone(c, r, cb, rb - eps, delta);
+                }
+            }
+            Shape::Triangle { v } => {
+                p.cone = sphere_cone(c, r, t.center, t.radius + eps, delta);
+                p.edges = TriEdges::new(c, r + eps, &v, 0.0);
+                p.dmin = (point_triangle_distance(c, &v) - r - eps).max(0.0);
+                p.tri_cover = t.occluder;
+            }
+            Shape::Capsule { p0, p1, rad } => {
+                p.cone = sphere_cone(c, r, t.center, t.radius + eps, delta);
+                p.arc = ArcBound::new(c, r, p0, p1, rad + eps, delta);
+                p.dmin = (point_segment_distance(c, p0, p1) - r - rad - eps).max(0.0);
+            }
+        }
+        p
+    }
+
+    #[inline]
+    fn meets(&self, cell: &CellCone, delta: f64) -> bool {
+        self.cone.is_none_or(|k| k.meets(cell))
+            && self.edges.as_ref().is_none_or(|e| e.meets(cell, delta))
+            && self.arc.as_ref().is_none_or(|a| a.meets(cell))
+    }
+
+    /// Lower bound on the hit distance for directions of this cell.
+    #[inline]
+    fn cell_dmin(&self, cell: &CellCone, delta: f64) -> f64 {
+        match &self.edges {
+            Some(e) => self.dmin.max(e.plane_dmin(cell, delta)),
+            None => self.dmin,
+        }
+    }
+
+    /// Upper bound on the hit distance when every ray of the cell hits the target.
+    #[inline]
+    fn covers(&self, cell: &CellCone, delta: f64) -> Option<f64> {
+        if let Some((k, t_far)) = &self.inner {
+            if k.contains(cell) {
+                return Some(*t_far);
+            }
+        }
+        if self.tri_cover {
+            if let Some(e) = &self.edges {
+                return e.covers(cell, delta);
+            }
+        }
+        None
+    }
+}
+
+/// Cells of an origin's work windows, with cached or computed cell cones.
+struct Cells {
+    n: u32,
+    win: [Option<[u32; 4]>; 6],
+    base: [usize; 6],
+    total: usize,
+    cube: Option<Arc<Vec<CellCone>>>,
+}
+
+impl Cells {
+    fn new(def: &OriginDef, ctx: &Ctx) -> Cells {
+        let mut base = [0; 6];
+        let mut total = 0;
+        for f in 0..6 {
+            base[f] = total;
+            if let Some(w) = def.window[f] {
+                total += (w[2] * w[3]) as usize;
+            }
+        }
+        Cells { n: def.n, win: def.window, base, total, cube: ctx.cube(def.n) }
+    }
+
+    #[inline]
+    fn cone(&self, f: usize, iu: u32, iv: u32) -> CellCone {
+        match &self.cube {
+            Some(c) => c[(f * self.n as usize + iv as usize) * self.n as usize + iu as usize],
+            None => cell_cone(f, iu, iv, self.n),
+        }
+    }
+
+    /// Calls `visit(local index, cell)` for every cell of the windows inside `cone`'s
+    /// rectangles (all window cells when `cone` is `None`). Stops early when `visit` returns
+    /// false; returns false then.
+    fn for_each(&self, cone: Option<&Cone>, mut visit: impl FnMut(usize, &CellCone) -> bool) -> bool {
+        for f in 0..6 {
+            let Some(w) = self.win[f] else { continue };
+            let (mut u0, mut u1, mut v0, mut v1) = (w[0], w[0] + w[2] - 1, w[1], w[1] + w[3] - 1);
+            if let Some(k) = cone {
+                let Some(r) = k.face_rect(f) else { continue };
+                let (a, b) = cell_span(r[0], r[1], self.n);
+                let (c, d) = cell_span(r[2], r[3], self.n);
+                u0 = u0.max(a);
+                u1 = u1.min(b);
+                v0 = v0.max(c);
+                v1 = v1.min(d);
+                if u0 > u1 || v0 > v1 {
+                    continue;
+                }
+            }
+            for iv in v0..=v1 {
+                for iu in u0..=u1 {
+                    let cell = self.cone(f, iu, iv);
+                    let idx = self.base[f] + ((iv - w[1]) * w[2] + (iu - w[0])) as usize;
+                    if !visit(idx, &cell) {
+                        return false;
+                    }
+                }
+            }
+        }
+        true
+    }
+
+    /// Number of window cells inside `cone`'s rectangles (an upper bound on the cells
+    /// [`Cells::for_each`] visits).
+    fn rect_cells(&self, cone: &Cone) -> usize {
+        let mut total = 0;
+        for f in 0..6 {
+            let Some(w) = self.win[f] else { continue };
+            let Some(r) = cone.face_rect(f) else { continue };
+            let (a, b) = cell_span(r[0], r[1], self.n);
+            let (c, d) = cell_span(r[2], r[3], self.n);
+            let (u0, u1, v0, v1) =
+                (w[0].max(a), (w[0] + w[2] - 1).min(b), w[1].max(c), (w[1] + w[3] - 1).min(d));
+            if u0 <= u1 && v0 <= v1 {
+                total += ((u1 - u0 + 1) * (v1 - v0 + 1)) as usize;
+            }
+        }
+        total
+    }
+}
+
+#[derive(Clone, Copy)]
+struct Rec {
+    cell: u32,
+    id: u32,
+    dmin: f64,
+}
+
+#[derive(PartialEq)]
+struct Key(f64);
+impl Eq for Key {}
+impl PartialOrd for Key {
+    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl Ord for Key {
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        self.0.total_cmp(&o.0)
+    }
+}
+
+/// `x` lowered for f32 rounding and stored as the largest f32 not above it.
+pub fn store_dmin(x: f64, eps: f64) -> f32 {
+    let x = ((x - 2.0 * eps) * (1.0 - 1e-5)).max(0.0);
+    let f = x as f32;
+    if f as f64 > x {
+        f32::from_bits(f.to_bits() - 1)
+    } else {
+        f
+    }
+}
+
+/// Targets nearer than this angle from a cluster's bounding sphere are bounded per member.
+const NEAR_THETA: f64 = 0.35;
+/// Hierarchy nodes whose cone spans more cells than this are entered without a cull test.
+const CULL_CELLS: usize = 2048;
+
+/// Builds one origin's table.
+pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
+    let cells = Cells::new(def, ctx);
+    let (eps, delta) = (ctx.eps, ctx.delta);
+    let mut cut = vec![f64::INFINITY; cells.total];
+    let mut recs: Vec<Rec> = Vec::new();
+    let mut scratch = vec![f64::INFINITY; if def.members.len() > 1 { cells.total } else { 0 }];
+    let mut touched: Vec<u32> = Vec::new();
+    let (c, r) = (def.center, def.radius);
+    let member_spheres: Vec<(u32, DVec3, f64)> = if def.members.len() > 1 {
+        def.members
+            .iter()
+            .map(|&m| {
+                let t = &ctx.targets[m as usize];
+                let (mc, mr) = match t.shape {
+                    Shape::Triangle { .. } => bounding_sphere(&[m], ctx.targets),
+                    _ => (t.center, t.radius),
+                };
+                (m, mc, mr + eps)
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+
+    let mut heap: BinaryHeap<(Reverse<Key>, u32)> = BinaryHeap::new();
+    if !ctx.bvh.nodes.is_empty() {
+        heap.push((Reverse(Key(0.0)), 0));
+    }
+    while let Some((Reverse(Key(node_dmin)), ni)) = heap.pop() {
+        let node = ctx.bvh.nodes[ni as usize];
+        // Skip the subtree when every cell its bound meets is already cut off before it.
+        if let Some(k) = sphere_cone(c, r, node.center, node.radius + eps, delta) {
+            if cells.rect_cells(&k) <= CULL_CELLS {
+                let hidden = cells.for_each(Some(&k), |i, cell| !(k.meets(cell) && cut[i] >= node_dmin));
+                if hidden {
+                    continue;
+                }
+            }
+        }
+        if node.count == 0 {
+            for ch in [node.first, node.first + 1] {
+                let n = ctx.bvh.nodes[ch as usize];
+                let d = ((n.center - c).length() - r - n.radius - eps).max(0.0);
+                heap.push((Reverse(Key(d)), ch));
+            }
+            continue;
+        }
+        for &tid in &ctx.bvh.order[node.first as usize..(node.first + node.count) as usize] {
+            let t = &ctx.targets[tid as usize];
+            let own = def.kind == OriginKind::Surface && def.members.contains(&tid);
+            if own && def.members.len() == 1 && !t.self_list {
+                continue;
+            }
+            let p = Pair::new(c, r, t, eps, delta);
+            let near = def.members.len() > 1 && p.cone.is_none_or(|k| k.theta > NEAR_THETA);
+            if !near {
+                cells.for_each(p.cone.as_ref(), |i, cell| {
+                    if p.meets(cell, delta) {
+                        let dm = p.cell_dmin(cell, delta);
+                        if dm <= cut[i] {
+                            recs.push(Rec { cell: i as u32, id: tid, dmin: dm });
+                            if let Some(t_far) = p.covers(cell, delta) {
+                                cut[i] = cut[i].min(t_far * (1.0 + 1e-6) + 2.0 * eps);
+                            }
+                        }
+                    }
+                    true
+                });
+                continue;
+            }
+            // Near a cluster: the union of the members' bounds.
+            for &(m, mc, mr) in &member_spheres {
+                if m == tid && !t.self_list {
+                    continue;
+                }
+                let pm = Pair::new(mc, mr, t, eps, delta);
+                cells.for_each(pm.cone.as_ref(), |i, cell| {
+                    if pm.meets(cell, delta) {
+                        let dm = pm.cell_dmin(cell, delta);
+                        if scratch[i] == f64::INFINITY {
+                            touched.push(i as u32);
+                        }
+                        scratch[i] = scratch[i].min(dm);
+                    }
+                    true
+                });
+            }
+            for &i in &touched {
+                let i = i as usize;
+                let dm = scratch[i];
+                scratch[i] = f64::INFINITY;
+                if dm <= cut[i] {
+                    recs.push(Rec { cell: i as u32, id: tid, dmin: dm });
+                    if p.tri_cover || p.inner.is_some() {
+                        let cell = cells_cone_at(&cells, i);
+                        if let Some(t_far) = p.covers(&cell, delta) {
+                            cut[i] = cut[i].min(t_far * (1.0 + 1e-6) + 2.0 * eps);
+                        }
+                    }
+                }
+            }
+            touched.clear();
+        }
+    }
+
+    recs.retain(|x| x.dmin <= cut[x.cell as usize]);
+    finish(def, &cells, recs, ctx)
+}
+
+/// The cell cone of local cell index `i`.
+fn cells_cone_at(cells: &Cells, i: usize) -> CellCone {
+    let f = (0..6).rev().find(|&f| cells.win[f].is_some() && cells.base[f] <= i).unwrap();
+    let w = cells.win[f].unwrap();
+    let local = (i - cells.base[f]) as u32;
+    cells.cone(f, w[0] + local % w[2], w[1] + local / w[2])
+}
+
+/// Sorts the records into lists, moves wide targets to the always list (surface origins)
+/// and crops each face's window to its non-empty cells.
+fn finish(def: &OriginDef, cells: &Cells, mut recs: Vec<Rec>, ctx: &Ctx) -> OriginTable {
+    let eps = ctx.eps;
+    let mut always: Vec<GpuEntry> = Vec::new();
+    if def.kind == OriginKind::Surface && !recs.is_empty() {
+        recs.sort_unstable_by_key(|x| x.id);
+        let threshold = (ctx.always_fraction * cells.total as f64).max(4.0);
+        let mut keep = Vec::with_capacity(recs.len());
+        let mut i = 0;
+        while i < recs.len() {
+            let mut j = i;
+            while j < recs.len() && recs[j].id == recs[i].id {
+                j += 1;
+            }
+            if (j - i) as f64 >= threshold {
+                let dmin = recs[i..j].iter().map(|x| x.dmin).fold(f64::INFINITY, f64::min);
+                always.push(GpuEntry { id: recs[i].id, d_min: store_dmin(dmin, eps) });
+            } else {
+                keep.extend_from_slice(&recs[i..j]);
+            }
+            i = j;
+        }
+        recs = keep;
+        always.sort_by(|a, b| a.d_min.total_cmp(&b.d_min).then(a.id.cmp(&b.id)));
+    }
+    let mut stored: Vec<(u32, GpuEntry)> =
+        recs.iter().map(|x| (x.cell, GpuEntry { id: x.id, d_min: store_dmin(x.dmin, eps) })).collect();
+    stored.sort_unstable_by(|a, b| {
+        a.0.cmp(&b.0).then(a.1.d_min.total_cmp(&b.1.d_min)).then(a.1.id.cmp(&b.1.id))
+    });
+
+    // Crop windows to the bounding box of non-empty cells.
+    let mut faces = [[0u32; 4]; 6];
+    let mut bbox = [[u32::MAX, u32::MAX, 0, 0]; 6]; // min u, min v, max u, max v
+    let face_of = |i: usize| (0..6).rev().find(|&f| cells.win[f].is_some() && cells.base[f] <= i).unwrap();
+    let mut locs = Vec::with_capacity(stored.len());
+    for (cell, _) in &stored {
+        let i = *cell as usize;
+        let f = face_of(i);
+        let w = cells.win[f].unwrap();
+        let local = (i - cells.base[f]) as u32;
+        let (iu, iv) = (w[0] + local % w[2], w[1] + local / w[2]);
+        let b = &mut bbox[f];
+        b[0] = b[0].min(iu);
+        b[1] = b[1].min(iv);
+        b[2] = b[2].max(iu);
+        b[3] = b[3].max(iv);
+        locs.push((f, iu, iv));
+    }
+    let mut base = [0usize; 6];
+    let mut total = 0usize;
+    for f in 0..6 {
+        base[f] = total;
+        let b = bbox[f];
+        if b[0] != u32::MAX {
+            faces[f] = [b[0], b[1], b[2] - b[0] + 1, b[3] - b[1] + 1];
+            total += (faces[f][2] * faces[f][3]) as usize;
+        }
+    }
+    let mut counts = vec![0u32; total + 1];
+    let mut new_cell = Vec::with_capacity(stored.len());
+    for &(f, iu, iv) in &locs {
+        let w = faces[f];
+        let c = base[f] + ((iv - w[1]) * w[2] + (iu - w[0])) as usize;
+        counts[c + 1] += 1;
+        new_cell.push(c);
+    }
+    for i in 0..total {
+        counts[i + 1] += counts[i];
+    }
+    // The cell order of `stored` maps monotonically to the new order within a face, and faces
+    // keep their order, so a stable placement by the new index keeps each list sorted.
+    let mut entries = vec![GpuEntry::default(); stored.len()];
+    let mut fill = counts.clone();
+    for (k, (_, e)) in stored.iter().enumerate() {
+        let c = new_cell[k];
+        entries[fill[c] as usize] = *e;
+        fill[c] += 1;
+    }
+    OriginTable { kind: Some(def.kind), n: def.n, faces, starts: counts, entries, always }
+}
+
+/// Flattens built origin tables into the GPU buffers.
+pub fn flatten(tables: &[OriginTable], defs: &[OriginDef], primitives: usize, lights: usize) -> FlatTables {
+    let mut flat = FlatTables {
+        prim_origin: vec![u32::MAX; primitives],
+        light_origin: vec![u32::MAX; lights],
+        eye_origin: u32::MAX,
+        ..FlatTables::default()
+    };
+    let cells: usize = tables.iter().map(|t| t.starts.len() - 1).sum();
+    let entries: usize = tables.iter().map(|t| t.entries.len() + t.always.len()).sum();
+    flat.cell_start.reserve(cells + 1);
+    flat.entries.reserve(entries);
+    for (o, (t, def)) in tables.iter().zip(defs).enumerate() {
+        let always_start = flat.entries.len() as u32;
+        flat.entries.extend_from_slice(&t.always);
+        flat.origins.push(GpuOrigin {
+            n: t.n,
+            always_start,
+            always_count: t.always.len() as u32,
+            kind: def.kind as u32,
+        });
+        let base = flat.entries.len() as u32;
+        let mut cell_base = flat.cell_start.len() as u32;
+        for w in &t.faces {
+            flat.faces.push(GpuFace {
+                iu0: w[0],
+                iv0: w[1],
+                width: w[2],
+                height: w[3],
+                cell_base: if w[2] == 0 { 0 } else { cell_base },
+                ..GpuFace::default()
+            });
+            cell_base += w[2] * w[3];
+        }
+        flat.cell_start.extend(t.starts[..t.starts.len() - 1].iter().map(|s| base + s));
+        flat.entries.extend_from_slice(&t.entries);
+        match def.kind {
+            OriginKind::Eye => flat.eye_origin = o as u32,
+            OriginKind::Light => flat.light_origin[def.light.unwrap()] = o as u32,
+            OriginKind::Surface => {
+                for &m in &def.members {
+                    flat.prim_origin[m as usize] = o as u32;
+                }
+            }
+        }
+    }
+    flat.cell_start.push(flat.entries.len() as u32);
+    flat
+}
+
+/// Cell window `[iu0, iv0, width, height]` for a rectangle in face coordinates.
+fn to_window(r: [f64; 4], n: u32) -> [u32; 4] {
+    let (a, b) = cell_span(r[0], r[1], n);
+    let (c, d) = cell_span(r[2], r[3], n);
+    [a, c, b - a + 1, d - c + 1]
+}
+
+fn union_rect(acc: &mut Option<[f64; 4]>, r: [f64; 4]) {
+    *acc = Some(match acc {
+        None => r,
+        Some(a) => [a[0].min(r[0]), a[1].max(r[1]), a[2].min(r[2]), a[3].max(r[3])],
+    });
+}
+
+/// The face rectangles of the directions in which some target lies, seen from a point-like
+/// origin sphere.
+fn object_rects(c: DVec3, r: f64, ctx: &Ctx) -> [Option<[f64; 4]>; 6] {
+    let mut rects: [Option<[f64; 4]>; 6] = [None; 6];
+    let full = [-1.0, 1.0, -1.0, 1.0];
+    let add_cone = |rects: &mut [Option<[f64; 4]>; 6], k: Option<Cone>| match k {
+        Some(k) => {
+            for (f, rect) in rects.iter_mut().enumerate() {
+                if let Some(fr) = k.face_rect(f) {
+                    union_rect(rect, fr);
+                }
+            }
+        }
+        None => {
+            for rect in rects.iter_mut() {
+                union_rect(rect, full);
+            }
+        }
+    };
+    if ctx.bvh.nodes.is_empty() {
+        return rects;
+    }
+    let mut stack = vec![0u32];
+    while let Some(ni) = stack.pop() {
+        let node = ctx.bvh.nodes[ni as usize];
+        let k = sphere_cone(c, r, node.center, node.radius + ctx.eps, ctx.delta);
+        if k.is_some_and(|k| k.theta < 0.15) {
+            add_cone(&mut rects, k);
+            continue;
+        }
+        if node.count == 0 {
+            stack.push(node.first);
+            stack.push(node.first + 1);
+            continue;
+        }
+        for &tid in &ctx.bvh.order[node.first as usize..(node.first + node.count) as usize] {
+            let t = &ctx.targets[tid as usize];
+            add_cone(&mut rects, sphere_cone(c, r, t.center, t.radius + ctx.eps, ctx.delta));
+        }
+    }
+    rects
+}
+
+/// Face rectangles of the view frustum's directions (the cone over the four image-corner
+/// directions, clipped to each face's pyramid), widened by `delta`.
+fn frustum_rects(corners: &[DVec3; 4], delta: f64) -> [Option<[f64; 4]>; 6] {
+    let mut out = [None; 6];
+    for (f, slot) in out.iter_mut().enumerate() {
+        let ax = f / 2;
+        let s = if f % 2 == 1 { -1.0 } else { 1.0 };
+        let (i1, i2) = ((ax + 1) % 3, (ax + 2) % 3);
+        let mut poly: Vec<DVec3> = corners.to_vec();
+        // Keep s·w[ax] ± w[i] ≥ 0 (Sutherland–Hodgman on the cone's cross-section).
+        for (i, sign) in [(i1, 1.0), (i1, -1.0), (i2, 1.0), (i2, -1.0)] {
+            let dist = |w: DVec3| s * w[ax] + sign * w[i];
+            let mut next = Vec::new();
+            for k in 0..poly.len() {
+                let (a, b) = (poly[k], poly[(k + 1) % poly.len()]);
+                let (da, db) = (dist(a), dist(b));
+                if da >= 0.0 {
+                    next.push(a);
+                }
+                if (da >= 0.0) != (db >= 0.0) {
+                    next.push(a + (b - a) * (da / (da - db)));
+                }
+            }
+            poly = next;
+            if poly.is_empty() {
+                break;
+            }
+        }
+        let mut rect: Option<[f64; 4]> = None;
+        for w in &poly {
+            let m = s * w[ax];
+            if m > 0.0 {
+                let (u, v) = (w[i1] / m, w[i2] / m);
+                union_rect(&mut rect, [u, u, v, v]);
+            }
+        }
+        // Gnomonic coordinates change at most 2 per radian on a face.
+        *slot =
+            rect.map(|r| [r[0] - 2.0 * delta, r[1] + 2.0 * delta, r[2] - 2.0 * delta, r[3] + 2.0 * delta]);
+    }
+    out
+}
+
+fn rect_area(rects: &[Option<[f64; 4]>; 6]) -> f64 {
+    rects.iter().flatten().map(|r| ((r[1] - r[0]).max(0.0)) * ((r[3] - r[2]).max(0.0))).sum()
+}
+
+/// The image size the eye table is built for.
+pub fn eye_image(scene: &Scene, params: &BuildParams) -> (u32, u32) {
+    params.image.or(scene.resolution).unwrap_or_else(|| scene.camera.default_resolution())
+}
+
+fn eye_def(scene: &Scene, params: &BuildParams, eps: f64) -> OriginDef {
+    let cam = &scene.camera;
+    let (w, h) = eye_image(scene, params);
+    let corners = [
+        cam.ray(0.0, 0.0, w, h),
+        cam.ray(w as f64, 0.0, w, h),
+        cam.ray(w as f64, h as f64, w, h),
+        cam.ray(0.0, h as f64, w, h),
+    ];
+    let (radius, rects, pixel_angle) = match cam.projection {
+        Projection::Perspective { fov_y, .. } => {
+            let dirs = corners.map(|c| c.1);
+            (eps, frustum_rects(&dirs, params.delta), fov_y / h as f64)
+        }
+        Projection::Orthographic { .. } => {
+            let half_diag = corners.iter().map(|c| (c.0 - cam.eye).length()).fold(0.0, f64::max);
+            let k = Cone::new(cam.forward, params.delta);
+            let mut rects = [None; 6];
+            for (f, r) in rects.iter_mut().enumerate() {
+                *r = k.face_rect(f);
+            }
+            (half_diag + eps, rects, f64::INFINITY)
+        }
+    };
+    let n = params.eye_n.unwrap_or_else(|| {
+        if pixel_angle.is_finite() {
+            (2.0 / (pixel_angle * params.eye_pixels_per_cell)).ceil().clamp(16.0, 8192.0) as u32
+        } else {
+            64
+        }
+    });
+    OriginDef {
+        kind: OriginKind::Eye,
+        center: cam.eye,
+        radius,
+        members: Vec::new(),
+        light: None,
+        n,
+        window: rects.map(|r| r.map(|r| to_window(r, n))),
+    }
+}
+
+fn light_def(i: usize, pos: DVec3, params: &BuildParams, eps: f64, ctx: &Ctx) -> OriginDef {
+    let rects = object_rects(pos, eps, ctx);
+    let area = rect_area(&rects).max(1e-12);
+    let n = params
+        .light_n
+        .unwrap_or_else(|| (4.0 * params.light_cells as f64 / area).sqrt().clamp(8.0, 16384.0) as u32);
+    OriginDef {
+        kind: OriginKind::Light,
+        center: pos,
+        radius: eps,
+        members: Vec::new(),
+        light: Some(i),
+        n,
+        window: rects.map(|r| r.map(|r| to_window(r, n))),
+    }
+}
+
+fn surface_defs(ids: &[u32], k: usize, n: u32, ctx: &Ctx) -> Vec<OriginDef> {
+    let centers: Vec<DVec3> = ctx.targets.iter().map(|t| t.center).collect();
+    cluster(ids, &centers, k)
+        .into_iter()
+        .map(|members| {
+            let (c, r) = bounding_sphere(&members, ctx.targets);
+            OriginDef {
+                kind: OriginKind::Surface,
+                center: c,
+                radius: r + ctx.eps,
+                members,
+                light: None,
+                n,
+                window: [Some([0, 0, n, n]); 6],
+            }
+        })
+        .collect()
+}
+
+/// Bytes an origin table adds to the flattened buffers.
+fn table_bytes(t: &OriginTable) -> usize {
+    std::mem::size_of::<GpuOrigin>()
+        + 6 * std::mem::size_of::<GpuFace>()
+        + 4 * (t.starts.len() - 1)
+        + 8 * (t.entries.len() + t.always.len())
+}
+
+/// The candidate tables of a scene, flattened, with what was built and how long it took.
+#[derive(Clone, Debug)]
+pub struct Tables {
+    pub flat: FlatTables,
+    /// The origins as built (kind, sphere, members, resolution).
+    pub defs: Vec<OriginDef>,
+    /// Wall-clock build time in seconds.
+    pub build_s: f64,
+    /// Spawn offset (origin inflation) used.
+    pub eps: f64,
+    /// Surface resolution and cluster size chosen (0 when there are no surface origins).
+    pub surface_n: u32,
+    pub cluster_size: usize,
+    pub shadow_mode: ShadowMode,
+    /// The image size the eye table covers.
+    pub eye_image: (u32, u32),
+}
+
+/// Builds the candidate tables a scene calls for.
+pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables, BuildError> {
+    let start = Instant::now();
+    let eps = params.spawn_offset.unwrap_or_else(|| default_spawn_offset(scene));
+    let targets: Vec<Target> = scene.primitives.iter().map(|p| Target::of(p, scene)).collect();
+    let bvh = Bvh::build(&targets);
+    let ctx = Ctx::new(&targets, &bvh, eps, params.delta, params.always_fraction);
+    let effects = scene.effects();
+
+    let mut defs: Vec<OriginDef> = Vec::new();
+    if !targets.is_empty() {
+        defs.push(eye_def(scene, params, eps));
+    }
+    let directional = scene.lights.iter().any(|l| l.kind == LightKind::Directional);
+    if effects.shadows && params.shadow_mode == ShadowMode::LightBuffer {
+        for (i, l) in scene.lights.iter().enumerate() {
+            if l.kind != LightKind::Directional {
+                defs.push(light_def(i, l.position, params, eps, &ctx));
+            }
+        }
+    }
+    let mut fixed: Vec<OriginTable> = defs.par_iter().map(|d| build_origin(d, &ctx)).collect();
+    let fixed_bytes: usize =
+        fixed.iter().map(table_bytes).sum::<usize>() + 4 * (targets.len() + scene.lights.len() + 1);
+
+    // Surface origins: primitives that spawn secondary rays.
+    let all_surfaces = effects.shadows && (params.shadow_mode == ShadowMode::HitObject || directional);
+    let surface_ids: Vec<u32> = scene
+        .primitives
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| {
+            let m = &scene.materials[p.material() as usize];
+            all_surfaces || m.reflects() || m.transmits()
+        })
+        .map(|(i, _)| i as u32)
+        .collect();
+    let (mut surface_n, mut cluster_size) = (0, 0);
+    let mut surface: Vec<OriginTable> = Vec::new();
+    let mut surface_defs_built: Vec<OriginDef> = Vec::new();
+    if !surface_ids.is_empty() {
+        let candidates: Vec<(usize, u32)> = match (params.cluster_size, params.surface_n) {
+            (Some(k), Some(n)) => vec![(k, n)],
+            (k, n) => {
+                let ks = [1usize, 2, 4, 8, 16, 32, 64, 128, 256];
+                let ns = [8u32, 6, 4, 3, 2];
+                let mut v = Vec::new();
+                for &kk in ks.iter().filter(|x| k.is_none_or(|k| k == **x)) {
+                    for &nn in ns.iter().filter(|x| n.is_none_or(|n| n == **x)) {
+                        v.push((kk, nn));
+                    }
+                }
+                if v.is_empty() {
+                    v.push((k.unwrap_or(1), n.unwrap_or(4)));
+                }
+                v
+            }
+        };
+        let remaining = params.budget_bytes.saturating_sub(fixed_bytes);
+        let mut chosen = None;
+        for (ci, &(k, n)) in candidates.iter().enumerate() {
+            let ds = surface_defs(&surface_ids, k, n, &ctx);
+            if ci + 1 == candidates.len() {
+                chosen = Some((k, n, ds));
+                break;
+            }
+            // Estimate from a sample of origins spread over the scene.
+            let step = (ds.len() / 48).max(1);
+            let sample: Vec<&OriginDef> = ds.iter().step_by(step).collect();
+            let bytes: usize = sample.par_iter().map(|d| table_bytes(&build_origin(d, &ctx))).sum();
+            let estimate = bytes as f64 / sample.len() as f64 * ds.len() as f64;
+            if estimate <= remaining as f64 * 0.9 {
+                chosen = Some((k, n, ds));
+                break;
+            }
+        }
+        let (k, n, ds) = chosen.expect("at least one candidate");
+        surface_n = n;
+        cluster_size = k;
+        surface = ds.par_iter().map(|d| build_origin(d, &ctx)).collect();
+        surface_defs_built = ds;
+    }
+    defs.extend(surface_defs_built);
+    fixed.extend(surface);
+    let flat = flatten(&fixed, &defs, targets.len(), scene.lights.len());
+    if flat.largest_buffer_bytes() > MAX_BINDING_BYTES {
+        return Err(BuildError::TooLarge { bytes: flat.largest_buffer_bytes(), limit: MAX_BINDING_BYTES });
+    }
+    Ok(Tables {
+        flat,
+        defs,
+        build_s: start.elapsed().as_secs_f64(),
+        eps,
+        surface_n,
+        cluster_size,
+        shadow_mode: params.shadow_mode,
+        eye_image: eye_image(scene, params),
+    })
+}
