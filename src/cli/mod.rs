@@ -25,6 +25,9 @@ enum Command {
         /// Print one JSON object instead of text.
         #[arg(long)]
         json: bool,
+        /// Also build the direction-cube candidate tables and report their statistics.
+        #[arg(long)]
+        tables: bool,
         /// glTF: index of the camera to use.
         #[arg(long)]
         camera: Option<usize>,
@@ -45,13 +48,27 @@ pub fn main() -> ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Command::Info { scene, json, camera } => {
+        Command::Info { scene, json, camera, tables } => {
             let loaded = load_scene(&scene, camera)?;
             let info = SceneInfo::of(&loaded.scene);
+            let stats = match tables {
+                true => Some(cuberay::coherence::TableStats::of(&cuberay::coherence::build(
+                    &loaded.scene,
+                    &Default::default(),
+                )?)),
+                false => None,
+            };
             if json {
-                println!("{}", serde_json::to_string_pretty(&info)?);
+                let mut v = serde_json::to_value(&info)?;
+                if let Some(s) = &stats {
+                    v["tables"] = serde_json::to_value(s)?;
+                }
+                println!("{}", serde_json::to_string_pretty(&v)?);
             } else {
                 print!("{}", info.to_text());
+                if let Some(s) = &stats {
+                    print!("{}", s.to_text());
+                }
             }
             Ok(())
         }

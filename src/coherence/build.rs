@@ -21,8 +21,8 @@ use rayon::prelude::*;
 
 use super::flat::{FlatTables, GpuEntry, GpuFace, GpuOrigin, OriginKind, MAX_BINDING_BYTES};
 use super::geom::{
-    cell_cone, cell_span, point_segment_distance, point_triangle_distance, sphere_cone, sphere_inner_cone,
-    ArcBound, CellCone, Cone, TriEdges,
+    cell_cone, cell_span, point_segment_distance, point_triangle_distance, region_cone, sphere_cone,
+    sphere_inner_cone, ArcBound, CellCone, Cone, TriEdges,
 };
 use super::origins::{bounding_sphere, cluster, Bvh, Shape, Target};
 use crate::scene::{LightKind, Projection, Scene};
@@ -69,8 +69,11 @@ pub struct BuildParams {
     pub always_fraction: f64,
     /// Image pixels per eye cell, along one axis (default 2).
     pub eye_pixels_per_cell: f64,
-    /// Cells a light's table aims for over the directions where objects are (default 2^20).
+    /// Cells a light's table aims for over the directions where objects are (default 2^18).
     pub light_cells: usize,
+    /// Limit on surface origins × primitives, which bounds the build time: the cluster size
+    /// grows until the product fits (default 3·10^6).
+    pub pair_budget: usize,
 }
 
 impl Default for BuildParams {
@@ -87,7 +90,8 @@ impl Default for BuildParams {
             shadow_mode: ShadowMode::LightBuffer,
             always_fraction: 0.6,
             eye_pixels_per_cell: 2.0,
-            light_cells: 1 << 20,
+            light_cells: 1 << 18,
+            pair_budget: 3_000_000,
         }
     }
 }
@@ -228,6 +232,18 @@ impl Pair {
             && self.arc.as_ref().is_none_or(|a| a.meets(cell))
     }
 
+    /// True when every cell of the block meets the bound (sufficient test).
+    #[inline]
+    fn inside(&self, cell: &CellCone, delta: f64) -> bool {
+        if let Some(e) = &self.edges {
+            return e.covers(cell, delta).is_some();
+        }
+        if let Some(a) = &self.arc {
+            return a.contains(cell);
+        }
+        self.cone.is_none_or(|k| k.contains(cell))
+    }
+
     /// Lower bound on the hit distance for directions of this cell.
     #[inline]
     fn cell_dmin(&self, cell: &CellCone, delta: f64) -> f64 {
@@ -284,56 +300,78 @@ impl Cells {
         }
     }
 
-    /// Calls `visit(local index, cell)` for every cell of the windows inside `cone`'s
-    /// rectangles (all window cells when `cone` is `None`). Stops early when `visit` returns
-    /// false; returns false then.
-    fn for_each(&self, cone: Option<&Cone>, mut visit: impl FnMut(usize, &CellCone) -> bool) -> bool {
+    /// The window rectangle `[iu0, iv0, iu1, iv1]` of face `f` inside `cone`'s rectangle (the
+    /// whole window for `None`), or `None` when empty.
+    fn face_rect(&self, f: usize, cone: Option<&Cone>) -> Option<[u32; 4]> {
+        let w = self.win[f]?;
+        let (mut u0, mut u1, mut v0, mut v1) = (w[0], w[0] + w[2] - 1, w[1], w[1] + w[3] - 1);
+        if let Some(k) = cone {
+            let r = k.face_rect(f)?;
+            let (a, b) = cell_span(r[0], r[1], self.n);
+            let (c, d) = cell_span(r[2], r[3], self.n);
+            u0 = u0.max(a);
+            u1 = u1.min(b);
+            v0 = v0.max(c);
+            v1 = v1.min(d);
+        }
+        (u0 <= u1 && v0 <= v1).then_some([u0, v0, u1, v1])
+    }
+
+    #[inline]
+    fn index(&self, f: usize, iu: u32, iv: u32) -> usize {
+        let w = self.win[f].unwrap();
+        self.base[f] + ((iv - w[1]) * w[2] + (iu - w[0])) as usize
+    }
+
+    /// Hierarchical rasterisation of a bound into the windows: blocks the bound misses are
+    /// dropped, blocks of at most [`BULK`] cells wholly inside it are emitted at once (one
+    /// `d_min` and cover test for the block), others are split down to single cells.
+    /// `emit(cells, block)` receives the local cell indices of the block; it returns false to
+    /// stop the rasterisation (then `raster` returns false).
+    fn raster(
+        &self,
+        cone: Option<&Cone>,
+        meets: impl Fn(&CellCone) -> bool,
+        inside: impl Fn(&CellCone) -> bool,
+        mut emit: impl FnMut(&mut dyn Iterator<Item = usize>, &CellCone) -> bool,
+    ) -> bool {
+        let mut stack: Vec<[u32; 4]> = Vec::new();
         for f in 0..6 {
-            let Some(w) = self.win[f] else { continue };
-            let (mut u0, mut u1, mut v0, mut v1) = (w[0], w[0] + w[2] - 1, w[1], w[1] + w[3] - 1);
-            if let Some(k) = cone {
-                let Some(r) = k.face_rect(f) else { continue };
-                let (a, b) = cell_span(r[0], r[1], self.n);
-                let (c, d) = cell_span(r[2], r[3], self.n);
-                u0 = u0.max(a);
-                u1 = u1.min(b);
-                v0 = v0.max(c);
-                v1 = v1.min(d);
-                if u0 > u1 || v0 > v1 {
+            let Some(r) = self.face_rect(f, cone) else { continue };
+            stack.push(r);
+            while let Some(r) = stack.pop() {
+                let (w, h) = (r[2] - r[0] + 1, r[3] - r[1] + 1);
+                let single = w == 1 && h == 1;
+                let region = if single { self.cone(f, r[0], r[1]) } else { region_cone(f, r, self.n) };
+                if !meets(&region) {
                     continue;
                 }
-            }
-            for iv in v0..=v1 {
-                for iu in u0..=u1 {
-                    let cell = self.cone(f, iu, iv);
-                    let idx = self.base[f] + ((iv - w[1]) * w[2] + (iu - w[0])) as usize;
-                    if !visit(idx, &cell) {
+                if single || (w * h <= BULK && inside(&region)) {
+                    let mut it = (r[1]..=r[3])
+                        .flat_map(|iv| (r[0]..=r[2]).map(move |iu| (iu, iv)))
+                        .map(|(iu, iv)| self.index(f, iu, iv));
+                    if !emit(&mut it, &region) {
                         return false;
                     }
+                    continue;
+                }
+                if w >= h {
+                    let m = r[0] + w / 2;
+                    stack.push([m, r[1], r[2], r[3]]);
+                    stack.push([r[0], r[1], m - 1, r[3]]);
+                } else {
+                    let m = r[1] + h / 2;
+                    stack.push([r[0], m, r[2], r[3]]);
+                    stack.push([r[0], r[1], r[2], m - 1]);
                 }
             }
         }
         true
     }
-
-    /// Number of window cells inside `cone`'s rectangles (an upper bound on the cells
-    /// [`Cells::for_each`] visits).
-    fn rect_cells(&self, cone: &Cone) -> usize {
-        let mut total = 0;
-        for f in 0..6 {
-            let Some(w) = self.win[f] else { continue };
-            let Some(r) = cone.face_rect(f) else { continue };
-            let (a, b) = cell_span(r[0], r[1], self.n);
-            let (c, d) = cell_span(r[2], r[3], self.n);
-            let (u0, u1, v0, v1) =
-                (w[0].max(a), (w[0] + w[2] - 1).min(b), w[1].max(c), (w[1] + w[3] - 1).min(d));
-            if u0 <= u1 && v0 <= v1 {
-                total += ((u1 - u0 + 1) * (v1 - v0 + 1)) as usize;
-            }
-        }
-        total
-    }
 }
+
+/// Largest block emitted without splitting.
+const BULK: u32 = 16;
 
 #[derive(Clone, Copy)]
 struct Rec {
@@ -369,8 +407,8 @@ pub fn store_dmin(x: f64, eps: f64) -> f32 {
 
 /// Targets nearer than this angle from a cluster's bounding sphere are bounded per member.
 const NEAR_THETA: f64 = 0.35;
-/// Hierarchy nodes whose cone spans more cells than this are entered without a cull test.
-const CULL_CELLS: usize = 2048;
+/// Hierarchy nodes whose cone is wider than this are entered without a cull test.
+const CULL_THETA: f64 = 0.5;
 
 /// Builds one origin's table.
 pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
@@ -405,8 +443,20 @@ pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
         let node = ctx.bvh.nodes[ni as usize];
         // Skip the subtree when every cell its bound meets is already cut off before it.
         if let Some(k) = sphere_cone(c, r, node.center, node.radius + eps, delta) {
-            if cells.rect_cells(&k) <= CULL_CELLS {
-                let hidden = cells.for_each(Some(&k), |i, cell| !(k.meets(cell) && cut[i] >= node_dmin));
+            if k.theta < CULL_THETA {
+                let hidden = cells.raster(
+                    Some(&k),
+                    |cell| k.meets(cell),
+                    |cell| k.contains(cell),
+                    |it, _| {
+                        for i in it {
+                            if cut[i] >= node_dmin {
+                                return false;
+                            }
+                        }
+                        true
+                    },
+                );
                 if hidden {
                     continue;
                 }
@@ -429,18 +479,24 @@ pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
             let p = Pair::new(c, r, t, eps, delta);
             let near = def.members.len() > 1 && p.cone.is_none_or(|k| k.theta > NEAR_THETA);
             if !near {
-                cells.for_each(p.cone.as_ref(), |i, cell| {
-                    if p.meets(cell, delta) {
+                cells.raster(
+                    p.cone.as_ref(),
+                    |cell| p.meets(cell, delta),
+                    |cell| p.inside(cell, delta),
+                    |it, cell| {
                         let dm = p.cell_dmin(cell, delta);
-                        if dm <= cut[i] {
-                            recs.push(Rec { cell: i as u32, id: tid, dmin: dm });
-                            if let Some(t_far) = p.covers(cell, delta) {
-                                cut[i] = cut[i].min(t_far * (1.0 + 1e-6) + 2.0 * eps);
+                        let cover = p.covers(cell, delta).map(|t| t * (1.0 + 1e-6) + 2.0 * eps);
+                        for i in it {
+                            if dm <= cut[i] {
+                                recs.push(Rec { cell: i as u32, id: tid, dmin: dm });
+                                if let Some(t_far) = cover {
+                                    cut[i] = cut[i].min(t_far);
+                                }
                             }
                         }
-                    }
-                    true
-                });
+                        true
+                    },
+                );
                 continue;
             }
             // Near a cluster: the union of the members' bounds.
@@ -449,26 +505,31 @@ pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
                     continue;
                 }
                 let pm = Pair::new(mc, mr, t, eps, delta);
-                cells.for_each(pm.cone.as_ref(), |i, cell| {
-                    if pm.meets(cell, delta) {
+                cells.raster(
+                    pm.cone.as_ref(),
+                    |cell| pm.meets(cell, delta),
+                    |cell| pm.inside(cell, delta),
+                    |it, cell| {
                         let dm = pm.cell_dmin(cell, delta);
-                        if scratch[i] == f64::INFINITY {
-                            touched.push(i as u32);
+                        for i in it {
+                            if scratch[i] == f64::INFINITY {
+                                touched.push(i as u32);
+                            }
+                            scratch[i] = scratch[i].min(dm);
                         }
-                        scratch[i] = scratch[i].min(dm);
-                    }
-                    true
-                });
+                        true
+                    },
+                );
             }
+            let can_cover = p.tri_cover || p.inner.is_some();
             for &i in &touched {
                 let i = i as usize;
                 let dm = scratch[i];
                 scratch[i] = f64::INFINITY;
                 if dm <= cut[i] {
                     recs.push(Rec { cell: i as u32, id: tid, dmin: dm });
-                    if p.tri_cover || p.inner.is_some() {
-                        let cell = cells_cone_at(&cells, i);
-                        if let Some(t_far) = p.covers(&cell, delta) {
+                    if can_cover {
+                        if let Some(t_far) = p.covers(&cells_cone_at(&cells, i), delta) {
                             cut[i] = cut[i].min(t_far * (1.0 + 1e-6) + 2.0 * eps);
                         }
                     }
@@ -585,12 +646,12 @@ pub fn flatten(tables: &[OriginTable], defs: &[OriginDef], primitives: usize, li
     let entries: usize = tables.iter().map(|t| t.entries.len() + t.always.len()).sum();
     flat.cell_start.reserve(cells + 1);
     flat.entries.reserve(entries);
+    // Cell lists first, all origins in order, so that cell ranges tile the array; the
+    // always-test lists follow them.
     for (o, (t, def)) in tables.iter().zip(defs).enumerate() {
-        let always_start = flat.entries.len() as u32;
-        flat.entries.extend_from_slice(&t.always);
         flat.origins.push(GpuOrigin {
             n: t.n,
-            always_start,
+            always_start: 0,
             always_count: t.always.len() as u32,
             kind: def.kind as u32,
         });
@@ -620,6 +681,10 @@ pub fn flatten(tables: &[OriginTable], defs: &[OriginDef], primitives: usize, li
         }
     }
     flat.cell_start.push(flat.entries.len() as u32);
+    for (o, t) in tables.iter().enumerate() {
+        flat.origins[o].always_start = flat.entries.len() as u32;
+        flat.entries.extend_from_slice(&t.always);
+    }
     flat
 }
 
@@ -883,7 +948,9 @@ pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables, BuildError> 
                 let ks = [1usize, 2, 4, 8, 16, 32, 64, 128, 256];
                 let ns = [8u32, 6, 4, 3, 2];
                 let mut v = Vec::new();
-                for &kk in ks.iter().filter(|x| k.is_none_or(|k| k == **x)) {
+                let fits = |kk: usize| surface_ids.len().div_ceil(kk) * targets.len() <= params.pair_budget;
+                let kmin = ks.iter().copied().find(|&kk| fits(kk)).unwrap_or(256);
+                for &kk in ks.iter().filter(|x| k.map_or(**x >= kmin, |k| k == **x)) {
                     for &nn in ns.iter().filter(|x| n.is_none_or(|n| n == **x)) {
                         v.push((kk, nn));
                     }

@@ -168,7 +168,8 @@ impl FlatTables {
             if a > b || b > self.entries.len() {
                 return Err(format!("cell {c}: bad range {a}..{b}"));
             }
-            check_sorted(&self.entries[a..b]).map_err(|e| format!("cell {c}: {e}"))?;
+            check_sorted(&self.entries[a..b])
+                .map_err(|e| format!("cell {c}: {e}: {:?}", &self.entries[a..b]))?;
         }
         if let Some(e) = self.entries.iter().find(|e| e.id as usize >= primitives) {
             return Err(format!("entry id {} out of range", e.id));

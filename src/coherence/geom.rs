@@ -47,10 +47,17 @@ pub struct CellCone {
     pub corners: [DVec3; 4],
 }
 
-/// Computes the geometry of cell `(iu, iv)` on `face` of an `n`-cell cube.
+/// Computes the geometry of cell `(iu, iv)` on `face` of an `n`-cube.
 pub fn cell_cone(face: usize, iu: u32, iv: u32, n: u32) -> CellCone {
-    let (u0, u1) = (edge_coord(iu, n), edge_coord(iu + 1, n));
-    let (v0, v1) = (edge_coord(iv, n), edge_coord(iv + 1, n));
+    region_cone(face, [iu, iv, iu, iv], n)
+}
+
+/// The same for the block of cells `iu0..=iu1` × `iv0..=iv1` (`r = [iu0, iv0, iu1, iv1]`):
+/// a gnomonic rectangle is a convex spherical quadrilateral, so every test written for a
+/// cell holds for a block.
+pub fn region_cone(face: usize, r: [u32; 4], n: u32) -> CellCone {
+    let (u0, u1) = (edge_coord(r[0], n), edge_coord(r[2] + 1, n));
+    let (v0, v1) = (edge_coord(r[1], n), edge_coord(r[3] + 1, n));
     let m = face_dir(face, 0.5 * (u0 + u1), 0.5 * (v0 + v1)).normalize();
     let corners =
         [face_dir(face, u0, v0), face_dir(face, u1, v0), face_dir(face, u1, v1), face_dir(face, u0, v1)];
@@ -65,12 +72,19 @@ pub struct Cone {
     pub theta: f64,
     pub cos_t: f64,
     pub sin_t: f64,
+    /// Range `[lo, hi]` of each component `w_i` over the cap.
+    range: [[f64; 2]; 3],
 }
 
 impl Cone {
     pub fn new(axis: DVec3, theta: f64) -> Cone {
         let theta = theta.clamp(0.0, std::f64::consts::PI);
-        Cone { axis, theta, cos_t: theta.cos(), sin_t: theta.sin() }
+        // w·e_i over the cap: [cos(min(π, α+θ)), cos(max(0, α−θ))], α = angle(axis, e_i).
+        let range = [0, 1, 2].map(|i| {
+            let alpha = axis[i].clamp(-1.0, 1.0).acos();
+            [(alpha + theta).min(std::f64::consts::PI).cos(), (alpha - theta).max(0.0).cos()]
+        });
+        Cone { axis, theta, cos_t: theta.cos(), sin_t: theta.sin(), range }
     }
 
     /// Test A: true when the angle between the axis and the cell's centre is at most θ + β,
@@ -138,25 +152,20 @@ impl Cone {
     /// when the cap does not reach the face's pyramid.
     pub fn face_rect(&self, face: usize) -> Option<[f64; 4]> {
         let ax = face / 2;
-        let s = if face % 2 == 1 { -1.0 } else { 1.0 };
         let (i1, i2) = ((ax + 1) % 3, (ax + 2) % 3);
-        // Range of w·e over the cap: [cos(min(π, α+θ)), cos(max(0, α−θ))], α = angle(axis, e).
-        let range = |comp: f64| -> (f64, f64) {
-            let alpha = comp.clamp(-1.0, 1.0).acos();
-            ((alpha + self.theta).min(std::f64::consts::PI).cos(), (alpha - self.theta).max(0.0).cos())
-        };
-        let (k_lo, k_hi) = range(s * self.axis[ax]);
-        // The face's pyramid is where w[ax]·s ≥ |w[i1]|, |w[i2]|, so it needs w[ax]·s > 0.
+        let [lo, hi] = self.range[ax];
+        // Range of s·w[ax] over the cap.
+        let (k_lo, k_hi) = if face % 2 == 1 { (-hi, -lo) } else { (lo, hi) };
+        // The face's pyramid is where s·w[ax] ≥ |w[i1]|, |w[i2]|, so it needs s·w[ax] > 0.
         if k_hi <= 0.0 {
             return None;
         }
-        let (l1, h1) = range(self.axis[i1]);
-        let (l2, h2) = range(self.axis[i2]);
-        // Within the pyramid |u|, |v| ≤ 1 whatever the ratio bounds say.
         if k_lo <= 1e-9 {
             // The cap reaches the plane w[ax] = 0: no useful bound on the ratios.
             return Some([-1.0, 1.0, -1.0, 1.0]);
         }
+        let [l1, h1] = self.range[i1];
+        let [l2, h2] = self.range[i2];
         let lo = |l: f64| if l < 0.0 { l / k_lo } else { l / k_hi };
         let hi = |h: f64| if h > 0.0 { h / k_lo } else { h / k_hi };
         let r = [lo(l1).max(-1.0), hi(h1).min(1.0), lo(l2).max(-1.0), hi(h2).min(1.0)];
@@ -397,6 +406,15 @@ impl ArcBound {
         } else {
             ends
         }
+    }
+
+    /// True when every direction of the cell is within θ of the arc.
+    pub fn contains(&self, cell: &CellCone) -> bool {
+        if cell.beta > self.theta {
+            return false;
+        }
+        // cos(θ − β) = cosθ·cosβ + sinθ·sinβ
+        self.cos_dist(cell.m) >= self.cos_t * cell.cos_b + self.sin_t * cell.sin_b
     }
 
     /// True when the widened bound meets the cell (angle(m, arc) ≤ θ + β).
