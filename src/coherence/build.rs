@@ -24,7 +24,7 @@ use super::geom::{
     cell_cone, cell_span, point_segment_distance, point_triangle_distance, region_cone, sphere_cone,
     sphere_inner_cone, ArcBound, CellCone, Cone, TriEdges,
 };
-use super::origins::{bounding_sphere, cluster, Bvh, Shape, Target};
+use super::origins::{bounding_sphere, cluster, mark_enclosing, Bvh, Shape, Target};
 use crate::scene::{LightKind, Projection, Scene};
 
 /// Where shadow rays are looked up.
@@ -905,8 +905,11 @@ pub struct Tables {
 pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables, BuildError> {
     let start = Instant::now();
     let eps = params.spawn_offset.unwrap_or_else(|| default_spawn_offset(scene));
-    let targets: Vec<Target> = scene.primitives.iter().map(|p| Target::of(p, scene)).collect();
+    let mut targets: Vec<Target> = scene.primitives.iter().map(|p| Target::of(p, scene)).collect();
     let bvh = Bvh::build(&targets);
+    let mut points = vec![scene.camera.eye];
+    points.extend(scene.lights.iter().filter(|l| l.kind != LightKind::Directional).map(|l| l.position));
+    mark_enclosing(&mut targets, &bvh, &points);
     let ctx = Ctx::new(&targets, &bvh, eps, params.delta, params.always_fraction);
     let effects = scene.effects();
 

@@ -5,10 +5,12 @@
 //!
 //! Self-listing rules: a primitive lists itself in its own origin's table (in every cell,
 //! `d_min = 0`) when a ray leaving it can hit it again: it transmits (refraction rays travel
-//! inside), it is an inside-only sphere (NFF negative radius: rays reflect inside it) or a
-//! cylinder (open, so visible from inside). Reflected and shadow rays leaving a sphere or a
-//! triangle from its outside cannot hit it again, so these do not list themselves; the other
-//! members of a cluster are always listed where they can be seen from it.
+//! inside), it is an inside-only sphere (NFF negative radius: rays reflect inside it), a
+//! cylinder (open, so visible from inside), or a sphere whose inside rays can reach (the eye,
+//! a light or another primitive lies inside it: see [`mark_enclosing`]). Reflected and shadow
+//! rays leaving a sphere or a triangle from its outside cannot hit it again, so these do not
+//! list themselves; the other members of a cluster are always listed where they can be seen
+//! from it.
 
 use glam::DVec3;
 
@@ -73,6 +75,53 @@ impl Target {
                 occluder: false,
             },
         }
+    }
+}
+
+/// Makes spheres self-listing when a ray can start inside them: `points`
+/// (the eye, lights) or another primitive lie strictly inside. Tangent neighbours do not count.
+pub fn mark_enclosing(targets: &mut [Target], bvh: &Bvh, points: &[DVec3]) {
+    use super::geom::{point_segment_distance, point_triangle_distance};
+    let inside: Vec<bool> = (0..targets.len())
+        .map(|i| {
+            let Shape::Sphere { c, r } = targets[i].shape else { return false };
+            if targets[i].self_list {
+                return false;
+            }
+            let strictly = r * (1.0 - 1e-6);
+            if points.iter().any(|p| (*p - c).length() < strictly) {
+                return true;
+            }
+            let mut stack = vec![0usize];
+            while let Some(n) = stack.pop() {
+                let node = bvh.nodes[n];
+                if (node.center - c).length() >= strictly + node.radius {
+                    continue;
+                }
+                if node.count == 0 {
+                    stack.push(node.first as usize);
+                    stack.push(node.first as usize + 1);
+                    continue;
+                }
+                for &j in &bvh.order[node.first as usize..(node.first + node.count) as usize] {
+                    if j as usize == i {
+                        continue;
+                    }
+                    let d = match targets[j as usize].shape {
+                        Shape::Sphere { c: cj, r: rj } => (cj - c).length() - rj,
+                        Shape::Triangle { v } => point_triangle_distance(c, &v),
+                        Shape::Capsule { p0, p1, rad } => point_segment_distance(c, p0, p1) - rad,
+                    };
+                    if d < strictly {
+                        return true;
+                    }
+                }
+            }
+            false
+        })
+        .collect();
+    for (t, inside) in targets.iter_mut().zip(inside) {
+        t.self_list |= inside;
     }
 }
 

@@ -1,0 +1,724 @@
+//! The candidate tables against brute force: random scenes of spheres, triangles and
+//! cylinders with random rays from every kind of origin (property tests), and directed cases
+//! (cell, face, edge and corner directions, −0.0 components, the eye inside bounding spheres,
+//! tangent and nested spheres, huge ground polygons), and SPD scenes traced with every ray
+//! checked.
+
+mod common;
+
+use glam::{DVec3, Vec3};
+use proptest::prelude::*;
+
+use cuberay::coherence::{self, bench, BuildParams, OriginKey, ShadowMode, Tables};
+use cuberay::mirror::{self, Prim32, F32_MAX, NO_ID};
+use cuberay::scene::{
+    Camera, Cylinder, FovSpan, Light, Material, Primitive, Projection, Scene, Sphere, Triangle,
+};
+
+// ---------------------------------------------------------------------------------------------
+// Scene construction
+
+fn materials() -> Vec<Material> {
+    vec![
+        Material::default(),
+        Material { mirror: DVec3::splat(0.5), ks: 0.5, ..Material::default() },
+        Material { transmittance: 0.8, ior: 1.5, ..Material::default() },
+    ]
+}
+
+fn scene(eye: DVec3, at: DVec3, lights: &[DVec3], primitives: Vec<Primitive>) -> Scene {
+    let up = if (at - eye).normalize().dot(DVec3::Z).abs() > 0.99 { DVec3::Y } else { DVec3::Z };
+    let camera = Camera::look_at(
+        eye,
+        at,
+        up,
+        Projection::Perspective { fov_y: 50f64.to_radians(), span: FovSpan::ImageEdges },
+    )
+    .unwrap();
+    let s = Scene {
+        camera,
+        lights: lights.iter().map(|&p| Light::point(p, DVec3::ONE, 1.0)).collect(),
+        ambient: DVec3::splat(0.1),
+        background: DVec3::ZERO,
+        materials: materials(),
+        textures: Vec::new(),
+        primitives,
+        resolution: Some((64, 64)),
+    };
+    s.validate().unwrap();
+    s
+}
+
+fn sphere(c: DVec3, r: f64, material: u32) -> Primitive {
+    Primitive::Sphere(Sphere { center: c, radius: r, inside_only: false, material })
+}
+
+fn tri(a: DVec3, b: DVec3, c: DVec3, material: u32) -> Primitive {
+    Primitive::Triangle(Triangle { p: [a, b, c], n: None, uv: None, material })
+}
+
+fn cyl(a: DVec3, ra: f64, b: DVec3, rb: f64, material: u32) -> Primitive {
+    Primitive::Cylinder(Cylinder {
+        base: a,
+        base_radius: ra,
+        apex: b,
+        apex_radius: rb,
+        inside_only: false,
+        material,
+    })
+}
+
+/// Small resolutions so that debug builds stay fast.
+fn small_params() -> BuildParams {
+    BuildParams {
+        eye_n: Some(24),
+        light_n: Some(16),
+        surface_n: Some(4),
+        cluster_size: Some(2),
+        ..BuildParams::default()
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Brute force and walkers
+
+struct World {
+    prims: Vec<Prim32>,
+    tables: Tables,
+    shift: DVec3,
+}
+
+impl World {
+    fn new(scene: &Scene, params: &BuildParams) -> World {
+        let tables = coherence::build(scene, params).unwrap();
+        tables.flat.check(scene.primitives.len()).unwrap();
+        let shift = scene.camera.eye;
+        World { prims: Prim32::from_scene(scene, shift), tables, shift }
+    }
+
+    fn p(&self, p: DVec3) -> Vec3 {
+        (p - self.shift).as_vec3()
+    }
+
+    fn brute(&self, o: Vec3, d: Vec3, t_max: f32) -> (u32, f32) {
+        let mut best = (NO_ID, t_max);
+        for (i, p) in self.prims.iter().enumerate() {
+            let t = p.intersect(o, d);
+            if t < best.1 || (t == best.1 && best.0 != NO_ID && (i as u32) < best.0) {
+                best = (i as u32, t);
+            }
+        }
+        if best.0 == NO_ID {
+            best.1 = F32_MAX;
+        }
+        best
+    }
+
+    /// Nearest hit through the mirror walker and through the generic walker (f32 and f64
+    /// closures); all must agree with brute force.
+    fn check_nearest(&self, key: OriginKey, o: Vec3, d: Vec3) -> Result<(), String> {
+        let f = &self.tables.flat;
+        let org = f.origin(key).ok_or(format!("no table for {key:?}"))?;
+        let (h, _) = mirror::cube_walk_nearest(
+            &f.origins,
+            &f.faces,
+            &f.cell_start,
+            &f.entries,
+            org,
+            d,
+            F32_MAX,
+            NO_ID,
+            |id| self.prims[id as usize].intersect(o, d),
+        );
+        let want = self.brute(o, d, F32_MAX);
+        if (h.id, h.t) != want {
+            return Err(format!(
+                "{key:?} o={o} d={d}: walker {:?} brute {:?}; candidates {:?}",
+                (h.id, h.t),
+                want,
+                f.candidates(org, d)
+            ));
+        }
+        let (g, _) = f.walk_nearest(org, d, f32::MAX, u32::MAX, |id, _| {
+            let t = self.prims[id as usize].intersect(o, d);
+            (t < F32_MAX).then_some(t)
+        });
+        let g = g.unwrap_or((NO_ID, F32_MAX));
+        if g != want {
+            return Err(format!("{key:?}: generic f32 walker {g:?} brute {want:?}"));
+        }
+        let (g64, _) = f.walk_nearest(org, d, f64::MAX, u32::MAX, |id, _| {
+            let t = self.prims[id as usize].intersect(o, d);
+            (t < F32_MAX).then_some(t as f64)
+        });
+        if g64.map(|(i, _)| i).unwrap_or(NO_ID) != want.0 {
+            return Err(format!("{key:?}: generic f64 walker {g64:?} brute {want:?}"));
+        }
+        Ok(())
+    }
+
+    fn check_any(&self, key: OriginKey, o: Vec3, d: Vec3, t_max: f32) -> Result<(), String> {
+        let f = &self.tables.flat;
+        let org = f.origin(key).ok_or(format!("no table for {key:?}"))?;
+        let (b, _) = mirror::cube_walk_any(
+            &f.origins,
+            &f.faces,
+            &f.cell_start,
+            &f.entries,
+            org,
+            d,
+            t_max,
+            NO_ID,
+            |id| self.prims[id as usize].intersect(o, d),
+        );
+        let want = self.brute(o, d, t_max).0 != NO_ID;
+        if b != want {
+            return Err(format!("{key:?} any o={o} d={d} t_max={t_max}: walker {b} brute {want}"));
+        }
+        let (g, _) = f.walk_any(org, d, t_max as f64, u32::MAX, |id, _| {
+            let t = self.prims[id as usize].intersect(o, d);
+            (t < F32_MAX).then_some(t as f64)
+        });
+        if g != want {
+            return Err(format!("{key:?}: generic any {g} brute {want}"));
+        }
+        Ok(())
+    }
+
+    /// A point on primitive `id` from two numbers in [0, 1), and its geometric normal.
+    fn surface_point(&self, id: usize, a: f32, b: f32) -> (Vec3, Vec3) {
+        match self.prims[id] {
+            Prim32::Sphere { c, r } => {
+                let z = 2.0 * a - 1.0;
+                let phi = b * std::f32::consts::TAU;
+                let s = (1.0 - z * z).max(0.0).sqrt();
+                let n = Vec3::new(s * phi.cos(), s * phi.sin(), z);
+                (c + r * n, n)
+            }
+            Prim32::Triangle { p } => {
+                let (a, b) = if a + b > 1.0 { (1.0 - a, 1.0 - b) } else { (a, b) };
+                (p[0] + a * (p[1] - p[0]) + b * (p[2] - p[0]), (p[1] - p[0]).cross(p[2] - p[0]).normalize())
+            }
+            Prim32::Cylinder { base, r0, apex, r1 } => {
+                let ax = (apex - base).normalize();
+                let u = ax.any_orthonormal_vector();
+                let v = ax.cross(u);
+                let phi = b * std::f32::consts::TAU;
+                let radial = u * phi.cos() + v * phi.sin();
+                let r = r0 + (r1 - r0) * a;
+                (base + (apex - base) * a + r * radial, radial)
+            }
+        }
+    }
+}
+
+/// Whether renderers can spawn rays into sphere `id` from its surface: it transmits, or a
+/// ray can be inside it (the eye, a light or another primitive's centre lies inside).
+fn may_go_inward(s: &Scene, id: usize) -> bool {
+    match &s.primitives[id] {
+        Primitive::Sphere(sp) => {
+            let inside = |p: DVec3| (p - sp.center).length() < sp.radius * 0.999;
+            s.materials[sp.material as usize].transmits()
+                || inside(s.camera.eye)
+                || s.lights.iter().any(|l| inside(l.position))
+                || s.primitives.iter().enumerate().any(|(j, q)| j != id && inside(q.bounding_sphere().0))
+        }
+        _ => true,
+    }
+}
+
+/// Flips `d` outward at a sphere surface point when rays cannot go inward there.
+fn legal(s: &Scene, id: usize, ng: Vec3, d: Vec3) -> Vec3 {
+    if d.dot(ng) < 0.0 && !may_go_inward(s, id) {
+        -d
+    } else {
+        d
+    }
+}
+
+/// True when `d` is inside the camera's frustum for a square image (the eye table covers it).
+fn in_frustum(s: &Scene, d: Vec3) -> bool {
+    let c = &s.camera;
+    let d = d.as_dvec3();
+    let Projection::Perspective { fov_y, .. } = c.projection else { return false };
+    let f = d.dot(c.forward);
+    let t = (fov_y * 0.5).tan() * 0.999;
+    f > 0.0 && d.dot(c.right).abs() <= t * f && d.dot(c.up).abs() <= t * f
+}
+
+/// A unit direction from three numbers in [-1, 1], or a fallback axis.
+fn dir(x: f32, y: f32, z: f32) -> Vec3 {
+    let v = Vec3::new(x, y, z);
+    if v.length() < 1e-3 {
+        Vec3::Z
+    } else {
+        v.normalize()
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Property tests
+
+fn arb_vec(r: f64) -> impl Strategy<Value = DVec3> {
+    (-r..r, -r..r, -r..r).prop_map(|(x, y, z)| DVec3::new(x, y, z))
+}
+
+fn arb_prim() -> impl Strategy<Value = Primitive> {
+    let m = 0u32..3;
+    prop_oneof![
+        (arb_vec(4.0), 0.05f64..1.5, m.clone()).prop_map(|(c, r, m)| sphere(c, r, m)),
+        (arb_vec(4.0), arb_vec(1.5), arb_vec(1.5), m.clone()).prop_filter_map(
+            "degenerate",
+            |(c, a, b, m)| {
+                let t = tri(c, c + a, c + b, m);
+                match &t {
+                    Primitive::Triangle(x) if !x.is_degenerate() && x.cross().length() > 1e-3 => Some(t),
+                    _ => None,
+                }
+            }
+        ),
+        (arb_vec(4.0), arb_vec(1.5), 0.05f64..0.6, 0.0f64..0.6, m)
+            .prop_filter_map("short", |(a, v, ra, rb, m)| {
+                (v.length() > 0.05).then(|| cyl(a, ra, a + v, rb.max(0.01), m))
+            }),
+    ]
+}
+
+fn arb_scene() -> impl Strategy<Value = Scene> {
+    (
+        proptest::collection::vec(arb_prim(), 1..10),
+        arb_vec(7.0),
+        arb_vec(2.0),
+        proptest::collection::vec(arb_vec(7.0), 1..3),
+    )
+        .prop_filter_map("camera", |(prims, eye, at, lights)| {
+            ((at - eye).length() > 0.1).then(|| scene(eye, at, &lights, prims))
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 48, .. ProptestConfig::default() })]
+
+    /// Eye rays anywhere in the image: the walker's nearest hit is brute force's.
+    #[test]
+    fn eye_rays_match_brute_force(s in arb_scene(), pts in proptest::collection::vec((0.0f64..64.0, 0.0f64..64.0), 40)) {
+        let w = World::new(&s, &small_params());
+        for (x, y) in pts {
+            let (o, d) = s.camera.ray(x, y, 64, 64);
+            w.check_nearest(OriginKey::Eye, w.p(o), d.as_vec3().normalize()).map_err(TestCaseError::fail)?;
+        }
+    }
+
+    /// Shadow rays from each light toward random points (any-hit with a distance limit) and
+    /// nearest hits from the light in any direction.
+    #[test]
+    fn light_rays_match_brute_force(s in arb_scene(), pts in proptest::collection::vec(arb_vec(6.0), 30), frac in 0.05f32..1.0) {
+        let w = World::new(&s, &small_params());
+        for (li, l) in s.lights.iter().enumerate() {
+            let lp = w.p(l.position);
+            for q in &pts {
+                let v = w.p(*q) - lp;
+                if v.length() < 1e-3 { continue; }
+                let d = v.normalize();
+                w.check_any(OriginKey::Light(li), lp, d, v.length() * frac).map_err(TestCaseError::fail)?;
+                w.check_nearest(OriginKey::Light(li), lp, d).map_err(TestCaseError::fail)?;
+            }
+        }
+    }
+
+    /// Secondary rays leaving any reflecting or transmitting primitive from a random surface
+    /// point (offset as the renderers do) in a random direction, inward or outward, also
+    /// with several primitives per cluster.
+    #[test]
+    fn surface_rays_match_brute_force(
+        s in arb_scene(),
+        k in 1usize..4,
+        rays in proptest::collection::vec((0.0f32..1.0, 0.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0, 0.05f32..2.0), 40),
+    ) {
+        let params = BuildParams { cluster_size: Some(k), ..small_params() };
+        let w = World::new(&s, &params);
+        let origins: Vec<usize> = (0..s.primitives.len())
+            .filter(|&i| w.tables.flat.origin(OriginKey::Surface(i as u32)).is_some())
+            .collect();
+        // Exactly the reflecting and transmitting primitives have tables.
+        for (i, p) in s.primitives.iter().enumerate() {
+            let m = &s.materials[p.material() as usize];
+            prop_assert_eq!(origins.contains(&i), m.reflects() || m.transmits());
+        }
+        for (n, &(a, b, x, y, z, tm)) in rays.iter().enumerate() {
+            if origins.is_empty() { break; }
+            let id = origins[n % origins.len()];
+            let (p, ng) = w.surface_point(id, a, b);
+            let d = legal(&s, id, ng, dir(x, y, z));
+            let o = mirror::offset_ray_origin(p, ng, d);
+            w.check_nearest(OriginKey::Surface(id as u32), o, d).map_err(TestCaseError::fail)?;
+            w.check_any(OriginKey::Surface(id as u32), o, d, tm).map_err(TestCaseError::fail)?;
+        }
+    }
+
+    /// In hit-object shadow mode every primitive has a table, and shadow rays from any
+    /// surface toward a light agree with brute force.
+    #[test]
+    fn hit_object_shadow_rays(s in arb_scene(), rays in proptest::collection::vec((0.0f32..1.0, 0.0f32..1.0), 20)) {
+        let params = BuildParams { shadow_mode: ShadowMode::HitObject, ..small_params() };
+        let w = World::new(&s, &params);
+        prop_assert!(w.tables.flat.light_origin.iter().all(|&o| o == u32::MAX));
+        for (n, &(a, b)) in rays.iter().enumerate() {
+            let id = n % s.primitives.len();
+            let (p, ng) = w.surface_point(id, a, b);
+            for l in &s.lights {
+                let v = w.p(l.position) - p;
+                let d = v.normalize();
+                if legal(&s, id, ng, d) != d {
+                    continue; // the surface faces away from the light: no shadow ray
+                }
+                let o = mirror::offset_ray_origin(p, ng, d);
+                w.check_any(OriginKey::Surface(id as u32), o, d, (w.p(l.position) - o).length())
+                    .map_err(TestCaseError::fail)?;
+            }
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Directed cases
+
+/// Directions exactly on cell boundaries (u = −1 + 2k/N), face diagonals (|x| = |y|), cube
+/// corners, axes, and with −0.0 components: every lookup finds what brute force hits.
+fn boundary_directions(n: u32) -> Vec<Vec3> {
+    let mut out = Vec::new();
+    for ax in 0..3 {
+        for s in [1.0f32, -1.0] {
+            for k in 0..=n {
+                for l in [0, n / 2, n / 3, n] {
+                    let u = -1.0 + 2.0 * k as f32 / n as f32;
+                    let v = -1.0 + 2.0 * l as f32 / n as f32;
+                    let mut w = [0.0f32; 3];
+                    w[ax] = s;
+                    w[(ax + 1) % 3] = u;
+                    w[(ax + 2) % 3] = v;
+                    out.push(Vec3::from_array(w).normalize());
+                }
+            }
+        }
+    }
+    for x in [-1.0f32, -0.0, 0.0, 1.0] {
+        for y in [-1.0f32, -0.0, 0.0, 1.0] {
+            for z in [-1.0f32, -0.0, 0.0, 1.0] {
+                let v = Vec3::new(x, y, z);
+                if v.length() > 0.0 {
+                    out.push(v / v.length());
+                }
+            }
+        }
+    }
+    out
+}
+
+/// A dense shell of small objects around the origin point, so that every boundary direction
+/// has something to hit.
+fn shell(center: DVec3) -> Vec<Primitive> {
+    let mut p = Vec::new();
+    let mut k = 0;
+    for ax in 0..3 {
+        for s in [1.0, -1.0] {
+            for i in -2..=2 {
+                for j in -2..=2 {
+                    let mut c = [0.0; 3];
+                    c[ax] = 3.0 * s;
+                    c[(ax + 1) % 3] = 1.5 * i as f64;
+                    c[(ax + 2) % 3] = 1.5 * j as f64;
+                    let c = center + DVec3::from_array(c);
+                    p.push(match k % 3 {
+                        0 => sphere(c, 0.8, 1),
+                        1 => tri(
+                            c + DVec3::new(-1.0, -1.0, 0.3),
+                            c + DVec3::new(1.2, -0.9, -0.2),
+                            c + DVec3::new(0.1, 1.1, 0.1),
+                            1,
+                        ),
+                        _ => cyl(c - DVec3::new(0.0, 0.7, 0.5), 0.5, c + DVec3::new(0.3, 0.7, 0.5), 0.4, 1),
+                    });
+                    k += 1;
+                }
+            }
+        }
+    }
+    p
+}
+
+#[test]
+fn boundary_directions_from_every_origin_kind() {
+    let c = DVec3::new(0.25, -0.5, 0.125);
+    let mut prims = shell(c);
+    prims.push(sphere(c, 0.3, 1)); // an origin for surface rays at the centre
+    let mut s = scene(c, c + DVec3::X, &[c], prims);
+    s.camera.projection = Projection::Perspective { fov_y: 170f64.to_radians(), span: FovSpan::ImageEdges };
+    for n in [4u32, 8] {
+        let params = BuildParams {
+            eye_n: Some(n),
+            light_n: Some(n),
+            surface_n: Some(n),
+            cluster_size: Some(1),
+            ..BuildParams::default()
+        };
+        let w = World::new(&s, &params);
+        let centre_id = s.primitives.len() as u32 - 1;
+        for d in boundary_directions(n) {
+            // Eye and light sit at the centre; surface rays leave the central sphere.
+            if in_frustum(&s, d) {
+                w.check_nearest(OriginKey::Eye, w.p(c), d).unwrap();
+            }
+            w.check_nearest(OriginKey::Light(0), w.p(c), d).unwrap();
+            w.check_any(OriginKey::Light(0), w.p(c), d, 3.2).unwrap();
+            let (p, ng) = (w.p(c) + 0.3 * d, d);
+            let o = mirror::offset_ray_origin(p, ng, d);
+            w.check_nearest(OriginKey::Surface(centre_id), o, d).unwrap();
+        }
+    }
+}
+
+#[test]
+fn zero_direction_is_rejected() {
+    let s = scene(DVec3::ZERO, DVec3::X, &[DVec3::Z], vec![sphere(DVec3::new(3.0, 0.0, 0.0), 1.0, 0)]);
+    let w = World::new(&s, &small_params());
+    let f = &w.tables.flat;
+    let eye = f.origin(OriginKey::Eye).unwrap();
+    let (h, tests) = mirror::cube_walk_nearest(
+        &f.origins,
+        &f.faces,
+        &f.cell_start,
+        &f.entries,
+        eye,
+        Vec3::ZERO,
+        F32_MAX,
+        NO_ID,
+        |_| 0.0,
+    );
+    assert_eq!((h.id, tests), (NO_ID, 0));
+    let (hit, count) = f.walk_nearest(eye, Vec3::ZERO, f64::MAX, u32::MAX, |_, _| Some(0.0));
+    assert!(hit.is_none() && count.tests == 0);
+}
+
+/// Rays from many points toward random directions; used by the directed scenes below.
+fn sweep(w: &World, s: &Scene, key: OriginKey, o: Vec3, count: usize) {
+    let mut seed = 0x2545f4914f6cdd1du64;
+    let mut rnd = || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
+    };
+    let _ = s;
+    for _ in 0..count {
+        let d = dir(rnd(), rnd(), rnd());
+        if key == OriginKey::Eye && !in_frustum(s, d) {
+            continue;
+        }
+        w.check_nearest(key, o, d).unwrap();
+        w.check_any(key, o, d, 1.0 + 4.0 * rnd().abs()).unwrap();
+    }
+}
+
+#[test]
+fn eye_inside_bounding_spheres() {
+    // The eye inside a glass sphere, inside a cluster's bounding sphere, and inside a
+    // cylinder: the enclosing objects are in every cell.
+    let prims = vec![
+        sphere(DVec3::ZERO, 2.0, 2),
+        tri(DVec3::new(-3.0, -3.0, -0.5), DVec3::new(3.0, -3.0, -0.5), DVec3::new(0.0, 3.0, -0.5), 0),
+        cyl(DVec3::new(0.0, 0.0, -1.0), 0.5, DVec3::new(0.0, 0.0, 1.0), 0.5, 1),
+        sphere(DVec3::new(0.2, 0.1, 0.0), 0.1, 1),
+        sphere(DVec3::new(5.0, 0.0, 0.0), 1.0, 1),
+        sphere(DVec3::new(0.0, 6.0, 0.0), 1.0, 1),
+        sphere(DVec3::new(0.1, 6.2, 0.0), 0.3, 1),
+    ];
+    let s = scene(DVec3::new(0.05, 0.0, 0.3), DVec3::new(1.0, 0.2, 0.3), &[DVec3::new(0.0, 0.0, 0.9)], prims);
+    for k in [1, 3] {
+        let w = World::new(&s, &BuildParams { cluster_size: Some(k), ..small_params() });
+        let eye = w.p(s.camera.eye);
+        sweep(&w, &s, OriginKey::Eye, eye, 400);
+        sweep(&w, &s, OriginKey::Light(0), w.p(s.lights[0].position), 400);
+        // The image sees only the frustum; check rays through the image too.
+        for j in 0..32 {
+            for i in 0..32 {
+                let (o, d) = s.camera.ray(i as f64 * 2.0, j as f64 * 2.0, 64, 64);
+                w.check_nearest(OriginKey::Eye, w.p(o), d.as_vec3().normalize()).unwrap();
+            }
+        }
+        // Refraction rays inside the glass sphere from its surface, inward.
+        for k in 0..200 {
+            let (p, ng) = w.surface_point(0, (k as f32 * 0.618) % 1.0, (k as f32 * 0.377) % 1.0);
+            let d = dir(-ng.x + 0.3 * (k as f32).sin(), -ng.y, -ng.z + 0.3 * (k as f32).cos());
+            let o = mirror::offset_ray_origin(p, ng, d);
+            w.check_nearest(OriginKey::Surface(0), o, d).unwrap();
+            // The mirror sphere enclosing a smaller one reflects inside itself.
+            let (p, ng) = w.surface_point(5, (k as f32 * 0.618) % 1.0, (k as f32 * 0.377) % 1.0);
+            let d = dir(-ng.x + 0.5 * (k as f32).sin(), -ng.y + 0.5 * (k as f32).cos(), -ng.z);
+            let o = mirror::offset_ray_origin(p, ng, d);
+            w.check_nearest(OriginKey::Surface(5), o, d).unwrap();
+        }
+    }
+}
+
+#[test]
+fn tangent_and_nested_spheres() {
+    // A chain of tangent spheres (each touching the next), a sphere nested inside another,
+    // and equal-size spheres touching at one point: neighbours list each other in every
+    // cell where they can be seen, and refraction inside lists the sphere itself.
+    let mut prims = Vec::new();
+    let mut x = 0.0;
+    for i in 0..6 {
+        let r = 0.3 + 0.1 * i as f64;
+        prims.push(sphere(DVec3::new(x + r, 0.0, 0.0), r, 1));
+        x += 2.0 * r;
+    }
+    prims.push(sphere(DVec3::new(2.0, 3.0, 0.0), 1.5, 2));
+    prims.push(sphere(DVec3::new(2.2, 3.1, 0.1), 0.5, 1));
+    prims.push(sphere(DVec3::new(-1.0, -1.0, 0.0), 0.5, 1));
+    prims.push(sphere(DVec3::new(-1.0, -2.0, 0.0), 0.5, 1));
+    let s = scene(
+        DVec3::new(1.0, -6.0, 2.0),
+        DVec3::new(2.0, 1.0, 0.0),
+        &[DVec3::new(-3.0, -3.0, 5.0)],
+        prims.clone(),
+    );
+    for k in [1, 2, 4] {
+        let w = World::new(&s, &BuildParams { cluster_size: Some(k), surface_n: Some(8), ..small_params() });
+        for id in 0..prims.len() {
+            for m in 0..60 {
+                let (p, ng) =
+                    w.surface_point(id, (m as f32 * 0.618 + 0.1) % 1.0, (m as f32 * 0.377 + 0.2) % 1.0);
+                // Outward (reflection) and inward (refraction) directions.
+                for sgn in [1.0f32, -1.0] {
+                    let d = dir(
+                        sgn * ng.x + 0.5 * (m as f32).sin(),
+                        sgn * ng.y + 0.5 * (m as f32).cos(),
+                        sgn * ng.z,
+                    );
+                    if legal(&s, id, ng, d) != d {
+                        continue;
+                    }
+                    let o = mirror::offset_ray_origin(p, ng, d);
+                    w.check_nearest(OriginKey::Surface(id as u32), o, d).unwrap();
+                }
+            }
+        }
+        for j in 0..16 {
+            for i in 0..16 {
+                let (o, d) = s.camera.ray(i as f64 * 4.0 + 1.0, j as f64 * 4.0 + 1.0, 64, 64);
+                w.check_nearest(OriginKey::Eye, w.p(o), d.as_vec3().normalize()).unwrap();
+            }
+        }
+    }
+}
+
+#[test]
+fn huge_ground_polygon() {
+    // An SPD-like ground (two triangles 2·10^4 wide) with mirror balls resting on it: the
+    // ground is bounded by its plane side and cut-off per cell, and every ray still agrees.
+    let g = 1.0e4;
+    let mut prims = vec![
+        tri(DVec3::new(-g, -g, 0.0), DVec3::new(g, -g, 0.0), DVec3::new(g, g, 0.0), 0),
+        tri(DVec3::new(-g, -g, 0.0), DVec3::new(g, g, 0.0), DVec3::new(-g, g, 0.0), 0),
+    ];
+    for i in 0..5 {
+        for j in 0..5 {
+            let r = 0.2 + 0.05 * ((i * 5 + j) % 4) as f64;
+            prims.push(sphere(DVec3::new(i as f64 - 2.0, j as f64 - 2.0, r), r, 1));
+        }
+    }
+    let s = scene(
+        DVec3::new(4.0, -5.0, 3.0),
+        DVec3::ZERO,
+        &[DVec3::new(3.0, 2.0, 6.0), DVec3::new(-20.0, 5.0, 1.0)],
+        prims.clone(),
+    );
+    let w = World::new(&s, &BuildParams { cluster_size: Some(1), surface_n: Some(8), ..small_params() });
+    for j in 0..32 {
+        for i in 0..32 {
+            let (o, d) = s.camera.ray(i as f64 * 2.0 + 0.5, j as f64 * 2.0 + 0.5, 64, 64);
+            w.check_nearest(OriginKey::Eye, w.p(o), d.as_vec3().normalize()).unwrap();
+        }
+    }
+    sweep(&w, &s, OriginKey::Light(0), w.p(s.lights[0].position), 300);
+    sweep(&w, &s, OriginKey::Light(1), w.p(s.lights[1].position), 300);
+    for id in 2..prims.len() {
+        for m in 0..40 {
+            let (p, ng) = w.surface_point(id, (m as f32 * 0.618) % 1.0, (m as f32 * 0.377) % 1.0);
+            let d = dir(ng.x + 0.7 * (m as f32).sin(), ng.y + 0.7 * (m as f32).cos(), ng.z);
+            let o = mirror::offset_ray_origin(p, ng, d);
+            w.check_nearest(OriginKey::Surface(id as u32), o, d).unwrap();
+        }
+    }
+}
+
+#[test]
+fn only_the_effects_the_scene_calls_for() {
+    // No mirrors, no glass: no surface tables; no lights: no light tables.
+    let prims = vec![sphere(DVec3::new(3.0, 0.0, 0.0), 1.0, 0), tri(DVec3::ZERO, DVec3::X, DVec3::Y, 0)];
+    let s = scene(DVec3::new(-3.0, 0.0, 0.5), DVec3::new(3.0, 0.0, 0.0), &[DVec3::Z], prims.clone());
+    let t = coherence::build(&s, &small_params()).unwrap();
+    assert!(t.flat.prim_origin.iter().all(|&o| o == u32::MAX));
+    assert_eq!(t.flat.origins.len(), 2, "eye and one light");
+    let mut dark = s.clone();
+    dark.lights.clear();
+    let t = coherence::build(&dark, &small_params()).unwrap();
+    assert_eq!(t.flat.origins.len(), 1, "eye only");
+    assert!(t.flat.light_origin.is_empty());
+}
+
+#[test]
+fn memory_budget_is_respected() {
+    // Many mirror balls: a small budget forces coarser surface tables, and the result stays
+    // within it (the eye and light tables are fixed costs, counted too).
+    let mut prims = Vec::new();
+    for i in 0..12 {
+        for j in 0..12 {
+            prims.push(sphere(DVec3::new(i as f64, j as f64, 0.3 * ((i + j) % 3) as f64), 0.35, 1));
+        }
+    }
+    let s =
+        scene(DVec3::new(-4.0, -4.0, 6.0), DVec3::new(6.0, 6.0, 0.0), &[DVec3::new(6.0, 6.0, 10.0)], prims);
+    let base = BuildParams { eye_n: Some(32), light_n: Some(32), ..BuildParams::default() };
+    let big = coherence::build(&s, &base).unwrap();
+    let budget = big.flat.bytes() / 3;
+    let small = coherence::build(&s, &BuildParams { budget_bytes: budget, ..base.clone() }).unwrap();
+    small.flat.check(s.primitives.len()).unwrap();
+    assert!(small.flat.bytes() <= budget, "{} bytes over the budget {budget}", small.flat.bytes());
+    assert!(small.cluster_size > big.cluster_size || small.surface_n < big.surface_n);
+    let w = World { prims: Prim32::from_scene(&s, s.camera.eye), tables: small, shift: s.camera.eye };
+    for id in (0..s.primitives.len()).step_by(7) {
+        for m in 0..20 {
+            let (p, ng) = w.surface_point(id, (m as f32 * 0.618) % 1.0, (m as f32 * 0.377) % 1.0);
+            let o = mirror::offset_ray_origin(p, ng, ng);
+            w.check_nearest(OriginKey::Surface(id as u32), o, dir(ng.x + 0.3, ng.y, ng.z - 0.2)).unwrap();
+        }
+    }
+}
+
+#[test]
+fn spd_scenes_every_ray_agrees_with_brute_force() {
+    // Small SPD databases at 24×24 corners, depth 5, every eye, shadow, reflection and
+    // refraction ray checked against brute force.
+    for name in ["balls_s1", "gears_s1", "mount_s1", "rings_s1", "teapot_s1", "tetra_s1", "tree_s1"] {
+        let path = common::shared(&format!("spd/nff/{name}.nff"));
+        let scene = cuberay::load::load(&path, &Default::default()).unwrap().scene;
+        let params = BuildParams { eye_n: Some(64), light_cells: 1 << 12, ..BuildParams::default() };
+        let tables = coherence::build(&scene, &params).unwrap();
+        tables.flat.check(scene.primitives.len()).unwrap();
+        let r = bench::trace_counts(
+            &scene,
+            &tables,
+            bench::BenchParams { width: 24, height: 24, corners: true, max_depth: 5, verify_every: 1 },
+        );
+        assert_eq!(r.mismatches, 0, "{name}: {r:?}");
+        assert!(r.verified >= 625, "{name}: {r:?}");
+        assert_eq!(r.eye.rays, 625);
+        assert_eq!(
+            r.eye.untabled + r.reflect.untabled + r.refract.untabled,
+            0,
+            "{name}: rays without a table"
+        );
+    }
+}
