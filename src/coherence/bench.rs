@@ -52,6 +52,8 @@ pub struct BenchResult {
     /// Secondary rays that brute force says hit the primitive they leave from (spawn
     /// offset failures, not table failures).
     pub self_hits: u64,
+    /// The first disagreement found, described.
+    pub first_mismatch: Option<String>,
     pub trace_s: f64,
 }
 
@@ -73,6 +75,9 @@ impl std::ops::AddAssign for BenchResult {
         self.verified += o.verified;
         self.mismatches += o.mismatches;
         self.self_hits += o.self_hits;
+        if self.first_mismatch.is_none() {
+            self.first_mismatch = o.first_mismatch;
+        }
     }
 }
 
@@ -152,8 +157,11 @@ impl Tracer<'_> {
         c.tests += tests;
         if self.params.verify_every > 0 && n % self.params.verify_every as u64 == 0 {
             r.verified += 1;
-            if brute_nearest(&self.prims, o, d, F32_MAX, skip) != hit {
+            let want = brute_nearest(&self.prims, o, d, F32_MAX, skip);
+            if want != hit {
                 r.mismatches += 1;
+                r.first_mismatch
+                    .get_or_insert(format!("{key:?} o={o} d={d} skip={skip}: walker {hit:?} brute {want:?}"));
             }
             if skip != NO_ID && self.prims[skip as usize].intersect(o, d) < hit.1 {
                 r.self_hits += 1;
@@ -198,8 +206,12 @@ impl Tracer<'_> {
         r.shadow_blocked += blocked as u64;
         if self.params.verify_every > 0 && n % self.params.verify_every as u64 == 0 {
             r.verified += 1;
-            if (brute_nearest(&self.prims, o, d, t_max, skip).0 != NO_ID) != blocked {
+            let want = brute_nearest(&self.prims, o, d, t_max, skip);
+            if (want.0 != NO_ID) != blocked {
                 r.mismatches += 1;
+                r.first_mismatch.get_or_insert(format!(
+                    "{key:?} any o={o} d={d} t_max={t_max} skip={skip}: walker {blocked} brute {want:?}"
+                ));
             }
         }
         blocked

@@ -99,7 +99,7 @@ impl Default for BuildParams {
 /// Why tables could not be built.
 #[derive(Debug, thiserror::Error)]
 pub enum BuildError {
-    #[error("the candidate tables need {bytes} bytes in one buffer, over wgpu's {limit}-byte binding limit, even at the coarsest resolution and clustering")]
+    #[error("the candidate tables need {bytes} bytes in one buffer, over wgpu's {limit}-byte binding limit, even at the coarsest resolution and clustering allowed")]
     TooLarge { bytes: usize, limit: usize },
 }
 
@@ -200,13 +200,15 @@ struct Pair {
 }
 
 impl Pair {
-    fn new(c: DVec3, r: f64, t: &Target, eps: f64, delta: f64) -> Pair {
+    /// `min_cover`: spheres subtending less than this (as r/d) are not tried as covers.
+    fn new(c: DVec3, r: f64, t: &Target, eps: f64, delta: f64, min_cover: f64) -> Pair {
         let mut p = Pair { dmin: 0.0, cone: None, edges: None, arc: None, inner: None, tri_cover: false };
         match t.shape {
             Shape::Sphere { c: cb, r: rb } => {
                 p.cone = sphere_cone(c, r, cb, rb + eps, delta);
                 p.dmin = ((cb - c).length() - r - rb - eps).max(0.0);
-                if t.occluder {
+                // Only spheres wide enough to cover a cell can cut lists off.
+                if t.occluder && rb > min_cover * (cb - c).length() {
                     p.inner = sphere_inner_cone(c, r, cb, rb - eps, delta);
                 }
             }
@@ -338,6 +340,18 @@ impl Cells {
         let mut stack: Vec<[u32; 4]> = Vec::new();
         for f in 0..6 {
             let Some(r) = self.face_rect(f, cone) else { continue };
+            if self.cube.is_some() && (r[2] - r[0] + 1) * (r[3] - r[1] + 1) <= 16 {
+                // Small rectangles: test the cached cells one by one.
+                for iv in r[1]..=r[3] {
+                    for iu in r[0]..=r[2] {
+                        let cell = self.cone(f, iu, iv);
+                        if meets(&cell) && !emit(&mut std::iter::once(self.index(f, iu, iv)), &cell) {
+                            return false;
+                        }
+                    }
+                }
+                continue;
+            }
             stack.push(r);
             while let Some(r) = stack.pop() {
                 let (w, h) = (r[2] - r[0] + 1, r[3] - r[1] + 1);
@@ -405,8 +419,18 @@ pub fn store_dmin(x: f64, eps: f64) -> f32 {
     }
 }
 
+/// Light-origin targets whose bound is wider than this go to the always-test list.
+const WIDE_THETA: f64 = 0.5;
+
+fn is_wide(p: &Pair) -> bool {
+    p.cone.is_none_or(|k| k.theta > WIDE_THETA)
+}
+
 /// Targets nearer than this angle from a cluster's bounding sphere are bounded per member.
-const NEAR_THETA: f64 = 0.35;
+const NEAR_THETA: f64 = 0.8;
+/// Clusters larger than this bound every target with their bounding sphere (the per-member
+/// union costs one bound per member).
+const NEAR_MEMBERS: usize = 16;
 /// Hierarchy nodes whose cone is wider than this are entered without a cull test.
 const CULL_THETA: f64 = 0.5;
 
@@ -414,10 +438,13 @@ const CULL_THETA: f64 = 0.5;
 pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
     let cells = Cells::new(def, ctx);
     let (eps, delta) = (ctx.eps, ctx.delta);
+    // The smallest cells (at face corners) subtend about 1/n radian.
+    let min_cover = 0.4 / def.n as f64;
     let mut cut = vec![f64::INFINITY; cells.total];
     let mut recs: Vec<Rec> = Vec::new();
     let mut scratch = vec![f64::INFINITY; if def.members.len() > 1 { cells.total } else { 0 }];
     let mut touched: Vec<u32> = Vec::new();
+    let mut wide: Vec<GpuEntry> = Vec::new();
     let (c, r) = (def.center, def.radius);
     let member_spheres: Vec<(u32, DVec3, f64)> = if def.members.len() > 1 {
         def.members
@@ -476,8 +503,16 @@ pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
             if own && def.members.len() == 1 && !t.self_list {
                 continue;
             }
-            let p = Pair::new(c, r, t, eps, delta);
-            let near = def.members.len() > 1 && p.cone.is_none_or(|k| k.theta > NEAR_THETA);
+            let p = Pair::new(c, r, t, eps, delta, min_cover);
+            if def.kind == OriginKind::Light && is_wide(&p) {
+                // Huge objects (ground polygons) around a light: tested for every shadow ray
+                // rather than stored in most cells (and left out of the light's window).
+                wide.push(GpuEntry { id: tid, d_min: store_dmin(p.dmin, eps) });
+                continue;
+            }
+            let near = def.members.len() > 1
+                && def.members.len() <= NEAR_MEMBERS
+                && p.cone.is_none_or(|k| k.theta > NEAR_THETA);
             if !near {
                 cells.raster(
                     p.cone.as_ref(),
@@ -504,7 +539,7 @@ pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
                 if m == tid && !t.self_list {
                     continue;
                 }
-                let pm = Pair::new(mc, mr, t, eps, delta);
+                let pm = Pair::new(mc, mr, t, eps, delta, min_cover);
                 cells.raster(
                     pm.cone.as_ref(),
                     |cell| pm.meets(cell, delta),
@@ -540,7 +575,10 @@ pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
     }
 
     recs.retain(|x| x.dmin <= cut[x.cell as usize]);
-    finish(def, &cells, recs, ctx)
+    let mut table = finish(def, &cells, recs, ctx);
+    table.always.extend(wide);
+    table.always.sort_by(|a, b| a.d_min.total_cmp(&b.d_min).then(a.id.cmp(&b.id)));
+    table
 }
 
 /// The cell cone of local cell index `i`.
@@ -739,7 +777,11 @@ fn object_rects(c: DVec3, r: f64, ctx: &Ctx) -> [Option<[f64; 4]>; 6] {
         }
         for &tid in &ctx.bvh.order[node.first as usize..(node.first + node.count) as usize] {
             let t = &ctx.targets[tid as usize];
-            add_cone(&mut rects, sphere_cone(c, r, t.center, t.radius + ctx.eps, ctx.delta));
+            let k = sphere_cone(c, r, t.center, t.radius + ctx.eps, ctx.delta);
+            // Wide targets go to the always-test list (see `build_origin`).
+            if k.is_some_and(|k| k.theta <= WIDE_THETA) {
+                add_cone(&mut rects, k);
+            }
         }
     }
     rects
@@ -965,28 +1007,42 @@ pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables, BuildError> 
             }
         };
         let remaining = params.budget_bytes.saturating_sub(fixed_bytes);
-        let mut chosen = None;
-        for (ci, &(k, n)) in candidates.iter().enumerate() {
-            let ds = surface_defs(&surface_ids, k, n, &ctx);
-            if ci + 1 == candidates.len() {
-                chosen = Some((k, n, ds));
-                break;
-            }
+        let mut ci = candidates.len() - 1;
+        for (i, &(k, n)) in candidates.iter().enumerate().take(candidates.len() - 1) {
             // Estimate from a sample of origins spread over the scene.
-            let step = (ds.len() / 48).max(1);
+            let ds = surface_defs(&surface_ids, k, n, &ctx);
+            let step = (ds.len() / 24).max(1);
             let sample: Vec<&OriginDef> = ds.iter().step_by(step).collect();
             let bytes: usize = sample.par_iter().map(|d| table_bytes(&build_origin(d, &ctx))).sum();
             let estimate = bytes as f64 / sample.len() as f64 * ds.len() as f64;
             if estimate <= remaining as f64 * 0.9 {
-                chosen = Some((k, n, ds));
+                ci = i;
                 break;
             }
         }
-        let (k, n, ds) = chosen.expect("at least one candidate");
-        surface_n = n;
-        cluster_size = k;
-        surface = ds.par_iter().map(|d| build_origin(d, &ctx)).collect();
-        surface_defs_built = ds;
+        // Build; should the estimate have been wrong and a buffer overflow wgpu's binding
+        // limit, fall back to the next coarser candidate.
+        let fixed_entries: usize = fixed.iter().map(|t| t.entries.len() + t.always.len()).sum();
+        let fixed_cells: usize = fixed.iter().map(|t| t.starts.len() - 1).sum();
+        loop {
+            let (k, n) = candidates[ci];
+            let ds = surface_defs(&surface_ids, k, n, &ctx);
+            let built: Vec<OriginTable> = ds.par_iter().map(|d| build_origin(d, &ctx)).collect();
+            let entries =
+                fixed_entries + built.iter().map(|t| t.entries.len() + t.always.len()).sum::<usize>();
+            let cells = fixed_cells + built.iter().map(|t| t.starts.len() - 1).sum::<usize>();
+            let too_big = entries * std::mem::size_of::<GpuEntry>() > MAX_BINDING_BYTES
+                || (cells + 1) * 4 > MAX_BINDING_BYTES;
+            if too_big && ci + 1 < candidates.len() {
+                ci += 1;
+                continue;
+            }
+            surface_n = n;
+            cluster_size = k;
+            surface = built;
+            surface_defs_built = ds;
+            break;
+        }
     }
     defs.extend(surface_defs_built);
     fixed.extend(surface);

@@ -79,12 +79,17 @@ pub struct Cone {
 impl Cone {
     pub fn new(axis: DVec3, theta: f64) -> Cone {
         let theta = theta.clamp(0.0, std::f64::consts::PI);
-        // w·e_i over the cap: [cos(min(π, α+θ)), cos(max(0, α−θ))], α = angle(axis, e_i).
+        let (cos_t, sin_t) = (theta.cos(), theta.sin());
+        // w·e_i over the cap: [cos(min(π, α+θ)), cos(max(0, α−θ))], α = angle(axis, e_i),
+        // expanded as cosα·cosθ ∓ sinα·sinθ.
         let range = [0, 1, 2].map(|i| {
-            let alpha = axis[i].clamp(-1.0, 1.0).acos();
-            [(alpha + theta).min(std::f64::consts::PI).cos(), (alpha - theta).max(0.0).cos()]
+            let c = axis[i].clamp(-1.0, 1.0);
+            let s = (1.0 - c * c).max(0.0).sqrt();
+            let lo = if c <= -cos_t { -1.0 } else { c * cos_t - s * sin_t };
+            let hi = if c >= cos_t { 1.0 } else { c * cos_t + s * sin_t };
+            [lo.max(-1.0), hi.min(1.0)]
         });
-        Cone { axis, theta, cos_t: theta.cos(), sin_t: theta.sin(), range }
+        Cone { axis, theta, cos_t, sin_t, range }
     }
 
     /// Test A: true when the angle between the axis and the cell's centre is at most θ + β,

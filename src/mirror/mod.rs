@@ -172,7 +172,10 @@ pub fn ray_cylinder(o: Vec3, d: Vec3, base: Vec3, r0: f32, apex: Vec3, r1: f32) 
     let len = axis.length();
     let a = axis / len;
     let k = (r1 - r0) / len;
-    let f = o - base;
+    // Solve from the point of the ray nearest the middle of the axis (as Haines's sphere test
+    // does): far from the ray origin the quadratic's terms would otherwise cancel.
+    let tc = (0.5 * (base + apex) - o).dot(d);
+    let f = o + tc * d - base;
     let fa = f.dot(a);
     let da = d.dot(a);
     let fp = f - fa * a;
@@ -201,9 +204,13 @@ pub fn ray_cylinder(o: Vec3, d: Vec3, base: Vec3, r0: f32, apex: Vec3, r1: f32) 
         t1 = q / qa;
     }
     let mut best = F32_MAX;
-    for t in [t0, t1] {
+    for tl in [t0, t1] {
+        if tl == F32_MAX {
+            continue;
+        }
+        let t = tc + tl;
         if t > 0.0 && t < best {
-            let s = fa + t * da;
+            let s = fa + tl * da;
             if s >= 0.0 && s <= len {
                 best = t;
             }
