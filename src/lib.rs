@@ -15,5 +15,7 @@
 pub mod coherence;
 pub mod info;
 pub mod load;
+pub mod output;
 pub mod reference;
 pub mod scene;
+pub mod stats;
