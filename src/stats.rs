@@ -249,12 +249,10 @@ mod tests {
 
     #[test]
     fn stats_add_up() {
-        let mut c = Counters::default();
-        c.rays = [10, 4, 2, 0];
-        c.tests[0] = TestCounts { sphere: 30, triangle: 10, cylinder: 0 };
-        c.tests[1] = TestCounts { sphere: 4, triangle: 0, cylinder: 4 };
-        c.eye_hit = 7;
-        c.shadow_blocked = 1;
+        let mut tests = [TestCounts::default(); 4];
+        tests[0] = TestCounts { sphere: 30, triangle: 10, cylinder: 0 };
+        tests[1] = TestCounts { sphere: 4, triangle: 0, cylinder: 4 };
+        let c = Counters { rays: [10, 4, 2, 0], tests, eye_hit: 7, shadow_blocked: 1 };
         let s = Stats::new(Settings::default(), vec!["shadows"], &c, Times::default());
         assert_eq!(s.rays.total, 16);
         assert_eq!(s.tests.total(), 48);

@@ -125,9 +125,14 @@ fn test_closest(
     }
 }
 
+/// The next f64 above a finite `x` (kept for MSRV 1.85, where `f64::next_up` is missing).
 fn next_up(x: f64) -> f64 {
     if x.is_finite() {
-        f64::from_bits(if x >= 0.0 { x.to_bits() + 1 } else { x.to_bits() - 1 })
+        if x == 0.0 {
+            f64::from_bits(1)
+        } else {
+            f64::from_bits(if x > 0.0 { x.to_bits() + 1 } else { x.to_bits() - 1 })
+        }
     } else {
         x
     }
@@ -175,19 +180,32 @@ impl Boundable for PrimBox {
     }
 }
 
+/// The neighbouring f32 of a finite `f` towards +∞ (`up`) or −∞.
+fn f32_step(f: f32, up: bool) -> f32 {
+    if f == 0.0 {
+        let tiny = f32::from_bits(1);
+        return if up { tiny } else { -tiny };
+    }
+    let bits = f.to_bits();
+    // Moving away from zero increases the magnitude bits.
+    f32::from_bits(if (f > 0.0) == up { bits + 1 } else { bits - 1 })
+}
+
+/// The largest f32 not above `x`.
 fn f32_down(x: f64) -> f32 {
     let f = x as f32;
     if f as f64 > x {
-        f.next_down()
+        f32_step(f, false)
     } else {
         f
     }
 }
 
+/// The smallest f32 not below `x`.
 fn f32_up(x: f64) -> f32 {
     let f = x as f32;
     if (f as f64) < x {
-        f.next_up()
+        f32_step(f, true)
     } else {
         f
     }
@@ -373,5 +391,19 @@ impl Accel for Bvh<'_> {
             true
         });
         blocked
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn outward_rounding_to_f32() {
+        for x in [0.1f64, -0.1, 1e-30, -1e-30, 0.0, 3.0, -7.25, 1e7 + 0.3] {
+            assert!((f32_down(x) as f64) <= x && (f32_up(x) as f64) >= x, "{x}");
+            assert!(f32_up(x) as f64 - f32_down(x) as f64 <= (x.abs() * 2.5e-7).max(1e-44), "{x}");
+        }
+        assert!(next_up(1.0) > 1.0 && next_up(-1.0) > -1.0 && next_up(0.0) > 0.0);
     }
 }
