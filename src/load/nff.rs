@@ -1,8 +1,709 @@
-//! NFF loader (to be written).
+//! NFF loader: Eric Haines' Neutral File Format (the Standard Procedural Databases) into a
+//! [`Scene`]. The specification is `spd/doc/NFF.TXT` (v3.9) of the shared scenes.
+//!
+//! # Reading
+//! The file is split into whitespace-separated tokens, each remembering its 1-based line;
+//! `#` starts a comment that runs to the end of its line. Entities are read token by token,
+//! not line by line: the SPD generators write a whole cylinder on one line where the
+//! specification shows three. Entities may come in any order (`b` before `v`, lights after
+//! objects), but there must be exactly one `v`.
+//!
+//! # Mapping onto the scene model
+//! - `v`: [`Camera::look_at`] with a perspective projection whose `angle` is the full field
+//!   of view between the centres of the edge pixels ([`FovSpan::EdgePixelCenters`]);
+//!   `from`, `at`, `up` and `angle` are required, `hither` (default 0) becomes
+//!   [`Camera::near`], `resolution` becomes [`Scene::resolution`].
+//! - `b`: the background colour (black without one).
+//! - `l X Y Z [R G B]`: a point light without distance falloff, white unless coloured. NFF
+//!   leaves the intensity open; following the SPD suggestion every one of the L lights gets
+//!   intensity `sqrt(L)/(2L)` and the ambient light is white with the same scalar. A file
+//!   without lights gets [`Light::default_for`] the camera (with a warning) and the ambient
+//!   of a single light, 0.5.
+//! - `f`: one [`Material`] per entity, mapped as [`crate::scene`] documents. `ior <= 0` (the
+//!   SPD files write 0 for opaque surfaces) is stored as 1 when T = 0 and is an error when the
+//!   surface transmits. Primitives before the first `f` get [`Material::default`], which is
+//!   added to the materials only when used.
+//! - `s`: a sphere; a negative radius means only the inside is visible (`inside_only`).
+//! - `c`: a cylinder or cone without caps. Both radii negative means inside only; one radius
+//!   may be zero (a cone ending in a point).
+//! - `p` and `pp`: polygons, triangulated by ear clipping in the polygon's plane (they may be
+//!   concave: the gears have 144-vertex faces). A polygon of n vertices always accounts for
+//!   n − 2 triangles: those without area (repeated or collinear vertices) are dropped and
+//!   counted in one warning. `pp` keeps its vertex normals, normalised; a zero normal is
+//!   replaced by the triangle's geometric normal, with a warning.
+//!
+//! # Errors
+//! Unknown keywords, missing or non-numeric or non-finite numbers, bad vertex counts, zero
+//! sphere radii, coincident cylinder ends and impossible views are [`LoadError::Nff`] naming
+//! the line and the token. A file without `v` or without any primitive is
+//! [`LoadError::Invalid`]. The loader never panics.
+
 use std::path::Path;
 
-use super::{LoadError, Loaded};
+use glam::{DVec2, DVec3};
 
+use super::{LoadError, Loaded};
+use crate::scene::{
+    Camera, Cylinder, FovSpan, Light, Material, Primitive, Projection, Scene, Sphere, Triangle,
+};
+
+/// Loads an NFF file.
 pub fn load(path: &Path) -> Result<Loaded, LoadError> {
-    Err(LoadError::Invalid { path: path.to_owned(), message: "NFF loader not written yet".into() })
+    let bytes = std::fs::read(path).map_err(|source| LoadError::Io { path: path.to_owned(), source })?;
+    match std::str::from_utf8(&bytes) {
+        Ok(text) => parse(text, path),
+        Err(e) => {
+            let line = bytes[..e.valid_up_to()].iter().filter(|&&b| b == b'\n').count() + 1;
+            Err(LoadError::Nff {
+                path: path.to_owned(),
+                line,
+                token: None,
+                message: "the file is not text: it holds a byte that is not UTF-8".into(),
+            })
+        }
+    }
+}
+
+/// Parses NFF text; `path` is only used in error messages.
+pub fn parse(text: &str, path: &Path) -> Result<Loaded, LoadError> {
+    let mut parser = Parser { path, tokens: tokenize(text), pos: 0, entity: ("", 0) };
+    let mut state = State::default();
+    parser.entities(&mut state)?;
+    state.finish(path)
+}
+
+const KEYWORDS: [&str; 8] = ["v", "b", "l", "f", "c", "s", "p", "pp"];
+const VIEW_KEYWORDS: [&str; 6] = ["from", "at", "up", "angle", "hither", "resolution"];
+const AXES: [&str; 3] = ["x", "y", "z"];
+
+#[derive(Clone, Copy, Debug)]
+struct Token<'a> {
+    text: &'a str,
+    /// 1-based line number.
+    line: usize,
+}
+
+fn tokenize(text: &str) -> Vec<Token<'_>> {
+    let mut tokens = Vec::with_capacity(text.len() / 8);
+    for (i, line) in text.lines().enumerate() {
+        let code = line.split('#').next().unwrap_or("");
+        tokens.extend(code.split_whitespace().map(|text| Token { text, line: i + 1 }));
+    }
+    tokens
+}
+
+/// What the parse has gathered so far.
+#[derive(Default)]
+struct State {
+    view: Option<View>,
+    background: DVec3,
+    lights: Vec<Light>,
+    materials: Vec<Material>,
+    /// The material of the last `f`, or the default material once a primitive needed it.
+    current: Option<u32>,
+    primitives: Vec<Primitive>,
+    triangulator: Triangulator,
+    /// Degenerate triangles dropped, and the line of the first polygon that had one.
+    dropped: Tally,
+    /// Polygons that are not simple (ear clipping found no ear somewhere).
+    not_simple: Tally,
+    /// `pp` vertex normals that were zero and replaced by the geometric normal.
+    fixed_normals: Tally,
+}
+
+/// What the `v` entity gave.
+struct View {
+    camera: Camera,
+    /// The line of the `v`.
+    line: usize,
+    resolution: Option<(u32, u32)>,
+}
+
+#[derive(Default)]
+struct Tally {
+    count: usize,
+    first_line: usize,
+}
+
+impl Tally {
+    fn add(&mut self, n: usize, line: usize) {
+        if n > 0 && self.count == 0 {
+            self.first_line = line;
+        }
+        self.count += n;
+    }
+}
+
+impl State {
+    /// The material index for the next primitive.
+    fn material(&mut self) -> u32 {
+        *self.current.get_or_insert_with(|| {
+            self.materials.push(Material::default());
+            (self.materials.len() - 1) as u32
+        })
+    }
+
+    fn finish(mut self, path: &Path) -> Result<Loaded, LoadError> {
+        let invalid = |message: String| LoadError::Invalid { path: path.to_owned(), message };
+        let Some(View { camera, resolution, .. }) = self.view else {
+            return Err(invalid("no 'v' (viewpoint) entity: an NFF file must say where the eye is".into()));
+        };
+        let mut warnings = Vec::new();
+        if self.dropped.count > 0 {
+            warnings.push(format!(
+                "dropped {} degenerate triangle(s) without area (repeated or collinear polygon vertices), \
+                 the first in the polygon on line {}",
+                self.dropped.count, self.dropped.first_line
+            ));
+        }
+        if self.not_simple.count > 0 {
+            warnings.push(format!(
+                "{} polygon(s) are not simple (their edges cross), the first on line {}: their \
+                 triangulation may cover a different area than intended",
+                self.not_simple.count, self.not_simple.first_line
+            ));
+        }
+        if self.fixed_normals.count > 0 {
+            warnings.push(format!(
+                "replaced {} zero 'pp' vertex normal(s) by the geometric normal, the first in the \
+                 patch on line {}",
+                self.fixed_normals.count, self.fixed_normals.first_line
+            ));
+        }
+        if self.primitives.is_empty() {
+            let why = if self.dropped.count > 0 { " (all its polygons are degenerate)" } else { "" };
+            return Err(invalid(format!("the scene has no primitives (s, c, p or pp){why}")));
+        }
+        // SPD: each of L lights, and the ambient term, get sqrt(L)/(2L) = 1/(2·sqrt(L)).
+        let share = 0.5 / (self.lights.len().max(1) as f64).sqrt();
+        for light in &mut self.lights {
+            light.intensity = share;
+        }
+        if self.lights.is_empty() {
+            let light = Light::default_for(&camera);
+            warnings.push(format!(
+                "the file has no light: added a white headlight at the eye {} (intensity {})",
+                light.position, light.intensity
+            ));
+            self.lights.push(light);
+        }
+        let scene = Scene {
+            camera,
+            lights: self.lights,
+            ambient: DVec3::splat(share),
+            background: self.background,
+            materials: self.materials,
+            textures: Vec::new(),
+            primitives: self.primitives,
+            resolution,
+        };
+        scene.validate().map_err(invalid)?;
+        Ok(Loaded { scene, warnings })
+    }
+}
+
+struct Parser<'a> {
+    path: &'a Path,
+    tokens: Vec<Token<'a>>,
+    pos: usize,
+    /// The entity being read: its keyword and the line it starts on.
+    entity: (&'static str, usize),
+}
+
+impl<'a> Parser<'a> {
+    fn error(&self, line: usize, token: Option<&str>, message: String) -> LoadError {
+        LoadError::Nff { path: self.path.to_owned(), line, token: token.map(str::to_owned), message }
+    }
+
+    fn error_at(&self, token: Token<'_>, message: String) -> LoadError {
+        self.error(token.line, Some(token.text), message)
+    }
+
+    fn peek(&self) -> Option<Token<'a>> {
+        self.tokens.get(self.pos).copied()
+    }
+
+    /// The token most recently consumed.
+    fn last(&self) -> Token<'a> {
+        self.tokens[self.pos - 1]
+    }
+
+    /// The next token, or an end-of-file error saying what was expected.
+    fn expect(&mut self, what: &impl Fn() -> String) -> Result<Token<'a>, LoadError> {
+        let token = self.peek().ok_or_else(|| {
+            let (keyword, line) = self.entity;
+            self.error(
+                line,
+                None,
+                format!("the file ends inside this '{keyword}' entity: {} is missing", what()),
+            )
+        })?;
+        self.pos += 1;
+        Ok(token)
+    }
+
+    /// Error for a token that should have been `what` (`kind` says what that is).
+    fn not_a(&self, token: Token<'_>, what: String, kind: &str) -> LoadError {
+        let (keyword, line) = self.entity;
+        let message = if KEYWORDS.contains(&token.text) || VIEW_KEYWORDS.contains(&token.text) {
+            format!(
+                "{what} is missing: a keyword comes first (the '{keyword}' entity on line {line} has \
+                 too few numbers)"
+            )
+        } else {
+            format!("{what} must be {kind}")
+        };
+        self.error_at(token, message)
+    }
+
+    /// A finite number.
+    fn number(&mut self, what: impl Fn() -> String) -> Result<f64, LoadError> {
+        let token = self.expect(&what)?;
+        match token.text.parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(v),
+            Ok(_) => Err(self.error_at(token, format!("{} must be a finite number", what()))),
+            Err(_) => Err(self.not_a(token, what(), "a number")),
+        }
+    }
+
+    fn vec3(&mut self, what: impl Fn() -> String) -> Result<DVec3, LoadError> {
+        let mut v = [0.0; 3];
+        for (k, axis) in AXES.iter().enumerate() {
+            v[k] = self.number(|| format!("{axis} of {}", what()))?;
+        }
+        Ok(DVec3::from_array(v))
+    }
+
+    fn colour(&mut self, what: &str) -> Result<DVec3, LoadError> {
+        let mut v = [0.0; 3];
+        for (k, channel) in ["red", "green", "blue"].iter().enumerate() {
+            v[k] = self.number(|| format!("{channel} of {what}"))?;
+        }
+        Ok(DVec3::from_array(v))
+    }
+
+    /// A non-negative whole number.
+    fn whole(&mut self, what: impl Fn() -> String) -> Result<usize, LoadError> {
+        let token = self.expect(&what)?;
+        token.text.parse::<usize>().map_err(|_| self.not_a(token, what(), "a whole number"))
+    }
+
+    fn entities(&mut self, state: &mut State) -> Result<(), LoadError> {
+        while let Some(token) = self.peek() {
+            self.pos += 1;
+            let keyword = KEYWORDS.iter().find(|k| **k == token.text).copied();
+            self.entity = (keyword.unwrap_or(""), token.line);
+            match keyword {
+                Some("v") => self.view(state)?,
+                Some("b") => state.background = self.colour("the background colour")?,
+                Some("l") => self.light(state)?,
+                Some("f") => self.fill(state)?,
+                Some("c") => self.cylinder(state)?,
+                Some("s") => self.sphere(state)?,
+                Some("p") => self.polygon(state, false)?,
+                Some("pp") => self.polygon(state, true)?,
+                _ => {
+                    let message = if token.text.parse::<f64>().is_ok() {
+                        "a number where an entity keyword should start: does the entity before it \
+                         have more numbers than it should, or a polygon more vertices than its count?"
+                    } else {
+                        "unknown keyword (NFF has v, b, l, f, c, s, p, pp and # comments)"
+                    };
+                    return Err(self.error_at(token, message.into()));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// `v` followed by its sub-keywords, in any order.
+    fn view(&mut self, state: &mut State) -> Result<(), LoadError> {
+        let line = self.entity.1;
+        if let Some(View { line: first, .. }) = &state.view {
+            return Err(self.error(
+                line,
+                Some("v"),
+                format!("a second 'v' entity (the first is on line {first})"),
+            ));
+        }
+        let (mut from, mut at, mut up, mut angle, mut hither, mut resolution) =
+            (None, None, None, None, None, None);
+        while let Some(token) = self.peek() {
+            if !VIEW_KEYWORDS.contains(&token.text) {
+                break;
+            }
+            self.pos += 1;
+            let given = match token.text {
+                "from" => from.is_some(),
+                "at" => at.is_some(),
+                "up" => up.is_some(),
+                "angle" => angle.is_some(),
+                "hither" => hither.is_some(),
+                _ => resolution.is_some(),
+            };
+            if given {
+                return Err(
+                    self.error_at(token, format!("'{}' is given twice in this 'v' entity", token.text))
+                );
+            }
+            match token.text {
+                "from" => from = Some(self.vec3(|| "the eye position ('from')".into())?),
+                "at" => at = Some(self.vec3(|| "the look-at point ('at')".into())?),
+                "up" => up = Some(self.vec3(|| "the up vector".into())?),
+                "angle" => {
+                    let a = self.number(|| "the field of view angle".into())?;
+                    if !(a > 0.0 && a < 180.0) {
+                        return Err(self.error_at(
+                            self.last(),
+                            format!("the field of view angle must be between 0 and 180 degrees, not {a}"),
+                        ));
+                    }
+                    angle = Some(a);
+                }
+                "hither" => {
+                    let h = self.number(|| "the hither distance".into())?;
+                    if h < 0.0 {
+                        return Err(
+                            self.error_at(self.last(), format!("the hither distance {h} is negative"))
+                        );
+                    }
+                    hither = Some(h);
+                }
+                _ /* "resolution" */ => {
+                    let mut size = [0u32; 2];
+                    for (k, axis) in ["width", "height"].iter().enumerate() {
+                        let n = self.whole(|| format!("the resolution {axis}"))?;
+                        size[k] = u32::try_from(n).ok().filter(|n| *n > 0).ok_or_else(|| {
+                            self.error_at(
+                                self.last(),
+                                format!("the resolution {axis} must be between 1 and {} pixels", u32::MAX),
+                            )
+                        })?;
+                    }
+                    resolution = Some((size[0], size[1]));
+                }
+            }
+        }
+        let missing: Vec<String> = [
+            ("from", from.is_none()),
+            ("at", at.is_none()),
+            ("up", up.is_none()),
+            ("angle", angle.is_none()),
+        ]
+        .iter()
+        .filter(|(_, absent)| *absent)
+        .map(|(name, _)| format!("'{name}'"))
+        .collect();
+        let (Some(from), Some(at), Some(up), Some(angle)) = (from, at, up, angle) else {
+            return Err(self.error(line, Some("v"), format!("this 'v' entity lacks {}", missing.join(", "))));
+        };
+        let projection =
+            Projection::Perspective { fov_y: angle.to_radians(), span: FovSpan::EdgePixelCenters };
+        let mut camera = Camera::look_at(from, at, up, projection)
+            .map_err(|m| self.error(line, Some("v"), format!("impossible view: {m}")))?;
+        camera.near = hither.unwrap_or(0.0);
+        state.view = Some(View { camera, line, resolution });
+        Ok(())
+    }
+
+    /// `l X Y Z [R G B]`: the colour is there when a number follows the position.
+    fn light(&mut self, state: &mut State) -> Result<(), LoadError> {
+        let position = self.vec3(|| "the light position".into())?;
+        let coloured = self.peek().is_some_and(|t| t.text.parse::<f64>().is_ok());
+        let colour = if coloured { self.colour("the light colour")? } else { DVec3::ONE };
+        // The intensity depends on the number of lights and is set at the end.
+        state.lights.push(Light::point(position, colour, 1.0));
+        Ok(())
+    }
+
+    /// `f r g b Kd Ks Shine T ior`.
+    fn fill(&mut self, state: &mut State) -> Result<(), LoadError> {
+        let color = self.colour("the fill colour")?;
+        let kd = self.number(|| "the diffuse weight Kd".into())?;
+        let ks = self.number(|| "the specular weight Ks".into())?;
+        let shine = self.number(|| "the Phong exponent Shine".into())?;
+        let transmittance = self.number(|| "the transmittance T".into())?;
+        let mut ior = self.number(|| "the index of refraction".into())?;
+        if ior <= 0.0 {
+            if transmittance > 0.0 {
+                return Err(self.error_at(
+                    self.last(),
+                    format!("the index of refraction of a transmitting surface (T = {transmittance}) must be positive"),
+                ));
+            }
+            ior = 1.0;
+        }
+        state.materials.push(Material {
+            color,
+            kd,
+            ks,
+            shine,
+            mirror: DVec3::splat(ks),
+            transmittance,
+            ior,
+            ..Material::default()
+        });
+        state.current = Some((state.materials.len() - 1) as u32);
+        Ok(())
+    }
+
+    /// `s x y z r`.
+    fn sphere(&mut self, state: &mut State) -> Result<(), LoadError> {
+        let center = self.vec3(|| "the sphere centre".into())?;
+        let radius = self.number(|| "the sphere radius".into())?;
+        if radius == 0.0 {
+            return Err(self.error_at(self.last(), "the sphere radius is zero".into()));
+        }
+        let material = state.material();
+        state.primitives.push(Primitive::Sphere(Sphere {
+            center,
+            radius: radius.abs(),
+            inside_only: radius < 0.0,
+            material,
+        }));
+        Ok(())
+    }
+
+    /// `c  bx by bz br  ax ay az ar`.
+    fn cylinder(&mut self, state: &mut State) -> Result<(), LoadError> {
+        let base = self.vec3(|| "the cylinder base".into())?;
+        let base_radius = self.number(|| "the cylinder base radius".into())?;
+        let apex_start = self.peek();
+        let apex = self.vec3(|| "the cylinder apex".into())?;
+        let apex_radius = self.number(|| "the cylinder apex radius".into())?;
+        let radius_token = self.last();
+        if base_radius == 0.0 && apex_radius == 0.0 {
+            return Err(self.error_at(radius_token, "both cylinder radii are zero".into()));
+        }
+        if base_radius * apex_radius < 0.0 {
+            return Err(self.error_at(
+                radius_token,
+                format!(
+                    "the cylinder radii {base_radius} and {apex_radius} have opposite signs (NFF makes \
+                     both negative for a cylinder seen only from inside)"
+                ),
+            ));
+        }
+        let scale = base.abs().max(apex.abs()).max_element();
+        if (apex - base).length() <= 1e-12 * scale {
+            let at = apex_start.unwrap_or(radius_token);
+            return Err(self.error_at(at, format!("the cylinder base and apex coincide at {base}")));
+        }
+        let material = state.material();
+        state.primitives.push(Primitive::Cylinder(Cylinder {
+            base,
+            base_radius: base_radius.abs(),
+            apex,
+            apex_radius: apex_radius.abs(),
+            inside_only: base_radius < 0.0 || apex_radius < 0.0,
+            material,
+        }));
+        Ok(())
+    }
+
+    /// `p n` followed by n vertices, or `pp n` followed by n (vertex, normal) pairs.
+    fn polygon(&mut self, state: &mut State, patch: bool) -> Result<(), LoadError> {
+        let (keyword, line) = self.entity;
+        let n = self.whole(|| "the vertex count".into())?;
+        if n < 3 {
+            return Err(self.error_at(
+                self.last(),
+                format!("a polygon needs at least 3 vertices, this '{keyword}' has {n}"),
+            ));
+        }
+        // Cap the reservation by what the file can still hold, whatever the count claims.
+        let numbers_per_vertex = if patch { 6 } else { 3 };
+        let room = n.min((self.tokens.len() - self.pos) / numbers_per_vertex + 1);
+        let mut points = Vec::with_capacity(room);
+        let mut normals = Vec::with_capacity(if patch { room } else { 0 });
+        for i in 1..=n {
+            points.push(self.vec3(|| format!("vertex {i} of {n}"))?);
+            if patch {
+                normals.push(self.vec3(|| format!("normal {i} of {n}"))?);
+            }
+        }
+        if !state.triangulator.triangulate(&points) {
+            state.not_simple.add(1, line);
+        }
+        let corners = std::mem::take(&mut state.triangulator.triangles);
+        let mut dropped = 0;
+        let mut fixed = 0;
+        for &[a, b, c] in &corners {
+            let p = [points[a], points[b], points[c]];
+            let mut triangle = Triangle { p, n: None, uv: None, material: 0 };
+            // A finite triangle whose cross product overflows is no better than a flat one.
+            if triangle.is_degenerate() || !triangle.cross().is_finite() {
+                dropped += 1;
+                continue;
+            }
+            if patch {
+                let geometric = triangle.cross().normalize();
+                triangle.n = Some([a, b, c].map(|k| {
+                    normals[k].try_normalize().unwrap_or_else(|| {
+                        fixed += 1;
+                        geometric
+                    })
+                }));
+            }
+            // Asked only now, so that a wholly degenerate polygon adds no default material.
+            triangle.material = state.material();
+            state.primitives.push(Primitive::Triangle(triangle));
+        }
+        state.triangulator.triangles = corners;
+        state.dropped.add(dropped, line);
+        state.fixed_normals.add(fixed, line);
+        Ok(())
+    }
+}
+
+/// Ear clipping of a planar polygon, with reusable buffers.
+///
+/// The polygon is projected onto the coordinate plane that drops the dominant axis of its
+/// Newell normal, oriented so that it turns counter-clockwise. An ear is a strictly convex
+/// vertex whose triangle holds no other vertex (boundary included). A vertex whose two
+/// edges are collinear (or of zero length: repeated vertices) is clipped at once: its
+/// triangle has no area and removing it leaves the outline unchanged. Every polygon of n
+/// vertices gives exactly n − 2 triangles, in the polygon's winding; the caller drops the
+/// degenerate ones.
+#[derive(Default)]
+struct Triangulator {
+    points: Vec<DVec2>,
+    prev: Vec<usize>,
+    next: Vec<usize>,
+    /// The result: vertex indices into the polygon, counter-clockwise like the polygon.
+    triangles: Vec<[usize; 3]>,
+}
+
+impl Triangulator {
+    /// Fills `self.triangles`. Returns false when the polygon is not simple, i.e. some step
+    /// found no ear and had to clip a vertex regardless.
+    fn triangulate(&mut self, polygon: &[DVec3]) -> bool {
+        let n = polygon.len();
+        self.triangles.clear();
+        if n < 3 {
+            return true;
+        }
+        if n == 3 {
+            self.triangles.push([0, 1, 2]);
+            return true;
+        }
+        // Newell normal, relative to the first vertex for precision.
+        let origin = polygon[0];
+        let mut normal = DVec3::ZERO;
+        for i in 1..n - 1 {
+            normal += (polygon[i] - origin).cross(polygon[i + 1] - origin);
+        }
+        let a = normal.abs();
+        let (u, v, w) = if a.x >= a.y && a.x >= a.z {
+            (1, 2, 0)
+        } else if a.y >= a.z {
+            (2, 0, 1)
+        } else {
+            (0, 1, 2)
+        };
+        let flip = if normal[w] < 0.0 { -1.0 } else { 1.0 };
+        self.points.clear();
+        self.points.extend(polygon.iter().map(|p| DVec2::new(p[u] - origin[u], (p[v] - origin[v]) * flip)));
+        self.prev.clear();
+        self.prev.extend((0..n).map(|i| (i + n - 1) % n));
+        self.next.clear();
+        self.next.extend((0..n).map(|i| (i + 1) % n));
+
+        let mut simple = true;
+        let mut remaining = n;
+        let mut i = 0;
+        // Vertices examined since the last clip: a whole round without an ear means the
+        // polygon is not simple.
+        let mut misses = 0;
+        while remaining > 3 {
+            let (a, c) = (self.prev[i], self.next[i]);
+            let clip = match self.corner(a, i, c) {
+                Corner::Flat => true,
+                Corner::Convex => !self.holds_vertex(a, i, c),
+                Corner::Reflex => false,
+            };
+            if clip || misses >= remaining {
+                if !clip {
+                    simple = false;
+                    i = self.most_convex(i);
+                }
+                i = self.clip(i);
+                remaining -= 1;
+                misses = 0;
+            } else {
+                i = self.next[i];
+                misses += 1;
+            }
+        }
+        self.triangles.push([self.prev[i], i, self.next[i]]);
+        simple
+    }
+
+    fn corner(&self, a: usize, b: usize, c: usize) -> Corner {
+        let (pa, pb, pc) = (self.points[a], self.points[b], self.points[c]);
+        let (e0, e1) = (pb - pa, pc - pb);
+        let cross = e0.perp_dot(e1);
+        if cross.abs() <= 1e-12 * e0.length() * e1.length() {
+            Corner::Flat
+        } else if cross > 0.0 {
+            Corner::Convex
+        } else {
+            Corner::Reflex
+        }
+    }
+
+    /// Whether any other remaining vertex lies in the counter-clockwise triangle (a, b, c),
+    /// boundary included. Vertices at the same place as a, b or c do not count.
+    fn holds_vertex(&self, a: usize, b: usize, c: usize) -> bool {
+        let (pa, pb, pc) = (self.points[a], self.points[b], self.points[c]);
+        let mut j = self.next[c];
+        while j != a {
+            let p = self.points[j];
+            if p != pa
+                && p != pb
+                && p != pc
+                && (pb - pa).perp_dot(p - pa) >= 0.0
+                && (pc - pb).perp_dot(p - pb) >= 0.0
+                && (pa - pc).perp_dot(p - pc) >= 0.0
+            {
+                return true;
+            }
+            j = self.next[j];
+        }
+        false
+    }
+
+    /// The remaining vertex with the most convex corner, starting the search at `start`.
+    fn most_convex(&self, start: usize) -> usize {
+        let mut best = (f64::NEG_INFINITY, start);
+        let mut i = start;
+        loop {
+            let (pa, pb, pc) = (self.points[self.prev[i]], self.points[i], self.points[self.next[i]]);
+            let (e0, e1) = (pb - pa, pc - pb);
+            let sine = e0.perp_dot(e1) / (e0.length() * e1.length());
+            if sine > best.0 {
+                best = (sine, i);
+            }
+            i = self.next[i];
+            if i == start {
+                return best.1;
+            }
+        }
+    }
+
+    /// Emits the triangle at vertex `b`, unlinks it and returns the vertex to look at next.
+    fn clip(&mut self, b: usize) -> usize {
+        let (a, c) = (self.prev[b], self.next[b]);
+        self.triangles.push([a, b, c]);
+        self.next[a] = c;
+        self.prev[c] = a;
+        c
+    }
+}
+
+enum Corner {
+    /// Collinear edges or a zero-length edge: no area.
+    Flat,
+    Convex,
+    Reflex,
 }

@@ -6,8 +6,9 @@
 //!
 //! Invariants every loader guarantees (checked by [`Scene::validate`]):
 //! - every number is finite; every direction is non-zero;
-//! - sphere and cylinder radii are strictly positive (a negative radius in a file becomes
-//!   `inside_only = true` with the absolute radius);
+//! - sphere radii are strictly positive; cylinder/cone radii are non-negative and not both
+//!   zero (a cone may end in a point: NFF apex radius 0); a negative radius in a file becomes
+//!   `inside_only = true` with the absolute radius;
 //! - triangles are non-degenerate (degenerate ones are dropped by the loader, with a count
 //!   in a warning);
 //! - every `material` index is in range, every texture index is in range;
@@ -25,6 +26,7 @@
 //! `color = (r,g,b)`, `kd = Kd`, `ks = Ks` (Phong highlight weight), `shine = Shine`,
 //! `mirror = (Ks, Ks, Ks)` (Ks also weights the reflected ray), `transmittance = T`,
 //! `ior = ior`, no emission, no texture. T > 0 makes the surface two-sided and refracting.
+//! The SPD files write `ior = 0` for opaque surfaces (T = 0); the loader stores 1 there.
 //!
 //! **glTF metallic-roughness** (m = metallicFactor, ρ = roughnessFactor, base = baseColorFactor.rgb,
 //! t = KHR_materials_transmission factor, η = KHR_materials_ior, default 1.5):
@@ -64,10 +66,10 @@ pub struct Sphere {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Cylinder {
     pub base: DVec3,
-    /// Strictly positive.
+    /// Non-negative; at most one of the two radii is zero (a cone ending in a point).
     pub base_radius: f64,
     pub apex: DVec3,
-    /// Strictly positive; equal to `base_radius` for a cylinder.
+    /// Non-negative; equal to `base_radius` for a cylinder.
     pub apex_radius: f64,
     pub inside_only: bool,
     pub material: u32,
@@ -366,9 +368,12 @@ impl Scene {
                     finite3(c.base, "cylinder base").map_err(ctx)?;
                     finite3(c.apex, "cylinder apex").map_err(ctx)?;
                     for r in [c.base_radius, c.apex_radius] {
-                        if !(r.is_finite() && r > 0.0) {
-                            return Err(ctx(format!("cylinder radius {r} is not positive and finite")));
+                        if !(r.is_finite() && r >= 0.0) {
+                            return Err(ctx(format!("cylinder radius {r} is not non-negative and finite")));
                         }
+                    }
+                    if c.base_radius == 0.0 && c.apex_radius == 0.0 {
+                        return Err(ctx("cylinder radii are both zero".into()));
                     }
                     if c.base == c.apex {
                         return Err(ctx("cylinder base and apex coincide".into()));

@@ -1,0 +1,106 @@
+//! Finding a GPU adapter and opening a device for compute work.
+//!
+//! Honours `WGPU_BACKEND` (e.g. `vulkan`), `WGPU_ADAPTER_NAME` (a substring of the adapter
+//! name, e.g. `llvmpipe`) and `WGPU_POWER_PREF`, as wgpu's own tools do, but reports a
+//! missing adapter as an error that says how to install one instead of panicking.
+
+use wgpu::{Adapter, Backends, Device, Features, Instance, InstanceDescriptor, Limits, Queue};
+
+/// What can go wrong while opening the GPU.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    /// No adapter at all (or none matching `WGPU_ADAPTER_NAME`).
+    #[error(
+        "no GPU adapter found{filter}. On Debian or Ubuntu install Mesa's software Vulkan driver \
+         (lavapipe) with `sudo apt-get install mesa-vulkan-drivers`, or run `bash .ci/setup` in \
+         the cuberay repository; or render on the CPU with `--backend cpu`"
+    )]
+    NoAdapter { filter: String },
+    #[error("the GPU adapter '{adapter}' refused to open a device: {source}")]
+    Device {
+        adapter: String,
+        #[source]
+        source: wgpu::RequestDeviceError,
+    },
+}
+
+/// An open device with the optional features cuberay uses when the adapter has them.
+pub struct GpuContext {
+    pub adapter: Adapter,
+    pub device: Device,
+    pub queue: Queue,
+    pub info: wgpu::AdapterInfo,
+    /// Timestamp queries are available: kernel times can be measured on the GPU.
+    pub timestamps: bool,
+}
+
+impl GpuContext {
+    /// Opens the first suitable adapter (see the module documentation for the variables).
+    pub fn new() -> Result<GpuContext, GpuError> {
+        pollster::block_on(Self::new_async())
+    }
+
+    async fn new_async() -> Result<GpuContext, GpuError> {
+        // Compute needs no GL: the primary backends (Vulkan, Metal, DX12) unless
+        // WGPU_BACKEND says otherwise.
+        let mut desc = InstanceDescriptor::new_without_display_handle_from_env();
+        desc.backends = desc_backends();
+        let instance = Instance::new(desc);
+        let adapter = pick_adapter(&instance, desc_backends()).await?;
+        let info = adapter.get_info();
+        let wanted = Features::TIMESTAMP_QUERY;
+        let features = adapter.features() & wanted;
+        // Ask for the adapter's own storage limits: the tables are large.
+        let adapter_limits = adapter.limits();
+        let limits = Limits {
+            max_storage_buffer_binding_size: adapter_limits.max_storage_buffer_binding_size,
+            max_buffer_size: adapter_limits.max_buffer_size,
+            max_storage_buffers_per_shader_stage: adapter_limits.max_storage_buffers_per_shader_stage,
+            ..Limits::downlevel_defaults().using_resolution(adapter_limits.clone())
+        };
+        let (device, queue) = adapter
+            .request_device(&wgpu::DeviceDescriptor {
+                label: Some("cuberay"),
+                required_features: features,
+                required_limits: limits,
+                ..Default::default()
+            })
+            .await
+            .map_err(|source| GpuError::Device { adapter: info.name.clone(), source })?;
+        log::info!("GPU: {} ({:?}, {})", info.name, info.backend, info.driver_info);
+        Ok(GpuContext {
+            adapter,
+            device,
+            queue,
+            timestamps: features.contains(Features::TIMESTAMP_QUERY),
+            info,
+        })
+    }
+}
+
+fn desc_backends() -> Backends {
+    Backends::from_env().unwrap_or(Backends::PRIMARY)
+}
+
+async fn pick_adapter(instance: &Instance, backends: Backends) -> Result<Adapter, GpuError> {
+    let adapters = instance.enumerate_adapters(backends).await;
+    if let Ok(name) = std::env::var("WGPU_ADAPTER_NAME") {
+        let name = name.to_lowercase();
+        return adapters
+            .into_iter()
+            .find(|a| a.get_info().name.to_lowercase().contains(&name))
+            .ok_or(GpuError::NoAdapter { filter: format!(" matching WGPU_ADAPTER_NAME='{name}'") });
+    }
+    let options = wgpu::RequestAdapterOptions {
+        power_preference: wgpu::PowerPreference::from_env().unwrap_or(wgpu::PowerPreference::HighPerformance),
+        ..Default::default()
+    };
+    match instance.request_adapter(&options).await {
+        Ok(a) => Ok(a),
+        // A software adapter is fine for us: lavapipe is how CI runs.
+        Err(_) => instance
+            .request_adapter(&wgpu::RequestAdapterOptions { force_fallback_adapter: true, ..options })
+            .await
+            .map_err(|_| GpuError::NoAdapter { filter: String::new() }),
+    }
+}
