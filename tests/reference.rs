@@ -1,10 +1,14 @@
 //! Tests of the CPU reference renderer: analytic scenes whose pixels are known in closed
 //! form, sampling and statistics, brute force against the BVH, and the `render` command.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 use indicatif::ProgressBar;
+
+use common::cuberay;
 
 use cuberay::output::{Aov, Image};
 use cuberay::reference::sampling::pcg;
@@ -442,10 +446,6 @@ fn brute_and_bvh_give_identical_images() {
 
 // ---------------------------------------------------------------------------------------
 // The render command
-
-fn cuberay() -> std::process::Command {
-    std::process::Command::new(env!("CARGO_BIN_EXE_cuberay"))
-}
 
 fn tempdir() -> tempfile::TempDir {
     tempfile::tempdir().unwrap()

@@ -6,7 +6,8 @@
 //! - Triangles: the watertight test of Woop, Benthin and Wald (JCGT 2013), with a zero
 //!   edge function accepted on both sides of an edge (no cracks).
 //! - Cylinders and cones: the quadric without end caps, its discriminant rewritten as a
-//!   difference of squared lengths so that grazing rays keep their accuracy.
+//!   difference of squared lengths so that grazing rays keep their accuracy. A cone may
+//!   end in a point (radius 0).
 //!
 //! Hits are accepted for `0 < t < t_max`: there is no scene-wide epsilon. Instead a
 //! secondary ray starts from the hit point moved off the surface along the geometric
@@ -221,8 +222,12 @@ pub fn intersect_cylinder(c: &Cylinder, ray: &Ray, t_max: f64) -> Option<f64> {
 
 /// Outward unit normal of a cone with unit `axis` and radius slope `slope`, given the
 /// radial offset of the surface point from the axis.
+/// At the tip of a cone ending in a point the radial direction is undefined: any
+/// direction perpendicular to the axis serves.
 fn cone_normal(axis: DVec3, slope: f64, radial: DVec3) -> DVec3 {
-    (radial.normalize() - axis * slope).normalize()
+    let len = radial.length();
+    let radial_dir = if len > 0.0 { radial / len } else { axis.any_orthonormal_vector() };
+    (radial_dir - axis * slope).normalize()
 }
 
 /// The surface at a hit.
