@@ -372,6 +372,36 @@ mod tests {
     }
 
     #[test]
+    fn smooth_shading_interpolates_vertex_normals() {
+        let n0 = DVec3::new(-1.0, 0.0, 1.0).normalize();
+        let n1 = DVec3::new(1.0, 0.0, 1.0).normalize();
+        let t = Triangle {
+            p: [DVec3::ZERO, DVec3::X, DVec3::Y],
+            // Stored pointing down: the shading normal is turned to the geometric side.
+            n: Some([-n0, -n1, -DVec3::Z]),
+            uv: Some([glam::DVec2::ZERO, glam::DVec2::X, glam::DVec2::Y]),
+            material: 0,
+        };
+        let r = Ray::new(DVec3::new(0.5, 0.0, 1.0), DVec3::NEG_Z);
+        let h = intersect_triangle(&t, &r, f64::INFINITY).unwrap();
+        let s = surface(&Primitive::Triangle(t.clone()), &r, &h);
+        assert!((s.ng - DVec3::Z).length() < 1e-15);
+        assert!((s.ns - DVec3::Z).length() < 1e-12, "{}", s.ns);
+        assert!((s.uv.unwrap() - glam::DVec2::new(0.5, 0.0)).length() < 1e-15);
+        let r = Ray::new(DVec3::new(0.25, 0.0, 1.0), DVec3::NEG_Z);
+        let h = intersect_triangle(&t, &r, f64::INFINITY).unwrap();
+        let tri = Triangle {
+            p: [DVec3::ZERO, DVec3::X, DVec3::Y],
+            n: Some([n0, n1, DVec3::Z]),
+            uv: None,
+            material: 0,
+        };
+        let s = surface(&Primitive::Triangle(tri), &r, &h);
+        let want = (n0 * 0.75 + n1 * 0.25).normalize();
+        assert!((s.ns - want).length() < 1e-12, "{}", s.ns);
+    }
+
+    #[test]
     fn shared_edge_is_watertight() {
         // Two triangles of a quad; rays exactly through the diagonal must hit one of them.
         let a = tri(DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.0));
