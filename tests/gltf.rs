@@ -583,6 +583,20 @@ fn strips_fans_and_non_indexed_triangles() {
 }
 
 #[test]
+fn sparse_accessors_substitute_elements() {
+    let mut doc = Doc::new();
+    let p = doc.vec3(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+    let indices = doc.view(&[2u8]);
+    let values = doc.view(&[0f32, 2.0, 0.0].map(f32::to_le_bytes).concat());
+    doc.accessors[p]["sparse"] = json!({"count": 1, "indices": {"bufferView": indices, "componentType": 5121},
+                                        "values": {"bufferView": values}});
+    doc.accessors[p]["max"] = json!([1.0, 2.0, 0.0]);
+    let loaded =
+        load_mesh_with_node(&doc, json!({"primitives": [{"attributes": {"POSITION": p}}]}), json!({}));
+    assert_eq!(triangles(&loaded.scene)[0].p, [DVec3::ZERO, DVec3::X, DVec3::new(0.0, 2.0, 0.0)]);
+}
+
+#[test]
 fn degenerate_triangles_and_bad_normals() {
     let mut doc = Doc::new();
     let p = doc.vec3(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [2.0, 0.0, 0.0]]);
@@ -904,6 +918,41 @@ fn bad_scene_without_meshes() {
         json!({"meshes": [{"primitives": [{"attributes": {"POSITION": p}, "mode": 0}]}], "nodes": [{"mesh": 0}]}),
     );
     assert!(matches!(load_err(&path), LoadError::Invalid { .. }));
+}
+
+#[test]
+fn bad_huge_counts_are_refused_before_allocating() {
+    // An accessor without a buffer view is zeros plus sparse substitutions: nothing but a
+    // limit bounds its count.
+    let zero_filled = |count: u64| {
+        let mut doc = Doc::new();
+        let indices = doc.view(&0u32.to_le_bytes());
+        let values = doc.view(&[0u8; 12]);
+        doc.accessor(json!({"componentType": 5126, "count": count, "type": "VEC3",
+                            "min": [0, 0, 0], "max": [0, 0, 0],
+                            "sparse": {"count": 1, "indices": {"bufferView": indices, "componentType": 5125},
+                                       "values": {"bufferView": values}}}));
+        doc
+    };
+    let dir = TempDir::new();
+    let mesh = json!({"primitives": [{"attributes": {"POSITION": 0}}]});
+    let path = zero_filled(1_000_000_000_000).write(
+        &dir,
+        "t.gltf",
+        json!({"meshes": [mesh], "nodes": [{"mesh": 0}]}),
+    );
+    assert_error(&load_err(&path), &path, &["POSITION (accessors[0])", "without a bufferView"]);
+    // A small file whose 70 nodes each instance a million triangles.
+    let nodes: Vec<Value> = (0..70).map(|_| json!({"mesh": 0})).collect();
+    let roots: Vec<usize> = (0..70).collect();
+    let path = zero_filled(3_000_000).write(
+        &dir,
+        "t.gltf",
+        json!({"meshes": [mesh], "nodes": nodes, "scenes": [{"nodes": roots}]}),
+    );
+    let err = load_err(&path);
+    assert!(matches!(err, LoadError::Invalid { .. }), "{err:?}");
+    assert_error(&err, &path, &["70000000 triangles", "at most"]);
 }
 
 #[test]

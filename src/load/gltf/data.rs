@@ -117,6 +117,33 @@ fn has_scheme(uri: &str) -> bool {
     }
 }
 
+/// Most elements an accessor without a buffer view (zeros plus sparse substitutions) may
+/// have: nothing else bounds its count, and a huge one would exhaust memory.
+const MAX_ZERO_FILLED: usize = 1 << 26;
+
+/// An accessor's checked byte ranges.
+struct Layout<'b> {
+    size: usize,
+    count: usize,
+    dense: Option<Dense<'b>>,
+    sparse: Option<Sparse<'b>>,
+}
+
+/// Interleaved or packed elements in a buffer view.
+struct Dense<'b> {
+    data: &'b [u8],
+    offset: usize,
+    stride: usize,
+}
+
+/// Sparse substitutions: `count` indices and values, each slice starting at entry 0.
+struct Sparse<'b> {
+    count: usize,
+    indices: &'b [u8],
+    index_type: DataType,
+    values: &'b [u8],
+}
+
 /// Typed reads of accessors, with every byte range checked.
 pub struct Reader<'a> {
     pub ctx: &'a Ctx<'a>,
@@ -215,17 +242,12 @@ impl Reader<'_> {
         Ok(())
     }
 
-    /// Calls `f(i, bytes)` for every element `i` of the accessor (dense data first, then
-    /// the sparse substitutions, so a later call for the same `i` overrides an earlier one).
-    fn visit(
-        &self,
-        acc: &gltf::Accessor,
-        loc: &str,
-        mut f: impl FnMut(usize, &[u8]),
-    ) -> Result<(), LoadError> {
+    /// Checks every byte range of the accessor (dense data and sparse substitutions)
+    /// before anything is allocated or read.
+    fn layout<'b>(&'b self, acc: &gltf::Accessor, loc: &str) -> Result<Layout<'b>, LoadError> {
         let size = acc.size();
         let count = acc.count();
-        match acc.view() {
+        let dense = match acc.view() {
             Some(view) => {
                 let data = self.buffers.view(self.ctx, &view, loc)?;
                 let stride = view.stride().unwrap_or(size);
@@ -239,61 +261,98 @@ impl Reader<'_> {
                     ));
                 }
                 let offset = acc.offset();
-                match span_end(offset, count, stride, size) {
-                    Some(end) if end <= data.len() => {}
-                    _ => {
-                        return Err(self.err(
-                            loc,
-                            format!(
-                                "{count} elements of {size} bytes (stride {stride}) from byteOffset {offset} \
-                                 do not fit in bufferViews[{}], which is {} bytes long",
-                                view.index(),
-                                data.len()
-                            ),
-                        ))
-                    }
+                if span_end(offset, count, stride, size).is_none_or(|end| end > data.len()) {
+                    return Err(self.err(
+                        loc,
+                        format!(
+                            "{count} elements of {size} bytes (stride {stride}) from byteOffset {offset} \
+                             do not fit in bufferViews[{}], which is {} bytes long",
+                            view.index(),
+                            data.len()
+                        ),
+                    ));
                 }
+                Some(Dense { data, offset, stride })
+            }
+            None => {
+                // No buffer view: the elements start as zeros, so nothing bounds the count.
+                if count > MAX_ZERO_FILLED {
+                    return Err(self.err(
+                        loc,
+                        format!(
+                            "{count} elements without a bufferView (at most {MAX_ZERO_FILLED} are accepted)"
+                        ),
+                    ));
+                }
+                None
+            }
+        };
+        let sparse = match acc.sparse() {
+            None => None,
+            Some(sparse) => {
+                let n = sparse.count();
+                let (ind, val) = (sparse.indices(), sparse.values());
+                let index_type = match ind.index_type() {
+                    gltf::accessor::sparse::IndexType::U8 => DataType::U8,
+                    gltf::accessor::sparse::IndexType::U16 => DataType::U16,
+                    gltf::accessor::sparse::IndexType::U32 => DataType::U32,
+                };
+                let indices = self.buffers.view(self.ctx, &ind.view(), loc)?;
+                let values = self.buffers.view(self.ctx, &val.view(), loc)?;
+                let fits = |data: &[u8], offset: usize, elem: usize| {
+                    span_end(offset, n, elem, elem).is_some_and(|end| end <= data.len())
+                };
+                if !fits(indices, ind.offset(), index_type.size()) {
+                    return Err(self.err(
+                        loc,
+                        format!(
+                            "sparse.indices: {n} indices do not fit in bufferViews[{}]",
+                            ind.view().index()
+                        ),
+                    ));
+                }
+                if !fits(values, val.offset(), size) {
+                    return Err(self.err(
+                        loc,
+                        format!(
+                            "sparse.values: {n} values do not fit in bufferViews[{}]",
+                            val.view().index()
+                        ),
+                    ));
+                }
+                Some(Sparse {
+                    count: n,
+                    indices: &indices[ind.offset()..],
+                    index_type,
+                    values: &values[val.offset()..],
+                })
+            }
+        };
+        Ok(Layout { size, count, dense, sparse })
+    }
+
+    /// Calls `f(i, bytes)` for every element `i` of a checked accessor (dense data first, then
+    /// the sparse substitutions, so a later call for the same `i` overrides an earlier one).
+    fn visit(&self, layout: Layout, loc: &str, mut f: impl FnMut(usize, &[u8])) -> Result<(), LoadError> {
+        let Layout { size, count, dense, sparse } = layout;
+        match dense {
+            Some(Dense { data, offset, stride }) => {
                 for i in 0..count {
                     let start = offset + i * stride;
                     f(i, &data[start..start + size]);
                 }
             }
             None => {
-                // No buffer view: the data is all zeros (and normally sparse).
                 let zeros = vec![0u8; size];
                 for i in 0..count {
                     f(i, &zeros);
                 }
             }
         }
-        if let Some(sparse) = acc.sparse() {
-            let n = sparse.count();
-            let (ind, val) = (sparse.indices(), sparse.values());
-            let itype = match ind.index_type() {
-                gltf::accessor::sparse::IndexType::U8 => DataType::U8,
-                gltf::accessor::sparse::IndexType::U16 => DataType::U16,
-                gltf::accessor::sparse::IndexType::U32 => DataType::U32,
-            };
-            let isize = itype.size();
-            let idata = self.buffers.view(self.ctx, &ind.view(), loc)?;
-            let vdata = self.buffers.view(self.ctx, &val.view(), loc)?;
-            let fits = |data: &[u8], offset: usize, elem: usize| {
-                span_end(offset, n, elem, elem).is_some_and(|end| end <= data.len())
-            };
-            if !fits(idata, ind.offset(), isize) {
-                return Err(self.err(
-                    loc,
-                    format!("sparse.indices: {n} indices do not fit in bufferViews[{}]", ind.view().index()),
-                ));
-            }
-            if !fits(vdata, val.offset(), size) {
-                return Err(self.err(
-                    loc,
-                    format!("sparse.values: {n} values do not fit in bufferViews[{}]", val.view().index()),
-                ));
-            }
-            for k in 0..n {
-                let i = index_u32(&idata[ind.offset() + k * isize..], itype) as usize;
+        if let Some(sp) = sparse {
+            let isize = sp.index_type.size();
+            for k in 0..sp.count {
+                let i = index_u32(&sp.indices[k * isize..], sp.index_type) as usize;
                 if i >= count {
                     return Err(self.err(
                         loc,
@@ -302,21 +361,30 @@ impl Reader<'_> {
                         ),
                     ));
                 }
-                let start = val.offset() + k * size;
-                f(i, &vdata[start..start + size]);
+                f(i, &sp.values[k * size..(k + 1) * size]);
             }
         }
         Ok(())
     }
 
+    /// Reads `acc` into a vector of `count` elements, each made by `read` from its bytes.
+    /// The ranges are checked before the vector is allocated.
+    fn collect<T: Copy + Default>(
+        &self,
+        acc: &gltf::Accessor,
+        loc: &str,
+        read: impl Fn(&[u8]) -> T,
+    ) -> Result<Vec<T>, LoadError> {
+        let layout = self.layout(acc, loc)?;
+        let mut out = vec![T::default(); layout.count];
+        self.visit(layout, loc, |i, b| out[i] = read(b))?;
+        Ok(out)
+    }
+
     /// Reads a VEC3 FLOAT accessor (POSITION, NORMAL) without judging its values.
     pub fn vec3(&self, acc: &gltf::Accessor, loc: &str) -> Result<Vec<[f32; 3]>, LoadError> {
         self.check_format(acc, loc, Dimensions::Vec3, &[(DataType::F32, false)])?;
-        let mut out = vec![[0.0; 3]; acc.count()];
-        self.visit(acc, loc, |i, b| {
-            out[i] = [0, 1, 2].map(|k| component_f32(b, DataType::F32, false, k));
-        })?;
-        Ok(out)
+        self.collect(acc, loc, |b| [0, 1, 2].map(|k| component_f32(b, DataType::F32, false, k)))
     }
 
     /// Reads POSITION: VEC3 FLOAT, every coordinate finite.
@@ -337,8 +405,7 @@ impl Reader<'_> {
             &[(DataType::F32, false), (DataType::U8, true), (DataType::U16, true)],
         )?;
         let (t, n) = (acc.data_type(), acc.normalized());
-        let mut out = vec![[0.0; 2]; acc.count()];
-        self.visit(acc, loc, |i, b| out[i] = [0, 1].map(|k| component_f32(b, t, n, k)))?;
+        let out = self.collect(acc, loc, |b| [0, 1].map(|k| component_f32(b, t, n, k)))?;
         if let Some((i, uv)) = out.iter().enumerate().find(|(_, uv)| !uv.iter().all(|c| c.is_finite())) {
             return Err(self.err(loc, format!("texture coordinate {i} is not finite: {uv:?}")));
         }
@@ -355,9 +422,7 @@ impl Reader<'_> {
             &[(DataType::U8, false), (DataType::U16, false), (DataType::U32, false)],
         )?;
         let t = acc.data_type();
-        let mut out = vec![0u32; acc.count()];
-        self.visit(acc, loc, |i, b| out[i] = index_u32(b, t))?;
-        Ok(out)
+        self.collect(acc, loc, |b| index_u32(b, t))
     }
 }
 

@@ -301,6 +301,10 @@ impl Cache {
     }
 }
 
+/// Most triangles a scene may instance (a few node references can multiply a mesh far
+/// beyond any memory; each triangle takes about 200 bytes).
+const MAX_TRIANGLES: usize = 1 << 26;
+
 /// Triangles per parallel job: large meshes are split so that both cores get work.
 const CHUNK: usize = 16 * 1024;
 
@@ -408,6 +412,12 @@ pub fn triangles(
             "{} skinned mesh nodes: skinning is ignored (meshes are placed by their node's transform)",
             hierarchy.skinned
         ));
+    }
+    let total: usize = jobs.iter().map(|j| j.end - j.start).sum();
+    if total > MAX_TRIANGLES {
+        return Err(reader.ctx.invalid(format!(
+            "the scene instances {total} triangles; at most {MAX_TRIANGLES} are supported"
+        )));
     }
     let results: Vec<(Vec<Primitive>, usize)> = jobs.par_iter().map(Job::run).collect();
     let dropped: usize = results.iter().map(|r| r.1).sum();
