@@ -14,8 +14,9 @@ pub mod nff;
 /// Options that select among what a file offers.
 #[derive(Clone, Debug, Default)]
 pub struct LoadOptions {
-    /// glTF: index of the camera to use (default: the first camera in the scene's node
-    /// hierarchy; with none, a camera framing the scene's bounds).
+    /// glTF: which camera node to use, counted from 0 in traversal order (depth first,
+    /// roots in scene order, children in file order). Default: the first; with none, a
+    /// camera framing the scene's bounds.
     pub camera: Option<usize>,
 }
 
