@@ -636,3 +636,23 @@ fn render_command_writes_images_and_statistics() {
     assert_eq!(std::fs::read(&png).unwrap(), before);
     assert_eq!(files_in(dir.path()).len(), 3, "a temporary file was left behind");
 }
+
+/// glTF sample models with textures, emission, punctual lights and transmission render
+/// with finite pixels, and the effects they call for are simulated.
+#[test]
+fn gltf_models_render_without_nan() {
+    let models = [
+        ("Box/Box.gltf", "shadows"),
+        ("BoxTextured/BoxTextured.gltf", "textures"),
+        ("CornellBox/CornellBox.glb", "emission"),
+        ("LightsPunctualLamp/LightsPunctualLamp.gltf", "refraction"),
+    ];
+    for (file, effect) in models {
+        let path = common::shared(&format!("gltf/{file}"));
+        let s = cuberay::load::load(&path, &Default::default()).unwrap_or_else(|e| panic!("{e}")).scene;
+        let r = run(&s, &opts(24, 24));
+        check_stats(&r);
+        assert!(r.stats.rays.eye_hit > 0, "{file}: nothing hit");
+        assert!(r.stats.effects.contains(&effect), "{file}: {:?}", r.stats.effects);
+    }
+}
