@@ -6,7 +6,12 @@ use common::{cuberay, shared};
 
 fn info_json(path: &std::path::Path) -> serde_json::Value {
     let out = cuberay().arg("info").arg("--json").arg(path).output().unwrap();
-    assert!(out.status.success(), "info failed on {}: {}", path.display(), String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "info failed on {}: {}",
+        path.display(),
+        String::from_utf8_lossy(&out.stderr)
+    );
     serde_json::from_slice(&out.stdout).expect("info --json prints one JSON object")
 }
 

@@ -8,6 +8,7 @@ use anyhow::{bail, Context};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 
+use cuberay::load;
 use cuberay::output::{self, Aov, OutputFormat};
 use cuberay::reference::{self, AccelKind, RenderOptions, Sampling};
 
@@ -29,8 +30,9 @@ pub enum StatsFormat {
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
-    /// Scene file (.nff, .gltf, .glb).
-    pub scene: PathBuf,
+    /// Scene file (.nff, .gltf, .glb). Without one, the built-in showcase
+    /// (scenes/showcase.nff: mirrors, glass, shadows, three lights).
+    pub scene: Option<PathBuf>,
     /// Output image: .png (clamped, sRGB-encoded) or .exr (linear radiance; AOVs).
     #[arg(short, long)]
     pub output: PathBuf,
@@ -78,7 +80,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if args.backend == Backend::Gpu {
         bail!("the GPU backend is not available yet: use --backend cpu");
     }
-    let loaded = super::load_scene(&args.scene, args.camera)?;
+    let scene_name = args.scene.clone().unwrap_or_else(|| PathBuf::from(load::SHOWCASE_NAME));
+    let loaded = match &args.scene {
+        Some(path) => super::load_scene(path, args.camera)?,
+        None => load::showcase().context("the built-in showcase scene does not load")?,
+    };
     let scene = &loaded.scene;
     let (dw, dh) = scene.resolution.unwrap_or_else(|| scene.camera.default_resolution());
     let opts = RenderOptions {
@@ -107,7 +113,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         Some(aov) => reference::render_aov(scene, &opts, aov, &progress),
         None => reference::render(scene, &opts, &progress),
     }
-    .with_context(|| format!("cannot render {}", args.scene.display()))?;
+    .with_context(|| format!("cannot render {}", scene_name.display()))?;
     progress.finish_and_clear();
 
     if !rendered.image.is_finite() {

@@ -58,3 +58,12 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, LoadError> {
         _ => Err(LoadError::UnknownFormat { path: path.to_owned() }),
     }
 }
+
+/// Where the built-in showcase scene comes from (shown in messages).
+pub const SHOWCASE_NAME: &str = "scenes/showcase.nff";
+
+/// The built-in showcase scene (`cuberay render` without a scene): mirrors, glass,
+/// shadows and three lights, compiled into the binary from `scenes/showcase.nff`.
+pub fn showcase() -> Result<Loaded, LoadError> {
+    nff::parse(include_str!("../../scenes/showcase.nff"), Path::new(SHOWCASE_NAME))
+}
