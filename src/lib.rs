@@ -19,5 +19,7 @@ pub mod gpu;
 pub mod info;
 pub mod load;
 pub mod mirror;
+pub mod output;
 pub mod reference;
 pub mod scene;
+pub mod stats;

@@ -9,6 +9,8 @@ use clap::{Parser, Subcommand};
 use cuberay::info::SceneInfo;
 use cuberay::load::{self, LoadOptions, Loaded};
 
+mod render;
+
 #[derive(Parser, Debug)]
 #[command(name = "cuberay", version, about = "GPU Whitted ray tracing with direction-cube candidate tables")]
 struct Cli {
@@ -32,6 +34,8 @@ enum Command {
         #[arg(long)]
         camera: Option<usize>,
     },
+    /// Render a scene to an image.
+    Render(render::RenderArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -72,6 +76,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             Ok(())
         }
+        Command::Render(args) => render::run(args),
     }
 }
 

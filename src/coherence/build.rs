@@ -419,6 +419,10 @@ pub fn store_dmin(x: f64, eps: f64) -> f32 {
     }
 }
 
+/// Surface cubes finer than N = 8 are tried only while all surface origins together have
+/// at most this many cells.
+const SURFACE_CELLS: usize = 1 << 20;
+
 /// Light-origin targets whose bound is wider than this go to the always-test list.
 const WIDE_THETA: f64 = 0.5;
 
@@ -991,13 +995,17 @@ pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables, BuildError> 
             (Some(k), Some(n)) => vec![(k, n)],
             (k, n) => {
                 let ks = [1usize, 2, 4, 8, 16, 32, 64, 128, 256];
-                let ns = [8u32, 6, 4, 3, 2];
-                let mut v = Vec::new();
                 let fits = |kk: usize| surface_ids.len().div_ceil(kk) * targets.len() <= params.pair_budget;
                 let kmin = ks.iter().copied().find(|&kk| fits(kk)).unwrap_or(256);
+                let mut v = Vec::new();
                 for &kk in ks.iter().filter(|x| k.map_or(**x >= kmin, |k| k == **x)) {
-                    for &nn in ns.iter().filter(|x| n.is_none_or(|n| n == **x)) {
-                        v.push((kk, nn));
+                    // Finer cubes first, but never more than `SURFACE_CELLS` cells in all.
+                    let origins = surface_ids.len().div_ceil(kk);
+                    for nn in [64u32, 32, 16, 8, 6, 4, 3, 2] {
+                        let allowed = nn <= 8 || origins * 6 * (nn * nn) as usize <= SURFACE_CELLS;
+                        if allowed && n.is_none_or(|n| n == nn) {
+                            v.push((kk, nn));
+                        }
                     }
                 }
                 if v.is_empty() {
@@ -1008,15 +1016,21 @@ pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables, BuildError> 
         };
         let remaining = params.budget_bytes.saturating_sub(fixed_bytes);
         let mut ci = candidates.len() - 1;
+        // A sample that was the whole set, kept to avoid building it twice.
+        let mut sampled: Option<(usize, Vec<OriginTable>)> = None;
         for (i, &(k, n)) in candidates.iter().enumerate().take(candidates.len() - 1) {
             // Estimate from a sample of origins spread over the scene.
             let ds = surface_defs(&surface_ids, k, n, &ctx);
             let step = (ds.len() / 24).max(1);
             let sample: Vec<&OriginDef> = ds.iter().step_by(step).collect();
-            let bytes: usize = sample.par_iter().map(|d| table_bytes(&build_origin(d, &ctx))).sum();
+            let built: Vec<OriginTable> = sample.par_iter().map(|d| build_origin(d, &ctx)).collect();
+            let bytes: usize = built.iter().map(table_bytes).sum();
             let estimate = bytes as f64 / sample.len() as f64 * ds.len() as f64;
             if estimate <= remaining as f64 * 0.9 {
                 ci = i;
+                if step == 1 {
+                    sampled = Some((i, built));
+                }
                 break;
             }
         }
@@ -1027,7 +1041,10 @@ pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables, BuildError> 
         loop {
             let (k, n) = candidates[ci];
             let ds = surface_defs(&surface_ids, k, n, &ctx);
-            let built: Vec<OriginTable> = ds.par_iter().map(|d| build_origin(d, &ctx)).collect();
+            let built: Vec<OriginTable> = match sampled.take() {
+                Some((i, b)) if i == ci => b,
+                _ => ds.par_iter().map(|d| build_origin(d, &ctx)).collect(),
+            };
             let entries =
                 fixed_entries + built.iter().map(|t| t.entries.len() + t.always.len()).sum::<usize>();
             let cells = fixed_cells + built.iter().map(|t| t.starts.len() - 1).sum::<usize>();

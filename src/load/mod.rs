@@ -14,8 +14,9 @@ pub mod nff;
 /// Options that select among what a file offers.
 #[derive(Clone, Debug, Default)]
 pub struct LoadOptions {
-    /// glTF: index of the camera to use (default: the first camera in the scene's node
-    /// hierarchy; with none, a camera framing the scene's bounds).
+    /// glTF: which camera node to use, counted from 0 in traversal order (depth first,
+    /// roots in scene order, children in file order). Default: the first; with none, a
+    /// camera framing the scene's bounds.
     pub camera: Option<usize>,
 }
 
@@ -56,4 +57,13 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, LoadError> {
         Some("gltf") | Some("glb") => gltf::load(path, options),
         _ => Err(LoadError::UnknownFormat { path: path.to_owned() }),
     }
+}
+
+/// Where the built-in showcase scene comes from (shown in messages).
+pub const SHOWCASE_NAME: &str = "scenes/showcase.nff";
+
+/// The built-in showcase scene (`cuberay render` without a scene): mirrors, glass,
+/// shadows and three lights, compiled into the binary from `scenes/showcase.nff`.
+pub fn showcase() -> Result<Loaded, LoadError> {
+    nff::parse(include_str!("../../scenes/showcase.nff"), Path::new(SHOWCASE_NAME))
 }

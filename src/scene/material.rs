@@ -31,7 +31,8 @@ pub struct Material {
 }
 
 impl Default for Material {
-    /// Matte white: what NFF uses before the first `f`, and glTF's default material mapped.
+    /// Matte white: what NFF uses before the first `f`, and what glTF primitives without a
+    /// material get (see the mapping in the parent module).
     fn default() -> Self {
         Material {
             name: None,

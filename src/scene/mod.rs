@@ -28,18 +28,30 @@
 //! `ior = ior`, no emission, no texture. T > 0 makes the surface two-sided and refracting.
 //! The SPD files write `ior = 0` for opaque surfaces (T = 0); the loader stores 1 there.
 //!
-//! **glTF metallic-roughness** (m = metallicFactor, ρ = roughnessFactor, base = baseColorFactor.rgb,
-//! t = KHR_materials_transmission factor, η = KHR_materials_ior, default 1.5):
+//! **glTF metallic-roughness** (base = baseColorFactor.rgb; m = metallicFactor and
+//! ρ = roughnessFactor, each times the mean of its channel (blue, green) of the
+//! metallicRoughnessTexture when there is one; t = KHR_materials_transmission factor times
+//! the mean red channel of its texture; η = KHR_materials_ior, default 1.5; base, m, ρ and
+//! t clamped to [0, 1]):
 //! - `color = base` (times the base colour texture, when present, at shading time);
 //! - `transmittance = t·(1 − m)`; `ior = η`;
 //! - `kd = (1 − m)·(1 − transmittance)`;
 //! - `ks = (1 − ρ)·(0.04 + 0.96·m)` and `shine = clamp(2/α² − 2, 1, 10000)` with α = ρ²
 //!   (the usual Blinn-Phong ↔ GGX width correspondence);
-//! - `mirror = (1 − ρ)²·F0` with `F0 = mix(0.04, base, m)` for metals (m > 0), and
-//!   `F0 = ((η − 1)/(η + 1))²` for transmitting surfaces; a rough or non-metallic opaque
-//!   surface (m = 0, t = 0) gets `mirror = 0` and so spawns no reflection ray;
-//! - `emission = emissiveFactor · emissive_strength` (KHR_materials_emissive_strength);
-//!   emissive textures are not sampled.
+//! - `mirror = (1 − ρ)²·F0` with `F0 = mix(0.04, base, m)` for metals (m > 0), else
+//!   `F0 = ((η − 1)/(η + 1))²` for transmitting surfaces; a non-metallic opaque surface
+//!   (m = 0, t = 0) gets `mirror = 0` and so spawns no reflection ray;
+//! - `emission = emissiveFactor · emissive_strength · E` (KHR_materials_emissive_strength),
+//!   with E the mean linear colour of the sRGB emissiveTexture (1 without one);
+//! - `doubleSided` is recorded; alphaMode, normal and occlusion textures are ignored.
+//!
+//! Only the base colour texture is sampled per hit. The Whitted material has one value for
+//! each other input, so a texture's mean stands in for it: the common factors of 1 with a
+//! metallic-roughness map would otherwise make a material black (m = 1, ρ = 1 gives
+//! kd = ks = mirror = 0), and an emissive factor of 1 with a mostly dark emissive map a
+//! white glow. A primitive without a material gets [`Material::default`] (matte white;
+//! glTF's own default, metallic 1 and roughness 1, would map to black). glTF has no ambient
+//! light or background colour: both are black.
 
 use glam::{DVec2, DVec3};
 use serde::Serialize;

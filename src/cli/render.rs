@@ -1,0 +1,129 @@
+//! `cuberay render`: load a scene, render it with the chosen backend, write the image
+//! (or an AOV) atomically and print statistics.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+
+use anyhow::{bail, Context};
+use clap::{Args, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use cuberay::load;
+use cuberay::output::{self, Aov, OutputFormat};
+use cuberay::reference::{self, AccelKind, RenderOptions, Sampling};
+
+/// Which renderer to run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Backend {
+    /// The f64 reference renderer on the CPU.
+    Cpu,
+    /// The WGSL renderer (not written yet).
+    Gpu,
+}
+
+/// How `--stats` prints.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum StatsFormat {
+    Text,
+    Json,
+}
+
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// Scene file (.nff, .gltf, .glb). Without one, the built-in showcase
+    /// (scenes/showcase.nff: mirrors, glass, shadows, three lights).
+    pub scene: Option<PathBuf>,
+    /// Output image: .png (clamped, sRGB-encoded) or .exr (linear radiance; AOVs).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Renderer.
+    #[arg(long, value_enum, default_value_t = Backend::Cpu)]
+    pub backend: Backend,
+    /// Image width (default: the scene's resolution, else 512 high at the camera's aspect).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height.
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Samples per pixel: 1 samples the pixel centre, N > 1 stratified jitter.
+    #[arg(long, default_value_t = 1)]
+    pub spp: u32,
+    /// Seed of the jitter (--spp > 1).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Eye-ray placement: pixel centres, or the SPD procedure's (W+1)×(H+1) pixel corners.
+    #[arg(long, value_enum, default_value_t = Sampling::Center)]
+    pub sampling: Sampling,
+    /// Maximum ray-tree depth, the eye ray being depth 1.
+    #[arg(long, default_value_t = 5)]
+    pub max_depth: u32,
+    /// Acceleration structure (auto: brute force for tiny scenes, else a BVH).
+    #[arg(long, value_enum, default_value_t = AccelKind::Auto)]
+    pub accel: AccelKind,
+    /// Write an auxiliary output to the (.exr) output instead of the image.
+    #[arg(long, value_enum)]
+    pub aov: Option<Aov>,
+    /// Print statistics after the render: text (default) or one JSON object on stdout.
+    #[arg(long, value_enum, num_args = 0..=1, default_missing_value = "text")]
+    pub stats: Option<StatsFormat>,
+    /// glTF: index of the camera to use.
+    #[arg(long)]
+    pub camera: Option<usize>,
+}
+
+pub fn run(args: RenderArgs) -> anyhow::Result<()> {
+    // Everything that can be checked before the (possibly long) render is checked first.
+    let format = OutputFormat::from_path(&args.output)?;
+    if args.aov.is_some() && format != OutputFormat::Exr {
+        bail!(output::OutputError::AovNeedsExr { path: args.output.clone() });
+    }
+    if args.backend == Backend::Gpu {
+        bail!("the GPU backend is not available yet: use --backend cpu");
+    }
+    let scene_name = args.scene.clone().unwrap_or_else(|| PathBuf::from(load::SHOWCASE_NAME));
+    let loaded = match &args.scene {
+        Some(path) => super::load_scene(path, args.camera)?,
+        None => load::showcase().context("the built-in showcase scene does not load")?,
+    };
+    let scene = &loaded.scene;
+    let (dw, dh) = scene.resolution.unwrap_or_else(|| scene.camera.default_resolution());
+    let opts = RenderOptions {
+        width: args.width.unwrap_or(dw),
+        height: args.height.unwrap_or(dh),
+        spp: args.spp,
+        seed: args.seed,
+        sampling: args.sampling,
+        max_depth: args.max_depth,
+        accel: args.accel,
+    };
+    opts.validate()?;
+
+    let progress = if std::io::stderr().is_terminal() {
+        let bar = ProgressBar::new(0);
+        bar.set_style(
+            ProgressStyle::with_template("{msg} [{elapsed_precise}] {wide_bar} {pos}/{len} rows (eta {eta})")
+                .expect("valid progress template"),
+        );
+        bar.set_message("rendering");
+        bar
+    } else {
+        ProgressBar::hidden()
+    };
+    let rendered = match args.aov {
+        Some(aov) => reference::render_aov(scene, &opts, aov, &progress),
+        None => reference::render(scene, &opts, &progress),
+    }
+    .with_context(|| format!("cannot render {}", scene_name.display()))?;
+    progress.finish_and_clear();
+
+    if !rendered.image.is_finite() {
+        bail!("the render produced a non-finite pixel; nothing written (this is a renderer bug)");
+    }
+    output::write(&rendered.image, &args.output)?;
+    match args.stats {
+        Some(StatsFormat::Json) => println!("{}", rendered.stats.to_json()),
+        Some(StatsFormat::Text) => print!("{}", rendered.stats.to_text()),
+        None => {}
+    }
+    Ok(())
+}

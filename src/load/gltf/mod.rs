@@ -1,0 +1,226 @@
+//! glTF 2.0 loader: `.gltf` (external or data-URI buffers) and `.glb`.
+//!
+//! The `gltf` crate parses the JSON and checks that references between objects resolve;
+//! everything it does not check is checked here, before any byte is read: buffer sizes,
+//! accessor and buffer-view ranges, component types, counts, index values, and the
+//! finiteness of positions and transforms. Errors name the file and the JSON path of the
+//! offending use, e.g. `meshes[2].primitives[0].attributes.POSITION (accessors[5])`.
+//!
+//! What is loaded:
+//! - the default scene (or scene 0, or every root node when the file has no scene), with
+//!   the full node hierarchy (matrix or TRS; normals by the inverse transpose; a mirroring
+//!   transform flips the winding); every node that instances a mesh gets its own triangles;
+//! - TRIANGLES, TRIANGLE_STRIP and TRIANGLE_FAN primitives, indexed or not (POINTS and
+//!   LINES are skipped with a warning); normals from NORMAL, UVs from the TEXCOORD set of
+//!   the material's base colour texture; degenerate triangles are dropped with a count;
+//! - cameras: the first camera node in traversal order, or the N-th with
+//!   [`LoadOptions::camera`]; without one, a camera framing the scene (with a warning);
+//! - KHR_lights_punctual point, spot and directional lights; without any light, the
+//!   documented default headlight ([`Light::default_for`], with a warning);
+//! - metallic-roughness materials with KHR_materials_transmission, KHR_materials_ior and
+//!   KHR_materials_emissive_strength, mapped as [`crate::scene`] documents.
+//!
+//! glTF has no ambient light or background colour: both are black.
+
+use std::collections::BTreeSet;
+use std::path::Path;
+
+use glam::DVec3;
+use gltf::Document;
+
+use super::{LoadError, LoadOptions, Loaded};
+use crate::scene::{Light, Scene};
+
+mod data;
+mod geometry;
+mod materials;
+mod view;
+
+/// Extensions the loader implements. Any other required extension is an error; any
+/// other used (optional) extension gets one warning.
+pub const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "KHR_lights_punctual",
+    "KHR_materials_transmission",
+    "KHR_materials_ior",
+    "KHR_materials_emissive_strength",
+];
+
+/// The file being loaded, for error messages.
+pub(crate) struct Ctx<'a> {
+    pub path: &'a Path,
+}
+
+impl Ctx<'_> {
+    /// An error at `location` (a JSON path) in the file.
+    pub fn err(&self, location: impl Into<String>, message: impl Into<String>) -> LoadError {
+        LoadError::Gltf { path: self.path.to_owned(), location: location.into(), message: message.into() }
+    }
+
+    fn invalid(&self, message: impl Into<String>) -> LoadError {
+        LoadError::Invalid { path: self.path.to_owned(), message: message.into() }
+    }
+}
+
+/// Parses the JSON (and GLB container), rejects unsupported required extensions, then
+/// runs the `gltf` crate's validation.
+fn parse(ctx: &Ctx, bytes: &[u8]) -> Result<gltf::Gltf, LoadError> {
+    if bytes.starts_with(b"glTF") {
+        // The gltf crate subtracts the header size from the declared length unchecked.
+        let declared = bytes.get(8..12).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize);
+        match declared {
+            Some(n) if (12..=bytes.len()).contains(&n) => {}
+            Some(n) => {
+                return Err(ctx.err(
+                    "GLB header",
+                    format!("declares {n} bytes, but the file has {} (truncated or corrupt)", bytes.len()),
+                ))
+            }
+            None => return Err(ctx.err("GLB header", "truncated: fewer than 12 bytes")),
+        }
+    }
+    let gltf::Gltf { document, blob } =
+        gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| match e {
+            gltf::Error::Deserialize(e) => ctx.err("JSON", format!("{e}")),
+            gltf::Error::Binary(e) => ctx.err("GLB", glb_message(&e)),
+            e => ctx.err("file", format!("{e}")),
+        })?;
+    for (i, ext) in document.extensions_required().enumerate() {
+        if !SUPPORTED_EXTENSIONS.contains(&ext) {
+            return Err(ctx.err(
+                format!("extensionsRequired[{i}]"),
+                format!(
+                    "the file requires extension {ext}, which this loader does not support (it supports {})",
+                    SUPPORTED_EXTENSIONS.join(", ")
+                ),
+            ));
+        }
+    }
+    let document = Document::from_json(document.into_json()).map_err(|e| match e {
+        gltf::Error::Validation(errors) => {
+            let (path, first) = &errors[0];
+            let more = match errors.len() {
+                1 => String::new(),
+                n => format!(" (and {} more problems)", n - 1),
+            };
+            ctx.err(path.to_string(), format!("{first}{more}"))
+        }
+        e => ctx.err("file", format!("{e}")),
+    })?;
+    Ok(gltf::Gltf { document, blob })
+}
+
+/// A GLB container error in words.
+fn glb_message(e: &gltf::binary::Error) -> String {
+    use gltf::binary::Error as E;
+    match e {
+        E::Io(e) => format!("truncated: {e}"),
+        E::Version(v) => format!("version {v} is not supported (expected 2)"),
+        E::Magic(m) => format!("bad magic {m:?}"),
+        E::Length { length, length_read } => {
+            format!("the header declares {length} bytes of chunks, but only {length_read} follow (truncated)")
+        }
+        E::ChunkLength { ty, length, length_read } => {
+            format!("the {ty:?} chunk declares {length} bytes, but only {length_read} follow (truncated)")
+        }
+        E::ChunkType(ty) => format!("unexpected {ty:?} chunk (the JSON chunk must come first, then BIN)"),
+        E::UnknownChunkType(t) => format!("unknown chunk type {:?}", String::from_utf8_lossy(t)),
+    }
+}
+
+/// The glTF materials (None: the default material) of the surface primitives the scene
+/// instances.
+fn used_materials(doc: &Document, hierarchy: &geometry::Hierarchy) -> BTreeSet<Option<usize>> {
+    use gltf::mesh::Mode;
+    let meshes: Vec<gltf::Mesh> = doc.meshes().collect();
+    let mut used = BTreeSet::new();
+    for placed in &hierarchy.meshes {
+        for prim in meshes[placed.item].primitives() {
+            let surface = matches!(prim.mode(), Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan);
+            if surface && prim.get(&gltf::Semantic::Positions).is_some() {
+                used.insert(prim.material().index());
+            }
+        }
+    }
+    used
+}
+
+/// Loads a .gltf or .glb file into a validated scene.
+pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, LoadError> {
+    let ctx = Ctx { path };
+    let bytes = std::fs::read(path).map_err(|source| LoadError::Io { path: path.to_owned(), source })?;
+    let gltf::Gltf { document: doc, blob } = parse(&ctx, &bytes)?;
+    drop(bytes);
+    let mut warnings = Vec::new();
+    for ext in doc.extensions_used() {
+        if !SUPPORTED_EXTENSIONS.contains(&ext) {
+            warnings.push(format!("extension {ext} is not supported; ignored"));
+        }
+    }
+
+    let buffers = data::Buffers::load(&ctx, &doc, blob)?;
+    let hierarchy = geometry::walk(&ctx, &doc)?;
+    let table = materials::build(&ctx, &doc, &buffers, &used_materials(&doc, &hierarchy), &mut warnings)?;
+    let reader = data::Reader { ctx: &ctx, buffers: &buffers };
+    let primitives = geometry::triangles(&reader, &doc, &hierarchy, &table, &mut warnings)?;
+    if primitives.is_empty() {
+        return Err(ctx.invalid(format!(
+            "the scene has no triangles to render ({} mesh nodes in it)",
+            hierarchy.meshes.len()
+        )));
+    }
+
+    let camera = match options.camera {
+        Some(n) => match hierarchy.cameras.get(n) {
+            Some(placed) => view::camera(&ctx, &doc, placed)?,
+            None => {
+                return Err(ctx.invalid(format!(
+                    "camera {n} was asked for, but the scene has {} camera nodes{}",
+                    hierarchy.cameras.len(),
+                    match hierarchy.cameras.len() {
+                        0 => String::new(),
+                        k => format!(" (valid: 0 to {})", k - 1),
+                    }
+                )))
+            }
+        },
+        None => match hierarchy.cameras.first() {
+            Some(placed) => view::camera(&ctx, &doc, placed)?,
+            None => {
+                let bounds = primitives.iter().fold(crate::scene::Aabb::EMPTY, |b, p| b.union(&p.bounds()));
+                let cam = view::framing_camera(&bounds).map_err(|e| ctx.invalid(e))?;
+                let d = view::AUTO_CAMERA_DIRECTION;
+                warnings.push(format!(
+                    "the scene has no camera: using a {}° perspective camera framing its bounds from direction ({}, {}, {})",
+                    view::AUTO_CAMERA_FOV_DEGREES,
+                    d.x,
+                    d.y,
+                    d.z
+                ));
+                cam
+            }
+        },
+    };
+
+    let mut lights = hierarchy
+        .lights
+        .iter()
+        .map(|placed| view::light(&ctx, &doc, placed))
+        .collect::<Result<Vec<_>, _>>()?;
+    if lights.is_empty() {
+        lights.push(Light::default_for(&camera));
+        warnings.push("the scene has no light: added the default white headlight at the camera".into());
+    }
+
+    let scene = Scene {
+        camera,
+        lights,
+        ambient: DVec3::ZERO,
+        background: DVec3::ZERO,
+        materials: table.materials,
+        textures: table.textures,
+        primitives,
+        resolution: None,
+    };
+    scene.validate().map_err(|e| ctx.invalid(format!("internal check failed: {e}")))?;
+    Ok(Loaded { scene, warnings })
+}

@@ -1,0 +1,211 @@
+//! Images and writing them: PNG for display, OpenEXR for linear radiance and auxiliary
+//! outputs (AOVs).
+//!
+//! - **PNG**: each channel is clamped to [0, 1] (exposure 1, no other tone curve) and
+//!   encoded with the sRGB transfer function, 8 bits per channel, RGB. The plain clamp
+//!   keeps NFF scenes, whose colours and light intensities are chosen for a [0, 1]
+//!   display range, comparable with their reference images.
+//! - **EXR**: linear f32 values as rendered: RGB for radiance, RGBA for AOVs (A = 1 where
+//!   the pixel's ray hit something, 0 where it missed; see [`Aov`] for the values).
+//!
+//! The format is chosen by the file extension (`.png`, `.exr`, any case);
+//! [`OutputFormat::from_path`] rejects anything else, so a command can check it before
+//! rendering. Files are written atomically: into a temporary file in the target's
+//! directory, which is renamed over the target only once complete, so a failed or
+//! interrupted write never leaves a half-written image.
+
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use image::{ImageBuffer, ImageFormat, Rgb, Rgba};
+
+/// An image of linear f32 values, row-major from the top-left pixel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    pub width: u32,
+    pub height: u32,
+    /// RGBA per pixel. Radiance images keep A = 1.
+    pub pixels: Vec<[f32; 4]>,
+    /// True for AOVs, whose alpha says hit (1) or miss (0) and is written to EXR.
+    pub has_alpha: bool,
+}
+
+impl Image {
+    pub fn new(width: u32, height: u32, has_alpha: bool) -> Image {
+        Image { width, height, pixels: vec![[0.0, 0.0, 0.0, 1.0]; (width * height) as usize], has_alpha }
+    }
+
+    pub fn get(&self, x: u32, y: u32) -> [f32; 4] {
+        self.pixels[(y * self.width + x) as usize]
+    }
+
+    /// True when every value is finite.
+    pub fn is_finite(&self) -> bool {
+        self.pixels.iter().all(|p| p.iter().all(|v| v.is_finite()))
+    }
+}
+
+/// Auxiliary outputs (`--aov`), taken from the eye ray through each pixel centre.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Aov {
+    /// Distance from the eye ray's origin to the first hit, in scene units, in R, G and B.
+    /// Miss: 0 (no hit is at distance 0).
+    Depth,
+    /// World-space unit shading normal at the first hit, turned to face the eye ray
+    /// (x, y, z in R, G, B). Miss: (0, 0, 0).
+    Normal,
+    /// Object id (index of the primitive in the scene) of the first hit, in R, G and B
+    /// (exact up to 2²⁴). Miss: −1.
+    Id,
+}
+
+/// The image file formats `-o` accepts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OutputFormat {
+    Png,
+    Exr,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    #[error("{}: unknown image format (expected a .png or .exr file name)", path.display())]
+    UnknownFormat { path: PathBuf },
+    #[error("{}: auxiliary outputs (--aov) hold linear values and need an .exr file", path.display())]
+    AovNeedsExr { path: PathBuf },
+    #[error("{}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{}: cannot encode the image: {source}", path.display())]
+    Encode {
+        path: PathBuf,
+        #[source]
+        source: image::ImageError,
+    },
+}
+
+impl OutputFormat {
+    /// The format named by `path`'s extension.
+    pub fn from_path(path: &Path) -> Result<OutputFormat, OutputError> {
+        let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
+        match ext.as_deref() {
+            Some("png") => Ok(OutputFormat::Png),
+            Some("exr") => Ok(OutputFormat::Exr),
+            _ => Err(OutputError::UnknownFormat { path: path.to_owned() }),
+        }
+    }
+}
+
+/// The sRGB transfer function (linear [0, 1] to encoded [0, 1]).
+pub fn linear_to_srgb(c: f64) -> f64 {
+    if c <= 0.0031308 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// The documented PNG mapping of one linear value: clamp to [0, 1], sRGB-encode, round.
+pub fn png_value(v: f32) -> u8 {
+    let c = if v.is_nan() { 0.0 } else { (v as f64).clamp(0.0, 1.0) };
+    (linear_to_srgb(c) * 255.0).round() as u8
+}
+
+/// The 8-bit sRGB image a PNG would hold.
+pub fn to_srgb8(img: &Image) -> ImageBuffer<Rgb<u8>, Vec<u8>> {
+    ImageBuffer::from_fn(img.width, img.height, |x, y| {
+        let p = img.get(x, y);
+        Rgb([png_value(p[0]), png_value(p[1]), png_value(p[2])])
+    })
+}
+
+/// Writes `img` to `path` in the format its extension names, atomically.
+pub fn write(img: &Image, path: &Path) -> Result<(), OutputError> {
+    let format = OutputFormat::from_path(path)?;
+    if img.has_alpha && format == OutputFormat::Png {
+        return Err(OutputError::AovNeedsExr { path: path.to_owned() });
+    }
+    write_atomically(path, |w| match format {
+        OutputFormat::Png => to_srgb8(img).write_to(w, ImageFormat::Png),
+        OutputFormat::Exr if img.has_alpha => {
+            let buf: ImageBuffer<Rgba<f32>, Vec<f32>> =
+                ImageBuffer::from_fn(img.width, img.height, |x, y| Rgba(img.get(x, y)));
+            buf.write_to(w, ImageFormat::OpenExr)
+        }
+        OutputFormat::Exr => {
+            let buf: ImageBuffer<Rgb<f32>, Vec<f32>> = ImageBuffer::from_fn(img.width, img.height, |x, y| {
+                let p = img.get(x, y);
+                Rgb([p[0], p[1], p[2]])
+            });
+            buf.write_to(w, ImageFormat::OpenExr)
+        }
+    })
+}
+
+/// Runs `encode` into a temporary file beside `path` and renames it to `path` on success.
+fn write_atomically(
+    path: &Path,
+    encode: impl FnOnce(&mut BufWriter<&std::fs::File>) -> Result<(), image::ImageError>,
+) -> Result<(), OutputError> {
+    let io = |source| OutputError::Io { path: path.to_owned(), source };
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let tmp = tempfile::Builder::new().prefix(".cuberay-").suffix(".tmp").tempfile_in(dir).map_err(io)?;
+    {
+        let mut w = BufWriter::new(tmp.as_file());
+        encode(&mut w).map_err(|source| OutputError::Encode { path: path.to_owned(), source })?;
+        w.flush().map_err(io)?;
+    }
+    tmp.as_file().sync_all().map_err(io)?;
+    // Dropping `tmp` on an error above removes the temporary file.
+    tmp.persist(path).map_err(|e| io(e.error))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn formats_by_extension() {
+        assert_eq!(OutputFormat::from_path(Path::new("a/b.PNG")).unwrap(), OutputFormat::Png);
+        assert_eq!(OutputFormat::from_path(Path::new("b.exr")).unwrap(), OutputFormat::Exr);
+        assert!(OutputFormat::from_path(Path::new("b.jpg")).is_err());
+        assert!(OutputFormat::from_path(Path::new("b")).is_err());
+    }
+
+    #[test]
+    fn png_mapping_clamps_and_encodes() {
+        assert_eq!(png_value(-1.0), 0);
+        assert_eq!(png_value(0.0), 0);
+        assert_eq!(png_value(1.0), 255);
+        assert_eq!(png_value(7.0), 255);
+        assert_eq!(png_value(0.5), 188);
+    }
+
+    #[test]
+    fn writes_png_and_exr_and_leaves_no_temporary_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut img = Image::new(3, 2, false);
+        img.pixels[4] = [0.25, 2.0, 0.0, 1.0];
+        let png = dir.path().join("x.png");
+        let exr = dir.path().join("x.exr");
+        write(&img, &png).unwrap();
+        write(&img, &exr).unwrap();
+        let back = image::open(&exr).unwrap().into_rgb32f();
+        assert_eq!(back.get_pixel(1, 1).0, [0.25, 2.0, 0.0]);
+        let back = image::open(&png).unwrap().into_rgb8();
+        assert_eq!(back.get_pixel(1, 1).0, [png_value(0.25), 255, 0]);
+        let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+        assert_eq!(names.len(), 2, "{names:?}");
+        // An AOV cannot go to a PNG, and nothing is written.
+        let aov = Image::new(1, 1, true);
+        let p = dir.path().join("aov.png");
+        assert!(write(&aov, &p).is_err());
+        assert!(!p.exists());
+    }
+}

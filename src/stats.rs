@@ -1,0 +1,275 @@
+//! Render statistics shared by every backend: rays by kind, primitive intersection tests,
+//! tests per ray, times, and the settings and effects of the render.
+//!
+//! Counting follows Haines' SPD procedure (`shared/scenes/README.md`, end):
+//! - `rays.eye`: primary rays traced (`--sampling corners`: (W+1)×(H+1));
+//!   `rays.eye_hit`: those that hit something;
+//! - `rays.reflect` / `rays.refract`: secondary rays traced (a reflection ray on every hit
+//!   of a reflective or transmitting surface, a refraction ray on every hit of a
+//!   transmitting one without total internal reflection, while the depth limit allows);
+//! - `rays.shadow`: shadow rays traced (none where the surface faces away from the light);
+//!   `rays.shadow_blocked`: those that found an occluder;
+//! - `tests.*`: primitive intersection tests (bounding volume tests are not counted), by
+//!   primitive type, over all rays; `tests_per_ray.K` = tests made by rays of kind K
+//!   divided by the number of rays of kind K.
+//!
+//! `--stats` prints [`Stats::to_text`], `--stats json` prints [`Stats::to_json`]: one JSON
+//! object with nested objects (`{"rays":{"eye":...},...}`). The GPU backend fills the same
+//! structure so that both backends print the same keys.
+
+use std::ops::AddAssign;
+
+use serde::Serialize;
+
+/// The kinds of rays a Whitted renderer traces.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum RayKind {
+    Eye,
+    Shadow,
+    Reflect,
+    Refract,
+}
+
+impl RayKind {
+    pub const ALL: [RayKind; 4] = [RayKind::Eye, RayKind::Shadow, RayKind::Reflect, RayKind::Refract];
+
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            RayKind::Eye => "eye",
+            RayKind::Shadow => "shadow",
+            RayKind::Reflect => "reflect",
+            RayKind::Refract => "refract",
+        }
+    }
+}
+
+/// Primitive intersection tests, by primitive type.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct TestCounts {
+    pub sphere: u64,
+    pub triangle: u64,
+    /// Cylinders and cones.
+    pub cylinder: u64,
+}
+
+impl TestCounts {
+    pub fn total(&self) -> u64 {
+        self.sphere + self.triangle + self.cylinder
+    }
+}
+
+impl AddAssign for TestCounts {
+    fn add_assign(&mut self, o: TestCounts) {
+        self.sphere += o.sphere;
+        self.triangle += o.triangle;
+        self.cylinder += o.cylinder;
+    }
+}
+
+/// Raw counters a tracer accumulates (per thread, then summed): rays by kind and the
+/// primitive tests made by the rays of each kind.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Counters {
+    /// Rays traced, indexed by [`RayKind::index`].
+    pub rays: [u64; 4],
+    /// Primitive tests made by rays of each kind, indexed by [`RayKind::index`].
+    pub tests: [TestCounts; 4],
+    pub eye_hit: u64,
+    pub shadow_blocked: u64,
+}
+
+impl Counters {
+    /// The test counter that rays of `kind` add to.
+    pub fn tests_mut(&mut self, kind: RayKind) -> &mut TestCounts {
+        &mut self.tests[kind.index()]
+    }
+
+    pub fn count_ray(&mut self, kind: RayKind) {
+        self.rays[kind.index()] += 1;
+    }
+}
+
+impl AddAssign for Counters {
+    fn add_assign(&mut self, o: Counters) {
+        for i in 0..4 {
+            self.rays[i] += o.rays[i];
+            self.tests[i] += o.tests[i];
+        }
+        self.eye_hit += o.eye_hit;
+        self.shadow_blocked += o.shadow_blocked;
+    }
+}
+
+/// Rays traced by kind.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct RayStats {
+    pub eye: u64,
+    pub eye_hit: u64,
+    pub reflect: u64,
+    pub refract: u64,
+    pub shadow: u64,
+    pub shadow_blocked: u64,
+    /// eye + reflect + refract + shadow.
+    pub total: u64,
+}
+
+/// Mean primitive intersection tests per ray, by kind (0 when no ray of that kind was traced).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct TestsPerRay {
+    pub eye: f64,
+    pub shadow: f64,
+    pub reflect: f64,
+    pub refract: f64,
+    /// All tests over all rays.
+    pub all: f64,
+}
+
+/// Wall-clock times in seconds.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Times {
+    /// Building the acceleration structure (BVH, candidate tables...), after loading.
+    pub preprocess_s: f64,
+    /// Tracing and shading every ray.
+    pub trace_s: f64,
+}
+
+/// The settings a render ran with.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Settings {
+    /// `cpu` or `gpu`.
+    pub backend: String,
+    /// The acceleration structure actually used (`brute`, `bvh`, `cube`).
+    pub accel: String,
+    /// `[width, height]` of the image.
+    pub size: [u32; 2],
+    /// Samples per pixel (`corners`: 1, each pixel averaging its four corner rays).
+    pub spp: u32,
+    /// `center`, `jitter` (spp > 1) or `corners`.
+    pub sampling: String,
+    pub seed: u64,
+    /// Maximum ray-tree depth, the eye ray being depth 1.
+    pub max_depth: u32,
+}
+
+/// Everything `--stats` reports.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Stats {
+    pub settings: Settings,
+    /// The effects simulated, from: shadows, reflection, refraction, textures, emission.
+    pub effects: Vec<&'static str>,
+    pub rays: RayStats,
+    pub tests: TestCounts,
+    pub tests_per_ray: TestsPerRay,
+    pub time: Times,
+}
+
+impl Stats {
+    /// Assembles the report from raw counters.
+    pub fn new(settings: Settings, effects: Vec<&'static str>, c: &Counters, time: Times) -> Stats {
+        let rays_of = |k: RayKind| c.rays[k.index()];
+        let per = |tests: u64, rays: u64| if rays == 0 { 0.0 } else { tests as f64 / rays as f64 };
+        let tpr = |k: RayKind| per(c.tests[k.index()].total(), rays_of(k));
+        let mut tests = TestCounts::default();
+        for t in c.tests {
+            tests += t;
+        }
+        let total_rays: u64 = c.rays.iter().sum();
+        Stats {
+            settings,
+            effects,
+            rays: RayStats {
+                eye: rays_of(RayKind::Eye),
+                eye_hit: c.eye_hit,
+                reflect: rays_of(RayKind::Reflect),
+                refract: rays_of(RayKind::Refract),
+                shadow: rays_of(RayKind::Shadow),
+                shadow_blocked: c.shadow_blocked,
+                total: total_rays,
+            },
+            tests,
+            tests_per_ray: TestsPerRay {
+                eye: tpr(RayKind::Eye),
+                shadow: tpr(RayKind::Shadow),
+                reflect: tpr(RayKind::Reflect),
+                refract: tpr(RayKind::Refract),
+                all: per(tests.total(), total_rays),
+            },
+            time,
+        }
+    }
+
+    /// One JSON object (nested objects per group), without a trailing newline.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string(self).expect("statistics always serialise")
+    }
+
+    /// A human-readable multi-line report.
+    pub fn to_text(&self) -> String {
+        let s = &self.settings;
+        let r = &self.rays;
+        let t = &self.tests;
+        let p = &self.tests_per_ray;
+        let effects = if self.effects.is_empty() { "none".to_string() } else { self.effects.join(", ") };
+        let mut o = String::new();
+        o += &format!(
+            "render:   {} backend, accel {}, {}x{}, sampling {}, {} spp, seed {}, max depth {}\n",
+            s.backend, s.accel, s.size[0], s.size[1], s.sampling, s.spp, s.seed, s.max_depth
+        );
+        o += &format!("effects:  {effects}\n");
+        o += &format!(
+            "rays:     {} in all: {} eye ({} hit), {} reflect, {} refract, {} shadow ({} blocked)\n",
+            r.total, r.eye, r.eye_hit, r.reflect, r.refract, r.shadow, r.shadow_blocked
+        );
+        o += &format!(
+            "tests:    {} in all: {} sphere, {} triangle, {} cylinder\n",
+            t.total(),
+            t.sphere,
+            t.triangle,
+            t.cylinder
+        );
+        o += &format!(
+            "per ray:  {:.3} eye, {:.3} shadow, {:.3} reflect, {:.3} refract, {:.3} overall\n",
+            p.eye, p.shadow, p.reflect, p.refract, p.all
+        );
+        o += &format!(
+            "time:     preprocess {:.3} s, trace {:.3} s\n",
+            self.time.preprocess_s, self.time.trace_s
+        );
+        o
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stats_add_up() {
+        let mut tests = [TestCounts::default(); 4];
+        tests[0] = TestCounts { sphere: 30, triangle: 10, cylinder: 0 };
+        tests[1] = TestCounts { sphere: 4, triangle: 0, cylinder: 4 };
+        let c = Counters { rays: [10, 4, 2, 0], tests, eye_hit: 7, shadow_blocked: 1 };
+        let s = Stats::new(Settings::default(), vec!["shadows"], &c, Times::default());
+        assert_eq!(s.rays.total, 16);
+        assert_eq!(s.tests.total(), 48);
+        assert_eq!(s.tests_per_ray.eye, 4.0);
+        assert_eq!(s.tests_per_ray.shadow, 2.0);
+        assert_eq!(s.tests_per_ray.refract, 0.0);
+        let v: serde_json::Value = serde_json::from_str(&s.to_json()).unwrap();
+        for key in ["eye", "eye_hit", "reflect", "refract", "shadow", "shadow_blocked"] {
+            assert!(v["rays"][key].is_u64(), "rays.{key} missing");
+        }
+        for key in ["sphere", "triangle", "cylinder"] {
+            assert!(v["tests"][key].is_u64(), "tests.{key} missing");
+        }
+        for key in ["eye", "shadow", "reflect", "refract"] {
+            assert!(v["tests_per_ray"][key].is_number(), "tests_per_ray.{key} missing");
+        }
+        assert!(v["time"]["preprocess_s"].is_number() && v["time"]["trace_s"].is_number());
+        assert_eq!(v["rays"]["eye"], 10);
+    }
+}
