@@ -123,6 +123,7 @@ fn kind_mut(r: &mut BenchResult, kind: Kind) -> &mut KindCount {
 }
 
 impl Tracer<'_> {
+    #[allow(clippy::too_many_arguments)]
     fn nearest(
         &self,
         r: &mut BenchResult,
@@ -170,6 +171,7 @@ impl Tracer<'_> {
         hit
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn any(
         &self,
         r: &mut BenchResult,
@@ -243,6 +245,7 @@ impl Tracer<'_> {
         }
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn trace(
         &self,
         r: &mut BenchResult,

@@ -285,9 +285,9 @@ impl Cells {
     fn new(def: &OriginDef, ctx: &Ctx) -> Cells {
         let mut base = [0; 6];
         let mut total = 0;
-        for f in 0..6 {
-            base[f] = total;
-            if let Some(w) = def.window[f] {
+        for (b, w) in base.iter_mut().zip(&def.window) {
+            *b = total;
+            if let Some(w) = w {
                 total += (w[2] * w[3]) as usize;
             }
         }
@@ -419,8 +419,11 @@ pub fn store_dmin(x: f64, eps: f64) -> f32 {
     }
 }
 
-/// Surface cubes finer than N = 8 are tried only while all surface origins together have
-/// at most this many cells.
+/// Budget estimates tried before falling back to the coarsest surface tables.
+const TRIALS: usize = 5;
+
+/// Surface cubes finer than N = 8 are tried only for clusters of at most 4 primitives and
+/// while all surface origins together have at most this many cells.
 const SURFACE_CELLS: usize = 1 << 20;
 
 /// Light-origin targets whose bound is wider than this go to the always-test list.
@@ -1002,7 +1005,8 @@ pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables, BuildError> 
                     // Finer cubes first, but never more than `SURFACE_CELLS` cells in all.
                     let origins = surface_ids.len().div_ceil(kk);
                     for nn in [64u32, 32, 16, 8, 6, 4, 3, 2] {
-                        let allowed = nn <= 8 || origins * 6 * (nn * nn) as usize <= SURFACE_CELLS;
+                        let allowed =
+                            nn <= 8 || (kk <= 4 && origins * 6 * (nn * nn) as usize <= SURFACE_CELLS);
                         if allowed && n.is_none_or(|n| n == nn) {
                             v.push((kk, nn));
                         }
@@ -1018,10 +1022,11 @@ pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables, BuildError> 
         let mut ci = candidates.len() - 1;
         // A sample that was the whole set, kept to avoid building it twice.
         let mut sampled: Option<(usize, Vec<OriginTable>)> = None;
-        for (i, &(k, n)) in candidates.iter().enumerate().take(candidates.len() - 1) {
+        // At most `TRIALS` estimates (each builds a sample), then the coarsest candidate.
+        for (i, &(k, n)) in candidates.iter().enumerate().take(candidates.len() - 1).take(TRIALS) {
             // Estimate from a sample of origins spread over the scene.
             let ds = surface_defs(&surface_ids, k, n, &ctx);
-            let step = (ds.len() / 24).max(1);
+            let step = (ds.len() / 8).max(1);
             let sample: Vec<&OriginDef> = ds.iter().step_by(step).collect();
             let built: Vec<OriginTable> = sample.par_iter().map(|d| build_origin(d, &ctx)).collect();
             let bytes: usize = built.iter().map(table_bytes).sum();

@@ -14,6 +14,9 @@
 //! inflated by the largest ray-spawn offset; angles are widened by `delta` so that a direction
 //! the GPU's f32 lookup puts in a neighbouring cell (or face) is still accounted for.
 
+// `!(a > b)` is deliberate: a NaN must fail these tests, not pass them.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use glam::DVec3;
 
 /// A unit vector along axis `ax` of face `face`, and the two in-face axes, as world vectors:
