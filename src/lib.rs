@@ -13,6 +13,7 @@
 //! - [`info`]: the summary `cuberay info` prints.
 
 pub mod coherence;
+pub mod compare;
 pub mod gpu;
 pub mod info;
 pub mod load;

@@ -118,7 +118,7 @@ fn settings(opts: &RenderOptions, accel: &str) -> stats::Settings {
 }
 
 /// The effects a render with `max_depth` simulates.
-fn simulated_effects(scene: &Scene, max_depth: u32) -> Vec<&'static str> {
+pub fn simulated_effects(scene: &Scene, max_depth: u32) -> Vec<&'static str> {
     let mut e = scene.effects();
     if max_depth < 2 {
         e.reflection = false;
@@ -209,7 +209,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions, progress: &ProgressBar) -> Re
         settings(opts, accel.name()),
         simulated_effects(scene, opts.max_depth),
         &counters,
-        stats::Times { preprocess_s, trace_s },
+        stats::Times { preprocess_s, trace_s, gpu_s: None },
     );
     Ok(Rendered { image, stats })
 }
@@ -265,6 +265,6 @@ pub fn render_aov(
     set.sampling = "center".into();
     set.spp = 1;
     set.max_depth = 1;
-    let stats = Stats::new(set, Vec::new(), &counters, stats::Times { preprocess_s, trace_s });
+    let stats = Stats::new(set, Vec::new(), &counters, stats::Times { preprocess_s, trace_s, gpu_s: None });
     Ok(Rendered { image, stats })
 }
