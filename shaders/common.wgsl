@@ -85,6 +85,32 @@ struct TextureInfo {
     flags: u32,
 }
 
+// A ray waiting in a grid point's ray tree, with the weight its radiance counts with.
+struct Pending {
+    o: vec3<f32>,
+    kind: u32,
+    d: vec3<f32>,
+    depth: u32,
+    weight: vec3<f32>,
+    // The primitive the ray leaves (the eye: 0xffffffff).
+    from_prim: u32,
+}
+
+// Deep enough for the largest --max-depth the GPU backend accepts (checked on the CPU).
+const STACK_SIZE: u32 = 16u;
+
+// One grid point's progress between kernel steps: radiance so far, pending rays, and
+// how many of its samples have been started.
+struct PointState {
+    color: vec3<f32>,
+    sp: u32,
+    sample: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
+    stack: array<Pending, STACK_SIZE>,
+}
+
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> prims: array<Prim>;
 @group(0) @binding(2) var<storage, read> materials: array<Material>;
@@ -94,6 +120,9 @@ struct TextureInfo {
 @group(0) @binding(6) var<storage, read> texels: array<u32>;
 @group(0) @binding(7) var<storage, read_write> out_color: array<vec4<f32>>;
 @group(0) @binding(8) var<storage, read_write> counters: array<atomic<u32>>;
+@group(0) @binding(9) var<storage, read_write> states: array<PointState>;
+// [0]: grid points with work left after a step.
+@group(0) @binding(10) var<storage, read_write> points_left: array<atomic<u32>>;
 
 const KIND_SPHERE: u32 = 0u;
 const KIND_TRIANGLE: u32 = 1u;

@@ -55,6 +55,39 @@ fn base_color(m: Material, s: Surface) -> vec3<f32> {
     return m.color;
 }
 
+// What light `light` adds at a hit (zero when it faces away, is blocked or too far).
+fn light_contribution(light: Light, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>, diffuse: vec3<f32>) -> vec3<f32> {
+    let inc = incidence(light, s.p);
+    if !inc.ok {
+        return vec3<f32>(0.0);
+    }
+    let n_dot_l = dot(n, inc.dir);
+    if n_dot_l <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+#if SHADOWS
+    let o = spawn_origin(s, inc.dir);
+    var t_max = FAR;
+    if inc.positional {
+        t_max = length(light.position - o) * (1.0 - SHADOW_END_REL);
+    }
+    count(RAY_SHADOW);
+    if occluded(make_ray(o, inc.dir), t_max) {
+        count(C_SHADOW_BLOCKED);
+        return vec3<f32>(0.0);
+    }
+#endif
+    var local = diffuse * n_dot_l;
+    if m.ks > 0.0 {
+        let r = n * (2.0 * n_dot_l) - inc.dir;
+        let r_dot_v = dot(r, v);
+        if r_dot_v > 0.0 {
+            local += vec3<f32>(m.ks * pow(r_dot_v, m.shine));
+        }
+    }
+    return inc.radiance * local;
+}
+
 // Local illumination at a hit: emission, ambient and the lights (with shadow rays).
 fn shade_local(m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>) -> vec3<f32> {
     let diffuse = base_color(m, s) * m.kd;
@@ -63,36 +96,7 @@ fn shade_local(m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>) -> vec3<f32>
     l += m.emission;
 #endif
     for (var i = 0u; i < params.light_count; i++) {
-        let light = lights[i];
-        let inc = incidence(light, s.p);
-        if !inc.ok {
-            continue;
-        }
-        let n_dot_l = dot(n, inc.dir);
-        if n_dot_l <= 0.0 {
-            continue;
-        }
-#if SHADOWS
-        let o = spawn_origin(s, inc.dir);
-        var t_max = FAR;
-        if inc.positional {
-            t_max = length(light.position - o) * (1.0 - SHADOW_END_REL);
-        }
-        count(RAY_SHADOW);
-        if occluded(make_ray(o, inc.dir), t_max) {
-            count(C_SHADOW_BLOCKED);
-            continue;
-        }
-#endif
-        var local = diffuse * n_dot_l;
-        if m.ks > 0.0 {
-            let r = n * (2.0 * n_dot_l) - inc.dir;
-            let r_dot_v = dot(r, v);
-            if r_dot_v > 0.0 {
-                local += vec3<f32>(m.ks * pow(r_dot_v, m.shine));
-            }
-        }
-        l += inc.radiance * local;
+        l += light_contribution(lights[i], m, s, n, v, diffuse);
     }
     return l;
 }
@@ -131,75 +135,61 @@ fn refract_dir(d: vec3<f32>, n: vec3<f32>, ng: vec3<f32>, entering: bool, ior: f
 }
 #endif
 
-struct Pending {
-    o: vec3<f32>,
-    kind: u32,
-    d: vec3<f32>,
-    depth: u32,
-    weight: vec3<f32>,
-    // The primitive the ray leaves (the eye: none).
-    from_prim: u32,
-}
+// The ray-tree walk of the current grid point, one node per call: `state` (loaded from
+// and stored back to `states` by the kernel) holds the pending rays and the radiance so
+// far. Each kernel invocation handles one node so that no invocation runs long loops
+// (lavapipe stops every loop of an invocation after 65535 iterations in all).
+var<private> state: PointState;
 
-// Deep enough for the largest --max-depth the GPU backend accepts (checked on the CPU).
-const STACK_SIZE: u32 = 16u;
-
-// Radiance along the eye ray `eye` and its whole ray tree.
-fn trace_tree(eye: Ray) -> vec3<f32> {
-    var stack: array<Pending, STACK_SIZE>;
-    stack[0] = Pending(eye.o, RAY_EYE, eye.d, 1u, vec3<f32>(1.0), 0xffffffffu);
-    var sp = 1u;
-    var color = vec3<f32>(0.0);
-    while sp > 0u {
-        sp -= 1u;
-        let job = stack[sp];
-        let ray = make_ray(job.o, job.d);
-        count(job.kind);
-        let h = closest(ray, FAR, job.kind);
-        if !h.found {
-            color += job.weight * params.background;
-            continue;
-        }
-        if job.kind == RAY_EYE {
-            count(C_EYE_HIT);
-        }
-        let prim = prims[h.prim];
-        let m = materials[prim.material];
-        let s = surface(prim, ray, h.hit);
-        let d = ray.d;
-        let entering = dot(d, s.ng) < 0.0;
-        let ng = select(-s.ng, s.ng, entering);
-        let n = select(-s.ns, s.ns, entering);
-        color += job.weight * shade_local(m, s, n, -d);
-#if REFLECTION
-        if job.depth < params.max_depth {
-            let transmits = m.transmittance > 0.0;
-            var weight = m.mirror;
-#if REFRACTION
-            var refracted = Refracted(false, vec3<f32>(0.0));
-            if transmits {
-                refracted = refract_dir(d, n, ng, entering, m.ior);
-                if !refracted.ok {
-                    // Total internal reflection: what would have been transmitted is reflected.
-                    weight += vec3<f32>(m.transmittance);
-                }
-            }
-            if refracted.ok {
-                stack[sp] = Pending(spawn_origin(s, refracted.dir), RAY_REFRACT, refracted.dir, job.depth + 1u,
-                    job.weight * m.transmittance, h.prim);
-                sp += 1u;
-            }
-#endif
-            if max3(m.mirror) > 0.0 || transmits {
-                var r = reflect_dir(d, n);
-                if dot(r, ng) <= 0.0 {
-                    r = reflect_dir(d, ng);
-                }
-                stack[sp] = Pending(spawn_origin(s, r), RAY_REFLECT, r, job.depth + 1u, job.weight * weight, h.prim);
-                sp += 1u;
-            }
-        }
-#endif
+// Traces the ray on top of the stack and pushes the rays its hit spawns.
+fn trace_step() {
+    state.sp -= 1u;
+    let job = state.stack[state.sp];
+    let ray = make_ray(job.o, job.d);
+    count(job.kind);
+    let h = closest(ray, FAR, job.kind);
+    if !h.found {
+        state.color += job.weight * params.background;
+        return;
     }
-    return color;
+    if job.kind == RAY_EYE {
+        count(C_EYE_HIT);
+    }
+    let prim = prims[h.prim];
+    let m = materials[prim.material];
+    let s = surface(prim, ray, h.hit);
+    let d = ray.d;
+    let entering = dot(d, s.ng) < 0.0;
+    let ng = select(-s.ng, s.ng, entering);
+    let n = select(-s.ns, s.ns, entering);
+    state.color += job.weight * shade_local(m, s, n, -d);
+#if REFLECTION
+    if job.depth < params.max_depth {
+        let transmits = m.transmittance > 0.0;
+        var weight = m.mirror;
+#if REFRACTION
+        var refracted = Refracted(false, vec3<f32>(0.0));
+        if transmits {
+            refracted = refract_dir(d, n, ng, entering, m.ior);
+            if !refracted.ok {
+                // Total internal reflection: what would have been transmitted is reflected.
+                weight += vec3<f32>(m.transmittance);
+            }
+        }
+        if refracted.ok {
+            state.stack[state.sp] = Pending(spawn_origin(s, refracted.dir), RAY_REFRACT, refracted.dir, job.depth + 1u,
+                job.weight * m.transmittance, h.prim);
+            state.sp += 1u;
+        }
+#endif
+        if max3(m.mirror) > 0.0 || transmits {
+            var r = reflect_dir(d, n);
+            if dot(r, ng) <= 0.0 {
+                r = reflect_dir(d, ng);
+            }
+            state.stack[state.sp] = Pending(spawn_origin(s, r), RAY_REFLECT, r, job.depth + 1u, job.weight * weight, h.prim);
+            state.sp += 1u;
+        }
+    }
+#endif
 }

@@ -1,6 +1,7 @@
-// Entry points: `render` traces the ray trees of one tile of grid points (pixels, or
-// pixel corners with SPD sampling) and writes each point's summed radiance; `aov` traces
-// the eye ray through each pixel centre and writes depth, normal or object id.
+// Entry points: `render` advances the ray trees of one tile of grid points (pixels, or
+// pixel corners with SPD sampling) by one ray each and writes each point's radiance so
+// far; `aov` traces the eye ray through each pixel centre and writes depth, normal or
+// object id.
 #include "common.wgsl"
 #include "geometry.wgsl"
 #include "brute.wgsl"
@@ -12,18 +13,31 @@
 
 const WORKGROUP: u32 = 64u;
 
+// One step of every grid point of the tile: start the next sample when the point's tree
+// is done, trace one pending ray, and write the radiance summed so far. The host repeats
+// steps until no point has work left (`points_left[0]` stays 0).
 @compute @workgroup_size(64)
 fn render(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let k = gid.x;
     if k < params.point_count {
         let point = params.first_point + k;
-        let i = point % params.grid_w;
-        let j = point / params.grid_w;
-        var sum = vec3<f32>(0.0);
-        for (var s = 0u; s < params.spp; s++) {
-            sum += trace_tree(camera_ray(sample_position(i, j, s)));
+        state = states[k];
+        if state.sp == 0u && state.sample < params.spp {
+            let i = point % params.grid_w;
+            let j = point / params.grid_w;
+            let eye = camera_ray(sample_position(i, j, state.sample));
+            state.stack[0] = Pending(eye.o, RAY_EYE, eye.d, 1u, vec3<f32>(1.0), 0xffffffffu);
+            state.sp = 1u;
+            state.sample += 1u;
         }
-        out_color[k] = vec4<f32>(sum, 1.0);
+        if state.sp > 0u {
+            trace_step();
+        }
+        if state.sp > 0u || state.sample < params.spp {
+            atomicAdd(&points_left[0], 1u);
+        }
+        states[k] = state;
+        out_color[k] = vec4<f32>(state.color, 1.0);
     }
     flush_counters(lid);
 }

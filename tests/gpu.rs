@@ -162,11 +162,12 @@ fn aovs_match_the_cpu() {
     assert_eq!(g.stats.rays.eye, 64 * 48);
 }
 
-/// SPD size-1 databases, 64×64, the SPD depth 5. gears_s1 is tested on its own below.
+/// SPD size-1 databases, 64×64, the SPD depth 5.
 #[test]
 fn spd_size_1_scenes_agree_with_the_cpu() {
     for name in [
         "balls_s1",
+        "gears_s1",
         "jacks_s1",
         "lattice_s1",
         "mount_s1",
@@ -179,4 +180,18 @@ fn spd_size_1_scenes_agree_with_the_cpu() {
     ] {
         agree(name, &spd(name), &RenderOptions::new(64, 64), 0.01);
     }
+}
+
+/// lavapipe stops an invocation's loops after 65535 iterations in all; a scene that could
+/// need more per ray is refused there instead of rendering a wrong image.
+#[test]
+fn brute_force_beyond_lavapipes_loop_limit_is_an_error_not_a_wrong_image() {
+    let r = renderer();
+    if !r.ctx.info.name.to_lowercase().contains("llvmpipe") {
+        eprintln!("adapter {} has no loop limit: nothing to check", r.ctx.info.name);
+        return;
+    }
+    let scene = spd("gears_s4");
+    let e = r.render(&scene, &RenderOptions::new(4, 4), &hidden()).err().expect("refused");
+    assert!(e.to_string().contains("loop iterations"), "{e}");
 }

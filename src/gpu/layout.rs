@@ -111,6 +111,35 @@ pub struct TextureInfo {
     pub flags: u32,
 }
 
+/// A pending ray of a grid point's ray tree (WGSL `Pending`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct Pending {
+    pub o: [f32; 3],
+    pub kind: u32,
+    pub d: [f32; 3],
+    pub depth: u32,
+    pub weight: [f32; 3],
+    pub from_prim: u32,
+}
+
+/// Pending rays per grid point (`STACK_SIZE` in common.wgsl).
+pub const STACK_SIZE: usize = 16;
+
+/// A grid point's progress between kernel steps (WGSL `PointState`); all zero at the
+/// start.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct PointState {
+    pub color: [f32; 3],
+    pub sp: u32,
+    pub sample: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
+    pub stack: [Pending; STACK_SIZE],
+}
+
 /// A twin's name, size and members (name, offset), for the layout test.
 pub struct Twin {
     pub name: &'static str,
@@ -171,6 +200,8 @@ pub fn twins() -> Vec<Twin> {
             pad1
         }),
         twin!(TextureInfo { offset, width, height, flags }),
+        twin!(Pending { o, kind, d, depth, weight, from_prim }),
+        twin!(PointState { color, sp, sample, pad0, pad1, pad2, stack }),
     ]
 }
 

@@ -1,10 +1,15 @@
 //! The GPU renderer: uploads a packed scene, runs the composed kernels tile by tile and
 //! reads back the image, the ray and test counters and the kernel times.
 //!
-//! Rays move in one loop per eye sample: each invocation walks its whole ray tree with an
-//! explicit stack of pending secondary rays (`shaders/shade.wgsl`). Work is split into
-//! dispatches of a bounded number of grid points (so that real GPUs' watchdogs are not
-//! hit), each submitted and waited for in turn, which also drives the progress bar.
+//! Each grid point (pixel, or pixel corner with SPD sampling) keeps its ray tree as a
+//! stack of pending rays in a storage buffer; one dispatch traces one ray of every point
+//! of a tile (`render` in `shaders/trace.wgsl`), and the host repeats dispatches until no
+//! point has work left. A single invocation looping over its whole ray tree was the first
+//! design, but lavapipe ends all loops of an invocation after 65535 iterations in total
+//! (a safety limit in Mesa's gallivm), which silently cut ray trees short on scenes of a
+//! few hundred primitives. Work is split into tiles of a bounded number of points (short
+//! dispatches for real GPUs' watchdogs, bounded state memory), which also drive the
+//! progress bar.
 
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -15,7 +20,7 @@ use glam::DVec3;
 use indicatif::ProgressBar;
 use wgpu::util::DeviceExt;
 
-use super::layout::{self, Packed, Params};
+use super::layout::{self, Packed, Params, PointState};
 use super::shader::{self, Variant};
 use super::{GpuContext, GpuError};
 use crate::output::{Aov, Image};
@@ -31,6 +36,12 @@ const WORKGROUP: u32 = 64;
 
 /// Rough budget of primitive tests per eye sample and dispatch, which sets the tile size.
 const TESTS_PER_DISPATCH: u64 = 1 << 24;
+
+/// The most grid points per dispatch: bounds the point states' memory (800 bytes each).
+const MAX_TILE: u64 = 1 << 16;
+
+/// Mesa's llvmpipe limit on the loop iterations of one invocation (all loops together).
+const LAVAPIPE_LOOP_LIMIT: u64 = 65535;
 
 /// Counter slots in the kernels (`COUNTER_COUNT` in common.wgsl), each 64-bit.
 const COUNTER_SLOTS: usize = 18;
@@ -95,8 +106,7 @@ impl GpuRenderer {
             count: None,
         }];
         entries.extend((1..=6).map(|b| storage_entry(b, true)));
-        entries.push(storage_entry(7, false));
-        entries.push(storage_entry(8, false));
+        entries.extend((7..=10).map(|b| storage_entry(b, false)));
         let bind_layout = ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cuberay scene"),
             entries: &entries,
@@ -176,8 +186,7 @@ impl GpuRenderer {
         };
         let preprocess_s = start.elapsed().as_secs_f64();
         let start = Instant::now();
-        let work = scene.primitives.len() as u64 * opts.spp as u64;
-        let run = self.run(&kernels.render, &packed, gw, gh, work, progress)?;
+        let run = self.run(&kernels.render, true, scene, &packed, gw, gh, progress)?;
         let trace_s = start.elapsed().as_secs_f64();
 
         let mut image = Image::new(w, h, false);
@@ -235,7 +244,7 @@ impl GpuRenderer {
         };
         let preprocess_s = start.elapsed().as_secs_f64();
         let start = Instant::now();
-        let run = self.run(&kernels.aov, &packed, w, h, scene.primitives.len() as u64, progress)?;
+        let run = self.run(&kernels.aov, false, scene, &packed, w, h, progress)?;
         let trace_s = start.elapsed().as_secs_f64();
         let mut image = Image::new(w, h, true);
         image.pixels = run.values;
@@ -252,21 +261,27 @@ impl GpuRenderer {
         Ok(Rendered { image, stats })
     }
 
-    /// Runs `pipeline` over a `gw`×`gh` grid of points in tiles; `work` estimates the
-    /// primitive tests per point.
+    /// Runs `pipeline` over a `gw`×`gh` grid of points in tiles. A `stepped` kernel
+    /// (`render`) advances each point by one ray per dispatch and is repeated until no
+    /// point has work left; the `aov` kernel runs once per tile.
+    #[allow(clippy::too_many_arguments)]
     fn run(
         &self,
         pipeline: &wgpu::ComputePipeline,
+        stepped: bool,
+        scene: &Scene,
         packed: &Packed,
         gw: u32,
         gh: u32,
-        work: u64,
         progress: &ProgressBar,
     ) -> Result<RunOutput, GpuRenderError> {
+        self.check_loop_budget(scene)?;
         let device = &self.ctx.device;
         let queue = &self.ctx.queue;
         let total = gw as u64 * gh as u64;
-        let tile = (TESTS_PER_DISPATCH / work.max(1)).clamp(256, 1 << 18);
+        // Primitive tests of one step of one point: the nearest hit and a shadow ray per light.
+        let work = scene.primitives.len() as u64 * (1 + scene.lights.len() as u64);
+        let tile = (TESTS_PER_DISPATCH / work.max(1)).clamp(256, MAX_TILE);
         let tile = tile.div_ceil(WORKGROUP as u64) * WORKGROUP as u64;
         let tiles = total.div_ceil(tile);
 
@@ -302,6 +317,25 @@ impl GpuRenderer {
             label: Some("counters"),
             contents: &[0u8; COUNTER_SLOTS * 8],
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        });
+        let state_bytes = std::mem::size_of::<PointState>() as u64;
+        let states = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("point states"),
+            size: if stepped { tile * state_bytes } else { state_bytes },
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let active = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("active"),
+            size: 4,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let active_read = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("active readback"),
+            size: 4,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
         });
         let readback = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("readback"),
@@ -342,6 +376,8 @@ impl GpuRenderer {
                 (6, &texels),
                 (7, &out),
                 (8, &counters),
+                (9, &states),
+                (10, &active),
             ]
             .map(|(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }),
         });
@@ -355,34 +391,51 @@ impl GpuRenderer {
             let count = tile.min(total - first) as u32;
             let p = Params { first_point: first as u32, point_count: count, ..packed.params };
             queue.write_buffer(&params, 0, bytemuck::bytes_of(&p));
-            let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-            {
-                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("trace"),
-                    timestamp_writes: timing.as_ref().map(|(set, _, _)| wgpu::ComputePassTimestampWrites {
-                        query_set: set,
-                        beginning_of_pass_write_index: Some(0),
-                        end_of_pass_write_index: Some(1),
-                    }),
-                });
-                pass.set_pipeline(pipeline);
-                pass.set_bind_group(0, &bind, &[]);
-                pass.dispatch_workgroups(count.div_ceil(WORKGROUP), 1, 1);
-            }
             let bytes = count as u64 * 16;
-            enc.copy_buffer_to_buffer(&out, 0, &readback, 0, bytes);
-            if let Some((set, resolve, read)) = &timing {
-                enc.resolve_query_set(set, 0..2, resolve, 0);
-                enc.copy_buffer_to_buffer(resolve, 0, read, 0, 16);
+            let mut first_step = true;
+            loop {
+                let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+                if stepped && first_step {
+                    enc.clear_buffer(&states, 0, Some(count as u64 * state_bytes));
+                }
+                first_step = false;
+                enc.clear_buffer(&active, 0, None);
+                {
+                    let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some("trace"),
+                        timestamp_writes: timing.as_ref().map(|(set, _, _)| {
+                            wgpu::ComputePassTimestampWrites {
+                                query_set: set,
+                                beginning_of_pass_write_index: Some(0),
+                                end_of_pass_write_index: Some(1),
+                            }
+                        }),
+                    });
+                    pass.set_pipeline(pipeline);
+                    pass.set_bind_group(0, &bind, &[]);
+                    pass.dispatch_workgroups(count.div_ceil(WORKGROUP), 1, 1);
+                }
+                enc.copy_buffer_to_buffer(&active, 0, &active_read, 0, 4);
+                if let Some((set, resolve, read)) = &timing {
+                    enc.resolve_query_set(set, 0..2, resolve, 0);
+                    enc.copy_buffer_to_buffer(resolve, 0, read, 0, 16);
+                }
+                queue.submit([enc.finish()]);
+                let left = u32::from_le_bytes(self.read(&active_read, 4)?.try_into().expect("4 bytes"));
+                if let Some((_, _, read)) = &timing {
+                    let ts = self.read(read, 16)?;
+                    let ts: &[u64] = bytemuck::cast_slice(&ts);
+                    gpu_s += ts[1].saturating_sub(ts[0]) as f64 * period_s;
+                }
+                if !stepped || left == 0 {
+                    break;
+                }
             }
+            let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+            enc.copy_buffer_to_buffer(&out, 0, &readback, 0, bytes);
             queue.submit([enc.finish()]);
             let data = self.read(&readback, bytes)?;
             values.extend(bytemuck::cast_slice::<u8, [f32; 4]>(&data).iter().copied());
-            if let Some((_, _, read)) = &timing {
-                let ts = self.read(read, 16)?;
-                let ts: &[u64] = bytemuck::cast_slice(&ts);
-                gpu_s += ts[1].saturating_sub(ts[0]) as f64 * period_s;
-            }
             progress.inc(1);
         }
 
@@ -408,6 +461,28 @@ impl GpuRenderer {
         c.eye_hit = slot(16);
         c.shadow_blocked = slot(17);
         Ok(RunOutput { values, counters: c, gpu_s: timing.is_some().then_some(gpu_s) })
+    }
+
+    /// lavapipe (Mesa's llvmpipe) ends every loop of an invocation once all of its loops
+    /// have run 65535 iterations in total. One step traces one ray and its shadow rays by
+    /// brute force; when that could exceed the limit the result would be silently wrong,
+    /// so it is an error instead.
+    fn check_loop_budget(&self, scene: &Scene) -> Result<(), GpuRenderError> {
+        if !self.ctx.info.name.to_lowercase().contains("llvmpipe") {
+            return Ok(());
+        }
+        let c = scene.counts();
+        let per_ray = (c.spheres + c.triangles + 3 * c.cylinders) as u64;
+        let lights = scene.lights.len() as u64;
+        let worst = per_ray * (1 + lights) + lights + COUNTER_SLOTS as u64 + 16;
+        if worst > LAVAPIPE_LOOP_LIMIT {
+            return Err(GpuRenderError::Options(format!(
+                "brute force over {} primitives and {lights} lights needs up to {worst} loop iterations per \
+                 ray on lavapipe, which stops at {LAVAPIPE_LOOP_LIMIT}; render this scene with --backend cpu",
+                scene.primitives.len()
+            )));
+        }
+        Ok(())
     }
 
     /// Waits for the queue and copies the first `bytes` of mappable `buffer`.
