@@ -195,3 +195,22 @@ fn brute_force_beyond_lavapipes_loop_limit_is_an_error_not_a_wrong_image() {
     let e = r.render(&scene, &RenderOptions::new(4, 4), &hidden()).err().expect("refused");
     assert!(e.to_string().contains("loop iterations"), "{e}");
 }
+
+/// glTF sample models: textures, emission, punctual lights, transmission, smooth normals.
+#[test]
+fn gltf_models_agree_with_the_cpu() {
+    for (file, effect) in [
+        ("Box/Box.gltf", "shadows"),
+        ("BoxTextured/BoxTextured.gltf", "textures"),
+        ("CornellBox/CornellBox.glb", "emission"),
+        ("LightsPunctualLamp/LightsPunctualLamp.gltf", "refraction"),
+        ("Cameras/Cameras.gltf", "shadows"),
+        ("Suzanne/Suzanne.gltf", "shadows"),
+    ] {
+        let path = common::shared(&format!("gltf/{file}"));
+        let scene = load::load(&path, &Default::default()).unwrap_or_else(|e| panic!("{file}: {e}")).scene;
+        let (g, _) = agree(file, &scene, &RenderOptions::new(48, 48), 0.01);
+        assert!(g.stats.effects.contains(&effect), "{file}: {:?}", g.stats.effects);
+        assert!(g.stats.rays.eye_hit > 0, "{file}: nothing hit");
+    }
+}
