@@ -590,7 +590,7 @@ fn render_command_writes_images_and_statistics() {
         .arg(&scene)
         .arg("-o")
         .arg(&png)
-        .args(["--sampling", "corners", "--stats", "json"])
+        .args(["--backend", "cpu", "--sampling", "corners", "--stats", "json"])
         .output()
         .unwrap();
     assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
@@ -611,7 +611,7 @@ fn render_command_writes_images_and_statistics() {
         .arg(&scene)
         .arg("-o")
         .arg(&exr)
-        .args(["--aov", "id", "--width", "8", "--height", "6", "--stats"])
+        .args(["--backend", "cpu", "--aov", "id", "--width", "8", "--height", "6", "--stats"])
         .output()
         .unwrap();
     assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));

@@ -37,8 +37,8 @@ pub struct RenderArgs {
     /// Output image: .png (clamped, sRGB-encoded) or .exr (linear radiance; AOVs).
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Renderer.
-    #[arg(long, value_enum, default_value_t = Backend::Cpu)]
+    /// Renderer: the WGSL kernels (default) or the f64 CPU reference.
+    #[arg(long, value_enum, default_value_t = Backend::Gpu)]
     pub backend: Backend,
     #[command(flatten)]
     pub trace: TraceArgs,
