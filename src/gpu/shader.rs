@@ -83,13 +83,19 @@ pub struct ShaderError {
 
 /// The WGSL source of `variant`.
 pub fn compose(variant: Variant) -> Result<String, ShaderError> {
+    compose_from(SOURCES, ROOT, variant)
+}
+
+/// Composes `root` from `sources` (name, text).
+fn compose_from(sources: &[(&str, &str)], root: &str, variant: Variant) -> Result<String, ShaderError> {
     let mut out = String::new();
     let mut included = Vec::new();
-    expand(ROOT, variant, &mut out, &mut included)?;
+    expand(sources, root, variant, &mut out, &mut included)?;
     Ok(out)
 }
 
 fn expand(
+    sources: &[(&str, &str)],
     file: &str,
     variant: Variant,
     out: &mut String,
@@ -100,7 +106,7 @@ fn expand(
     }
     included.push(file.to_string());
     let err = |line: usize, message: String| ShaderError { file: file.to_string(), line, message };
-    let src = SOURCES
+    let src = sources
         .iter()
         .find(|(n, _)| *n == file)
         .map(|(_, s)| *s)
@@ -127,7 +133,7 @@ fn expand(
         } else if let Some(rest) = t.strip_prefix("#include ") {
             if active(&stack) {
                 let name = rest.trim().trim_matches('"');
-                expand(name, variant, out, included)?;
+                expand(sources, name, variant, out, included)?;
             }
         } else if t.starts_with('#') {
             return Err(err(n, format!("unknown directive {t}")));
@@ -153,5 +159,29 @@ mod tests {
         assert!(all.contains("fn reflect_dir") && all.contains("fn refract_dir"));
         assert!(!none.contains("fn reflect_dir") && !none.contains("fn refract_dir"));
         assert!(!none.contains("#"), "a directive leaked into the module");
+    }
+
+    #[test]
+    fn nesting_else_and_includes() {
+        let src = [
+            ("a", "top\n#if SHADOWS\ns\n#if TEXTURES\nst\n#else\ns-no-t\n#endif\n#else\nno-s\n#endif\n#include \"b\"\n#include \"b\""),
+            ("b", "bee"),
+        ];
+        let v = Variant { shadows: true, ..Variant::default() };
+        assert_eq!(compose_from(&src, "a", v).unwrap(), "top\ns\ns-no-t\nbee\n");
+        assert_eq!(compose_from(&src, "a", Variant::default()).unwrap(), "top\nno-s\nbee\n");
+    }
+
+    #[test]
+    fn malformed_sources_are_errors_with_file_and_line() {
+        let v = Variant::default();
+        let e = compose_from(&[("a", "x\n#if NOPE\n#endif")], "a", v).unwrap_err();
+        assert_eq!((e.file.as_str(), e.line), ("a", 2));
+        assert!(e.to_string().contains("unknown flag NOPE"));
+        assert!(compose_from(&[("a", "#if SHADOWS\n")], "a", v).is_err());
+        assert!(compose_from(&[("a", "#endif\n")], "a", v).is_err());
+        assert!(compose_from(&[("a", "#if SHADOWS\n#else\n#else\n#endif")], "a", v).is_err());
+        assert!(compose_from(&[("a", "#include \"missing\"")], "a", v).is_err());
+        assert!(compose_from(&[("a", "#define X")], "a", v).is_err());
     }
 }
