@@ -24,7 +24,7 @@ use super::layout::{self, Packed, Params, PointState};
 use super::shader::{self, Variant};
 use super::{GpuContext, GpuError};
 use crate::output::{Aov, Image};
-use crate::reference::{sampling, simulated_effects, AccelKind, RenderOptions, Rendered, Sampling};
+use crate::reference::{self, sampling, simulated_effects, AccelKind, RenderOptions, Rendered, Sampling};
 use crate::scene::Scene;
 use crate::stats::{self, Counters, Stats};
 
@@ -206,7 +206,7 @@ impl GpuRenderer {
             }
         }
         let stats = Stats::new(
-            settings(opts),
+            reference::settings(opts, "gpu", "brute"),
             simulated_effects(scene, opts.max_depth),
             &run.counters,
             stats::Times { preprocess_s, trace_s, gpu_s: run.gpu_s },
@@ -248,7 +248,7 @@ impl GpuRenderer {
         let trace_s = start.elapsed().as_secs_f64();
         let mut image = Image::new(w, h, true);
         image.pixels = run.values;
-        let mut set = settings(opts);
+        let mut set = reference::settings(opts, "gpu", "brute");
         set.sampling = "center".into();
         set.spp = 1;
         set.max_depth = 1;
@@ -529,20 +529,4 @@ fn check(scene: &Scene, opts: &RenderOptions) -> Result<(), GpuRenderError> {
         return Err(GpuRenderError::Scene("too many primitives for the GPU backend".into()));
     }
     Ok(())
-}
-
-fn settings(opts: &RenderOptions) -> stats::Settings {
-    stats::Settings {
-        backend: "gpu".into(),
-        accel: "brute".into(),
-        size: [opts.width, opts.height],
-        spp: opts.spp,
-        sampling: match opts.sampling {
-            Sampling::Corners => "corners".into(),
-            Sampling::Center if opts.spp > 1 => "jitter".into(),
-            Sampling::Center => "center".into(),
-        },
-        seed: opts.seed,
-        max_depth: opts.max_depth,
-    }
 }
