@@ -15,6 +15,7 @@
 //! - [`mirror`]: f32 Rust twins of the WGSL functions (cell lookup, intersections, table walk).
 
 pub mod coherence;
+pub mod compare;
 pub mod gpu;
 pub mod info;
 pub mod load;

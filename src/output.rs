@@ -144,6 +144,14 @@ pub fn write(img: &Image, path: &Path) -> Result<(), OutputError> {
     })
 }
 
+/// Writes an 8-bit RGB image (row-major, 3 bytes a pixel, e.g. a heat map) as a PNG,
+/// atomically.
+pub fn write_rgb8(width: u32, height: u32, rgb: Vec<u8>, path: &Path) -> Result<(), OutputError> {
+    let buf: ImageBuffer<Rgb<u8>, Vec<u8>> =
+        ImageBuffer::from_raw(width, height, rgb).expect("3 bytes per pixel of a width x height image");
+    write_atomically(path, |w| buf.write_to(w, ImageFormat::Png))
+}
+
 /// Runs `encode` into a temporary file beside `path` and renames it to `path` on success.
 fn write_atomically(
     path: &Path,

@@ -133,8 +133,11 @@ pub struct TestsPerRay {
 pub struct Times {
     /// Building the acceleration structure (BVH, candidate tables...), after loading.
     pub preprocess_s: f64,
-    /// Tracing and shading every ray.
+    /// Tracing and shading every ray (wall clock, including transfers on the GPU).
     pub trace_s: f64,
+    /// GPU kernel time from timestamp queries; `null` on the CPU backend or when the
+    /// adapter has no timestamp queries.
+    pub gpu_s: Option<f64>,
 }
 
 /// The settings a render ran with.
@@ -236,9 +239,13 @@ impl Stats {
             p.eye, p.shadow, p.reflect, p.refract, p.all
         );
         o += &format!(
-            "time:     preprocess {:.3} s, trace {:.3} s\n",
+            "time:     preprocess {:.3} s, trace {:.3} s",
             self.time.preprocess_s, self.time.trace_s
         );
+        if let Some(g) = self.time.gpu_s {
+            o += &format!(", GPU kernels {g:.3} s");
+        }
+        o += "\n";
         o
     }
 }

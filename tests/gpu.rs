@@ -1,10 +1,40 @@
 //! GPU tests run on whatever adapter wgpu finds (lavapipe in CI). Without one they fail,
-//! and the message says how to install lavapipe.
+//! and the message says how to install lavapipe. Images are small to keep lavapipe fast.
 
-use cuberay::gpu::GpuContext;
+mod common;
+
+use std::sync::OnceLock;
+
+use cuberay::compare::compare;
+use cuberay::gpu::{GpuContext, GpuRenderer};
+use cuberay::load;
+use cuberay::output::Aov;
+use cuberay::reference::{self, RenderOptions, Rendered, Sampling};
+use cuberay::scene::{Primitive, Scene};
+use glam::DVec3;
+use indicatif::ProgressBar;
 
 fn gpu() -> GpuContext {
     GpuContext::new().unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// One renderer for the whole test binary (opening lavapipe takes a moment).
+fn renderer() -> &'static GpuRenderer {
+    static R: OnceLock<GpuRenderer> = OnceLock::new();
+    R.get_or_init(|| GpuRenderer::new().unwrap_or_else(|e| panic!("{e}")))
+}
+
+fn hidden() -> ProgressBar {
+    ProgressBar::hidden()
+}
+
+fn showcase() -> Scene {
+    load::showcase().expect("showcase loads").scene
+}
+
+fn spd(name: &str) -> Scene {
+    let p = common::shared(&format!("spd/nff/{name}.nff"));
+    load::load(&p, &Default::default()).unwrap_or_else(|e| panic!("{name}: {e}")).scene
 }
 
 #[test]
@@ -13,4 +43,220 @@ fn opens_a_device_with_large_storage_bindings() {
     eprintln!("adapter: {} ({:?}) {}", ctx.info.name, ctx.info.backend, ctx.info.driver_info);
     // The candidate tables need big storage bindings; WebGPU's default is 128 MiB.
     assert!(ctx.device.limits().max_storage_buffer_binding_size >= 128 << 20);
+}
+
+#[test]
+fn kernels_are_compiled_once_per_effect_set() {
+    let r = GpuRenderer::new().unwrap_or_else(|e| panic!("{e}"));
+    let scene = showcase();
+    let opts = RenderOptions::new(8, 6);
+    r.render(&scene, &opts, &hidden()).unwrap();
+    r.render(&scene, &opts, &hidden()).unwrap();
+    r.render_aov(&scene, &opts, Aov::Id, &hidden()).unwrap();
+    assert_eq!(r.compiled_variants(), 1);
+    // Depth 1 needs neither reflection nor refraction: another module.
+    let shallow = RenderOptions { max_depth: 1, ..opts.clone() };
+    r.render(&scene, &shallow, &hidden()).unwrap();
+    assert_eq!(r.compiled_variants(), 2);
+}
+
+/// Renders on both backends and checks agreement: FLIP mean, finite pixels, and ray
+/// counts by kind within 1%.
+fn agree(name: &str, scene: &Scene, opts: &RenderOptions, max_flip: f64) -> (Rendered, Rendered) {
+    let g = renderer().render(scene, opts, &hidden()).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let c = reference::render(scene, opts, &hidden()).unwrap();
+    assert!(g.image.is_finite(), "{name}: non-finite GPU pixel");
+    let (cmp, _) = compare(&c.image, &g.image, 2.0 / 255.0);
+    eprintln!(
+        "{name}: FLIP mean {:.5}, RMSE {:.5}, rays gpu {} cpu {}",
+        cmp.flip_mean, cmp.rmse, g.stats.rays.total, c.stats.rays.total
+    );
+    assert!(cmp.flip_mean <= max_flip, "{name}: FLIP mean {} > {max_flip}", cmp.flip_mean);
+    let (gr, cr) = (g.stats.rays, c.stats.rays);
+    for (kind, a, b) in [
+        ("eye", gr.eye, cr.eye),
+        ("shadow", gr.shadow, cr.shadow),
+        ("reflect", gr.reflect, cr.reflect),
+        ("refract", gr.refract, cr.refract),
+    ] {
+        let tol = (b as f64 * 0.01).max(1.0);
+        assert!((a as f64 - b as f64).abs() <= tol, "{name}: {kind} rays gpu {a} cpu {b}");
+    }
+    assert_eq!(g.stats.effects, c.stats.effects, "{name}: simulated effects");
+    (g, c)
+}
+
+#[test]
+fn showcase_agrees_with_the_cpu() {
+    let (g, c) = agree("showcase", &showcase(), &RenderOptions::new(96, 72), 0.01);
+    // Every kind of ray is exercised.
+    assert!(g.stats.rays.reflect > 0 && g.stats.rays.refract > 0 && g.stats.rays.shadow_blocked > 0);
+    // The same statistics keys on both backends, and GPU kernel times when measured.
+    let keys = |s: &str| {
+        let v: serde_json::Value = serde_json::from_str(s).unwrap();
+        let mut k = Vec::new();
+        for (group, inner) in v.as_object().unwrap() {
+            match inner.as_object() {
+                Some(o) => k.extend(o.keys().map(|n| format!("{group}.{n}"))),
+                None => k.push(group.clone()),
+            }
+        }
+        k
+    };
+    assert_eq!(keys(&g.stats.to_json()), keys(&c.stats.to_json()));
+    assert_eq!(g.stats.settings.backend, "gpu");
+    assert_eq!(g.stats.time.gpu_s.is_some(), renderer().ctx.timestamps);
+}
+
+#[test]
+fn jitter_and_corners_sample_where_the_cpu_does() {
+    let scene = showcase();
+    let jitter = RenderOptions { spp: 4, seed: 7, ..RenderOptions::new(48, 36) };
+    agree("showcase jitter", &scene, &jitter, 0.01);
+    let corners = RenderOptions { sampling: Sampling::Corners, ..RenderOptions::new(48, 36) };
+    let (g, _) = agree("showcase corners", &scene, &corners, 0.01);
+    assert_eq!(g.stats.rays.eye, 49 * 37);
+}
+
+/// The showcase moved far from the origin: re-centring on the camera keeps f32 precise.
+#[test]
+fn a_scene_far_from_the_origin_keeps_its_precision() {
+    let mut scene = showcase();
+    let shift = DVec3::new(3.0e5, -2.0e5, 1.0e5);
+    scene.camera.eye += shift;
+    for l in &mut scene.lights {
+        l.position += shift;
+    }
+    for p in &mut scene.primitives {
+        match p {
+            Primitive::Sphere(s) => s.center += shift,
+            Primitive::Triangle(t) => t.p.iter_mut().for_each(|v| *v += shift),
+            Primitive::Cylinder(c) => {
+                c.base += shift;
+                c.apex += shift;
+            }
+        }
+    }
+    agree("showcase far away", &scene, &RenderOptions::new(64, 48), 0.01);
+}
+
+#[test]
+fn aovs_match_the_cpu() {
+    let scene = showcase();
+    let opts = RenderOptions::new(64, 48);
+    let g = renderer().render_aov(&scene, &opts, Aov::Id, &hidden()).unwrap();
+    let c = reference::render_aov(&scene, &opts, Aov::Id, &hidden()).unwrap();
+    let same = g.image.pixels.iter().zip(&c.image.pixels).filter(|(a, b)| a == b).count();
+    // Only pixels whose centre grazes an edge may differ between f32 and f64.
+    assert!(same as f64 >= 0.995 * g.image.pixels.len() as f64, "ids agree at {same} pixels");
+    let g = renderer().render_aov(&scene, &opts, Aov::Depth, &hidden()).unwrap();
+    let c = reference::render_aov(&scene, &opts, Aov::Depth, &hidden()).unwrap();
+    let close = g
+        .image
+        .pixels
+        .iter()
+        .zip(&c.image.pixels)
+        .filter(|(a, b)| (a[0] - b[0]).abs() <= 1e-4 * b[0].abs().max(1.0) && a[3] == b[3])
+        .count();
+    assert!(close as f64 >= 0.995 * g.image.pixels.len() as f64, "depths agree at {close} pixels");
+    assert_eq!(g.stats.rays.eye, 64 * 48);
+}
+
+/// SPD size-1 databases, 64×64, the SPD depth 5.
+#[test]
+fn spd_size_1_scenes_agree_with_the_cpu() {
+    for name in [
+        "balls_s1",
+        "gears_s1",
+        "jacks_s1",
+        "lattice_s1",
+        "mount_s1",
+        "rings_s1",
+        "shells_s1",
+        "sombrero_s1",
+        "teapot_s1",
+        "tetra_s1",
+        "tree_s1",
+    ] {
+        agree(name, &spd(name), &RenderOptions::new(64, 64), 0.01);
+    }
+}
+
+/// lavapipe stops an invocation's loops after 65535 iterations in all; a scene that could
+/// need more per ray is refused there instead of rendering a wrong image.
+#[test]
+fn brute_force_beyond_lavapipes_loop_limit_is_an_error_not_a_wrong_image() {
+    let r = renderer();
+    if !r.ctx.info.name.to_lowercase().contains("llvmpipe") {
+        eprintln!("adapter {} has no loop limit: nothing to check", r.ctx.info.name);
+        return;
+    }
+    let scene = spd("gears_s4");
+    let e = r.render(&scene, &RenderOptions::new(4, 4), &hidden()).err().expect("refused");
+    assert!(e.to_string().contains("loop iterations"), "{e}");
+}
+
+/// glTF sample models: textures, emission, punctual lights, transmission, smooth normals.
+#[test]
+fn gltf_models_agree_with_the_cpu() {
+    for (file, effect) in [
+        ("Box/Box.gltf", "shadows"),
+        ("BoxTextured/BoxTextured.gltf", "textures"),
+        ("CornellBox/CornellBox.glb", "emission"),
+        ("LightsPunctualLamp/LightsPunctualLamp.gltf", "refraction"),
+        ("Cameras/Cameras.gltf", "shadows"),
+        ("Suzanne/Suzanne.gltf", "shadows"),
+    ] {
+        let path = common::shared(&format!("gltf/{file}"));
+        let scene = load::load(&path, &Default::default()).unwrap_or_else(|e| panic!("{file}: {e}")).scene;
+        let (g, _) = agree(file, &scene, &RenderOptions::new(48, 48), 0.01);
+        assert!(g.stats.effects.contains(&effect), "{file}: {:?}", g.stats.effects);
+        assert!(g.stats.rays.eye_hit > 0, "{file}: nothing hit");
+    }
+}
+
+/// The README's first command renders the showcase on the GPU: `render` without a scene
+/// or a backend.
+#[test]
+fn render_defaults_to_the_gpu_and_the_showcase() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("show.png");
+    let st = common::cuberay()
+        .args(["render", "--width", "32", "--height", "24", "--stats", "json", "-o"])
+        .arg(&png)
+        .output()
+        .unwrap();
+    assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&st.stdout).unwrap();
+    assert_eq!(v["settings"]["backend"], "gpu");
+    assert_eq!(v["rays"]["eye"], 32 * 24);
+    assert_eq!(image::open(&png).unwrap().width(), 32);
+}
+
+#[test]
+fn compare_reports_writes_images_and_applies_the_threshold() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |threshold: &str| {
+        common::cuberay()
+            .args(["compare", "--width", "96", "--height", "72", "--json", "--threshold", threshold])
+            .arg("--out-dir")
+            .arg(dir.path())
+            .output()
+            .unwrap()
+    };
+    let st = run("0.01");
+    assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&st.stdout).unwrap();
+    for key in ["rmse", "psnr", "flip_mean", "max_abs", "over_tolerance"] {
+        assert!(v.get(key).is_some(), "{key} missing");
+    }
+    let flip = v["flip_mean"].as_f64().unwrap();
+    assert!(flip > 0.0 && flip <= 0.01, "{flip}");
+    for f in ["showcase.gpu.png", "showcase.cpu.png", "showcase.flip.png"] {
+        assert!(dir.path().join(f).is_file(), "{f} not written");
+    }
+    // A threshold below the FLIP mean fails the command (after printing the report).
+    let st = run(&format!("{}", flip / 2.0));
+    assert!(!st.status.success());
+    assert!(String::from_utf8_lossy(&st.stderr).contains("exceeds the threshold"));
 }

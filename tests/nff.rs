@@ -5,6 +5,9 @@
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
+mod common;
+
+use common::shared_scenes;
 use cuberay::load::nff::parse;
 use cuberay::load::{LoadError, Loaded};
 use cuberay::scene::{FovSpan, LightSource, Material, Primitive, Projection, Triangle};
@@ -188,28 +191,6 @@ fn star(tips: usize, outer: f64, inner: f64) -> Vec<(f64, f64)> {
             (r * a.cos(), r * a.sin())
         })
         .collect()
-}
-
-/// The shared scenes folder: `CUBERAY_SHARED_SCENES`, or a `shared/scenes` beside the crate
-/// or one of its parents (the crate may be a worktree below the main checkout's parent).
-fn shared_scenes() -> PathBuf {
-    if let Some(dir) = std::env::var_os("CUBERAY_SHARED_SCENES") {
-        let dir = PathBuf::from(dir);
-        assert!(
-            dir.is_dir(),
-            "the shared scenes folder is missing: CUBERAY_SHARED_SCENES={} is not a folder",
-            dir.display()
-        );
-        return dir;
-    }
-    let crate_dir = Path::new(env!("CARGO_MANIFEST_DIR"));
-    crate_dir.ancestors().skip(1).map(|d| d.join("shared/scenes")).find(|d| d.is_dir()).unwrap_or_else(|| {
-        panic!(
-            "the shared scenes folder is missing: no shared/scenes beside {} or its parents \
-             (set CUBERAY_SHARED_SCENES to its path)",
-            crate_dir.display()
-        )
-    })
 }
 
 fn spd_files() -> Vec<PathBuf> {

@@ -9,6 +9,7 @@ use clap::{Parser, Subcommand};
 use cuberay::info::SceneInfo;
 use cuberay::load::{self, LoadOptions, Loaded};
 
+mod compare;
 mod render;
 
 #[derive(Parser, Debug)]
@@ -36,6 +37,8 @@ enum Command {
     },
     /// Render a scene to an image.
     Render(render::RenderArgs),
+    /// Render a scene on the GPU and with the CPU reference and report the differences.
+    Compare(compare::CompareArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -77,6 +80,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             Ok(())
         }
         Command::Render(args) => render::run(args),
+        Command::Compare(args) => compare::run(args),
     }
 }
 

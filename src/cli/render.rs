@@ -8,7 +8,8 @@ use anyhow::{bail, Context};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use cuberay::load;
+use cuberay::gpu::GpuRenderer;
+use cuberay::load::{self, Loaded};
 use cuberay::output::{self, Aov, OutputFormat};
 use cuberay::reference::{self, AccelKind, RenderOptions, Sampling};
 
@@ -17,7 +18,7 @@ use cuberay::reference::{self, AccelKind, RenderOptions, Sampling};
 pub enum Backend {
     /// The f64 reference renderer on the CPU.
     Cpu,
-    /// The WGSL renderer (not written yet).
+    /// The WGSL compute renderer (wgpu).
     Gpu,
 }
 
@@ -36,9 +37,23 @@ pub struct RenderArgs {
     /// Output image: .png (clamped, sRGB-encoded) or .exr (linear radiance; AOVs).
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Renderer.
-    #[arg(long, value_enum, default_value_t = Backend::Cpu)]
+    /// Renderer: the WGSL kernels (default) or the f64 CPU reference.
+    #[arg(long, value_enum, default_value_t = Backend::Gpu)]
     pub backend: Backend,
+    #[command(flatten)]
+    pub trace: TraceArgs,
+    /// Write an auxiliary output to the (.exr) output instead of the image.
+    #[arg(long, value_enum)]
+    pub aov: Option<Aov>,
+    /// Print statistics after the render: text (default) or one JSON object on stdout.
+    #[arg(long, value_enum, num_args = 0..=1, default_missing_value = "text")]
+    pub stats: Option<StatsFormat>,
+}
+
+/// The options shared by `render` and `compare`: which scene camera, image size and
+/// sampling, depth and acceleration structure.
+#[derive(Args, Debug)]
+pub struct TraceArgs {
     /// Image width (default: the scene's resolution, else 512 high at the camera's aspect).
     #[arg(long)]
     pub width: Option<u32>,
@@ -57,18 +72,52 @@ pub struct RenderArgs {
     /// Maximum ray-tree depth, the eye ray being depth 1.
     #[arg(long, default_value_t = 5)]
     pub max_depth: u32,
-    /// Acceleration structure (auto: brute force for tiny scenes, else a BVH).
+    /// Acceleration structure (auto: brute force for tiny scenes, else a BVH on the CPU;
+    /// the GPU traces by brute force).
     #[arg(long, value_enum, default_value_t = AccelKind::Auto)]
     pub accel: AccelKind,
-    /// Write an auxiliary output to the (.exr) output instead of the image.
-    #[arg(long, value_enum)]
-    pub aov: Option<Aov>,
-    /// Print statistics after the render: text (default) or one JSON object on stdout.
-    #[arg(long, value_enum, num_args = 0..=1, default_missing_value = "text")]
-    pub stats: Option<StatsFormat>,
     /// glTF: index of the camera to use.
     #[arg(long)]
     pub camera: Option<usize>,
+}
+
+impl TraceArgs {
+    /// Loads the scene (the showcase without a path) and turns the options into
+    /// validated render options. Returns the name to use in messages too.
+    pub fn load(&self, scene: &Option<PathBuf>) -> anyhow::Result<(PathBuf, Loaded, RenderOptions)> {
+        let scene_name = scene.clone().unwrap_or_else(|| PathBuf::from(load::SHOWCASE_NAME));
+        let loaded = match scene {
+            Some(path) => super::load_scene(path, self.camera)?,
+            None => load::showcase().context("the built-in showcase scene does not load")?,
+        };
+        let (dw, dh) = loaded.scene.resolution.unwrap_or_else(|| loaded.scene.camera.default_resolution());
+        let opts = RenderOptions {
+            width: self.width.unwrap_or(dw),
+            height: self.height.unwrap_or(dh),
+            spp: self.spp,
+            seed: self.seed,
+            sampling: self.sampling,
+            max_depth: self.max_depth,
+            accel: self.accel,
+        };
+        opts.validate()?;
+        Ok((scene_name, loaded, opts))
+    }
+}
+
+/// A progress bar on a terminal, nothing otherwise.
+pub fn progress_bar(message: &'static str) -> ProgressBar {
+    if std::io::stderr().is_terminal() {
+        let bar = ProgressBar::new(0);
+        bar.set_style(
+            ProgressStyle::with_template("{msg} [{elapsed_precise}] {wide_bar} {pos}/{len} (eta {eta})")
+                .expect("valid progress template"),
+        );
+        bar.set_message(message);
+        bar
+    } else {
+        ProgressBar::hidden()
+    }
 }
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
@@ -77,43 +126,24 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if args.aov.is_some() && format != OutputFormat::Exr {
         bail!(output::OutputError::AovNeedsExr { path: args.output.clone() });
     }
-    if args.backend == Backend::Gpu {
-        bail!("the GPU backend is not available yet: use --backend cpu");
-    }
-    let scene_name = args.scene.clone().unwrap_or_else(|| PathBuf::from(load::SHOWCASE_NAME));
-    let loaded = match &args.scene {
-        Some(path) => super::load_scene(path, args.camera)?,
-        None => load::showcase().context("the built-in showcase scene does not load")?,
-    };
+    let (scene_name, loaded, opts) = args.trace.load(&args.scene)?;
     let scene = &loaded.scene;
-    let (dw, dh) = scene.resolution.unwrap_or_else(|| scene.camera.default_resolution());
-    let opts = RenderOptions {
-        width: args.width.unwrap_or(dw),
-        height: args.height.unwrap_or(dh),
-        spp: args.spp,
-        seed: args.seed,
-        sampling: args.sampling,
-        max_depth: args.max_depth,
-        accel: args.accel,
+    let progress = progress_bar("rendering");
+    let rendered = match args.backend {
+        Backend::Cpu => match args.aov {
+            Some(aov) => reference::render_aov(scene, &opts, aov, &progress),
+            None => reference::render(scene, &opts, &progress),
+        }
+        .with_context(|| format!("cannot render {}", scene_name.display()))?,
+        Backend::Gpu => {
+            let gpu = GpuRenderer::new()?;
+            match args.aov {
+                Some(aov) => gpu.render_aov(scene, &opts, aov, &progress),
+                None => gpu.render(scene, &opts, &progress),
+            }
+            .with_context(|| format!("cannot render {} on the GPU", scene_name.display()))?
+        }
     };
-    opts.validate()?;
-
-    let progress = if std::io::stderr().is_terminal() {
-        let bar = ProgressBar::new(0);
-        bar.set_style(
-            ProgressStyle::with_template("{msg} [{elapsed_precise}] {wide_bar} {pos}/{len} rows (eta {eta})")
-                .expect("valid progress template"),
-        );
-        bar.set_message("rendering");
-        bar
-    } else {
-        ProgressBar::hidden()
-    };
-    let rendered = match args.aov {
-        Some(aov) => reference::render_aov(scene, &opts, aov, &progress),
-        None => reference::render(scene, &opts, &progress),
-    }
-    .with_context(|| format!("cannot render {}", scene_name.display()))?;
     progress.finish_and_clear();
 
     if !rendered.image.is_finite() {

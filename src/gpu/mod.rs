@@ -1,6 +1,11 @@
-//! The GPU side: device setup now; the WGSL kernels that trace the candidate tables come
-//! with the GPU renderer.
+//! The GPU side: device setup ([`GpuContext`]), the WGSL kernels composed per effect set
+//! ([`shader`]), the Rust twins of their structs and the scene packing ([`layout`]), and
+//! the renderer that runs them ([`GpuRenderer`]).
 
 mod context;
+pub mod layout;
+mod render;
+pub mod shader;
 
 pub use context::{GpuContext, GpuError};
+pub use render::{GpuRenderError, GpuRenderer, Kernels, MAX_DEPTH};

@@ -101,9 +101,10 @@ pub struct Rendered {
     pub stats: Stats,
 }
 
-fn settings(opts: &RenderOptions, accel: &str) -> stats::Settings {
+/// The settings block of the statistics, shared by both backends.
+pub fn settings(opts: &RenderOptions, backend: &str, accel: &str) -> stats::Settings {
     stats::Settings {
-        backend: "cpu".into(),
+        backend: backend.into(),
         accel: accel.into(),
         size: [opts.width, opts.height],
         spp: opts.spp,
@@ -118,7 +119,7 @@ fn settings(opts: &RenderOptions, accel: &str) -> stats::Settings {
 }
 
 /// The effects a render with `max_depth` simulates.
-fn simulated_effects(scene: &Scene, max_depth: u32) -> Vec<&'static str> {
+pub fn simulated_effects(scene: &Scene, max_depth: u32) -> Vec<&'static str> {
     let mut e = scene.effects();
     if max_depth < 2 {
         e.reflection = false;
@@ -206,10 +207,10 @@ pub fn render(scene: &Scene, opts: &RenderOptions, progress: &ProgressBar) -> Re
     }
     let trace_s = start.elapsed().as_secs_f64();
     let stats = Stats::new(
-        settings(opts, accel.name()),
+        settings(opts, "cpu", accel.name()),
         simulated_effects(scene, opts.max_depth),
         &counters,
-        stats::Times { preprocess_s, trace_s },
+        stats::Times { preprocess_s, trace_s, gpu_s: None },
     );
     Ok(Rendered { image, stats })
 }
@@ -261,10 +262,10 @@ pub fn render_aov(
         image.pixels[j * w as usize..(j + 1) * w as usize].copy_from_slice(&row);
     }
     let trace_s = start.elapsed().as_secs_f64();
-    let mut set = settings(opts, accel.name());
+    let mut set = settings(opts, "cpu", accel.name());
     set.sampling = "center".into();
     set.spp = 1;
     set.max_depth = 1;
-    let stats = Stats::new(set, Vec::new(), &counters, stats::Times { preprocess_s, trace_s });
+    let stats = Stats::new(set, Vec::new(), &counters, stats::Times { preprocess_s, trace_s, gpu_s: None });
     Ok(Rendered { image, stats })
 }

@@ -1,0 +1,178 @@
+// Shared declarations: the structs (each has one Rust twin in src/gpu/layout.rs), the
+// bindings and the per-invocation counters. Coordinates are re-centred on the camera.
+
+struct Params {
+    cam_forward: vec3<f32>,
+    cam_scale: f32,
+    cam_right: vec3<f32>,
+    half_w: f32,
+    cam_up: vec3<f32>,
+    half_h: f32,
+    background: vec3<f32>,
+    ortho: u32,
+    ambient: vec3<f32>,
+    prim_count: u32,
+    grid_w: u32,
+    grid_h: u32,
+    first_point: u32,
+    point_count: u32,
+    spp: u32,
+    lattice_g: u32,
+    seed_hash: u32,
+    corners: u32,
+    max_depth: u32,
+    light_count: u32,
+    aov: u32,
+    pad: u32,
+}
+
+// One primitive. Sphere: a = (centre, radius). Triangle: a, b, c = vertices. Cylinder:
+// a = (base, base radius), b = (apex, apex radius). `attr` indexes `tri_attrs` (triangles
+// with normals or texture coordinates), `flags` bit 0 = inside only, bit 1 = has normals,
+// bit 2 = has texture coordinates.
+struct Prim {
+    a: vec4<f32>,
+    b: vec4<f32>,
+    c: vec4<f32>,
+    kind: u32,
+    material: u32,
+    flags: u32,
+    attr: u32,
+}
+
+struct TriAttr {
+    n0: vec4<f32>,
+    n1: vec4<f32>,
+    n2: vec4<f32>,
+    uv01: vec4<f32>,
+    uv2: vec4<f32>,
+}
+
+struct Material {
+    color: vec3<f32>,
+    kd: f32,
+    mirror: vec3<f32>,
+    ks: f32,
+    emission: vec3<f32>,
+    shine: f32,
+    transmittance: f32,
+    ior: f32,
+    // Texture index + 1; 0 = none.
+    texture: u32,
+    pad: u32,
+}
+
+// kind: 0 point, 1 spot, 2 directional. `range` 0 = unlimited.
+struct Light {
+    position: vec3<f32>,
+    kind: u32,
+    direction: vec3<f32>,
+    range: f32,
+    radiance: vec3<f32>,
+    inverse_square: u32,
+    cos_outer: f32,
+    span: f32,
+    pad0: u32,
+    pad1: u32,
+}
+
+// Texel offset into `texels`, size, and flags: wrap_s (bits 0-1), wrap_t (bits 2-3),
+// bilinear (bit 4). Wrap: 0 repeat, 1 mirrored repeat, 2 clamp to edge.
+struct TextureInfo {
+    offset: u32,
+    width: u32,
+    height: u32,
+    flags: u32,
+}
+
+// A ray waiting in a grid point's ray tree, with the weight its radiance counts with.
+struct Pending {
+    o: vec3<f32>,
+    kind: u32,
+    d: vec3<f32>,
+    depth: u32,
+    weight: vec3<f32>,
+    // The primitive the ray leaves (the eye: 0xffffffff).
+    from_prim: u32,
+}
+
+// Deep enough for the largest --max-depth the GPU backend accepts (checked on the CPU).
+const STACK_SIZE: u32 = 16u;
+
+// One grid point's progress between kernel steps: radiance so far, pending rays, and
+// how many of its samples have been started.
+struct PointState {
+    color: vec3<f32>,
+    sp: u32,
+    sample: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
+    stack: array<Pending, STACK_SIZE>,
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read> prims: array<Prim>;
+@group(0) @binding(2) var<storage, read> materials: array<Material>;
+@group(0) @binding(3) var<storage, read> lights: array<Light>;
+@group(0) @binding(4) var<storage, read> tri_attrs: array<TriAttr>;
+@group(0) @binding(5) var<storage, read> texture_infos: array<TextureInfo>;
+@group(0) @binding(6) var<storage, read> texels: array<u32>;
+@group(0) @binding(7) var<storage, read_write> out_color: array<vec4<f32>>;
+@group(0) @binding(8) var<storage, read_write> counters: array<atomic<u32>>;
+@group(0) @binding(9) var<storage, read_write> states: array<PointState>;
+// [0]: grid points with work left after a step.
+@group(0) @binding(10) var<storage, read_write> points_left: array<atomic<u32>>;
+
+const KIND_SPHERE: u32 = 0u;
+const KIND_TRIANGLE: u32 = 1u;
+const KIND_CYLINDER: u32 = 2u;
+
+const RAY_EYE: u32 = 0u;
+const RAY_SHADOW: u32 = 1u;
+const RAY_REFLECT: u32 = 2u;
+const RAY_REFRACT: u32 = 3u;
+
+// Counter slots: rays by kind (0-3), tests by ray kind x primitive kind (4-15), eye
+// hits (16), blocked shadow rays (17). Each is 64-bit in `counters` (low, high word).
+const COUNTER_COUNT: u32 = 18u;
+const C_EYE_HIT: u32 = 16u;
+const C_SHADOW_BLOCKED: u32 = 17u;
+
+// The largest finite f32: the open end of an unbounded ray (no infinity is used).
+const FAR: f32 = 3.4028235e38;
+
+var<private> local_counts: array<u32, COUNTER_COUNT>;
+var<workgroup> group_counts: array<atomic<u32>, COUNTER_COUNT>;
+
+fn count(slot: u32) {
+    local_counts[slot] += 1u;
+}
+
+fn count_test(ray_kind: u32, prim_kind: u32) {
+    local_counts[4u + ray_kind * 3u + prim_kind] += 1u;
+}
+
+// Sums the invocations' counters per workgroup, then adds them to the 64-bit totals.
+// Called once by every invocation, in uniform control flow.
+fn flush_counters(lid: u32) {
+    if lid < COUNTER_COUNT {
+        atomicStore(&group_counts[lid], 0u);
+    }
+    workgroupBarrier();
+    for (var i = 0u; i < COUNTER_COUNT; i++) {
+        if local_counts[i] != 0u {
+            atomicAdd(&group_counts[i], local_counts[i]);
+        }
+    }
+    workgroupBarrier();
+    if lid < COUNTER_COUNT {
+        let v = atomicLoad(&group_counts[lid]);
+        if v != 0u {
+            let old = atomicAdd(&counters[2u * lid], v);
+            if old + v < old {
+                atomicAdd(&counters[2u * lid + 1u], 1u);
+            }
+        }
+    }
+}

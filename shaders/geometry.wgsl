@@ -1,0 +1,284 @@
+// Rays and primitive intersection in f32; twins of src/reference/geometry.rs.
+
+struct Ray {
+    o: vec3<f32>,
+    d: vec3<f32>,
+    // Watertight triangle test: axis permutation and shear (Woop, Benthin, Wald 2013).
+    kx: u32,
+    ky: u32,
+    kz: u32,
+    shear: vec3<f32>,
+}
+
+fn make_ray(o: vec3<f32>, dir: vec3<f32>) -> Ray {
+    let d = normalize(dir);
+    let a = abs(d);
+    var kz = 2u;
+    if a.x >= a.y && a.x >= a.z {
+        kz = 0u;
+    } else if a.y >= a.z {
+        kz = 1u;
+    }
+    var kx = (kz + 1u) % 3u;
+    var ky = (kx + 1u) % 3u;
+    if d[kz] < 0.0 {
+        let t = kx;
+        kx = ky;
+        ky = t;
+    }
+    let shear = vec3<f32>(d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
+    return Ray(o, d, kx, ky, kz, shear);
+}
+
+// A hit: `ok` says whether there is one; then t and the barycentrics of vertices 1, 2.
+struct PrimHit {
+    ok: bool,
+    t: f32,
+    b1: f32,
+    b2: f32,
+}
+
+fn no_hit() -> PrimHit {
+    return PrimHit(false, 0.0, 0.0, 0.0);
+}
+
+fn hit_at(t: f32) -> PrimHit {
+    return PrimHit(true, t, 0.0, 0.0);
+}
+
+// Ray/sphere, Haines' precise form: the discriminant as r² − |f + b·d|².
+fn intersect_sphere(center: vec3<f32>, radius: f32, inside_only: bool, ray: Ray, t_max: f32) -> PrimHit {
+    let f = ray.o - center;
+    let b = -dot(f, ray.d);
+    let r2 = radius * radius;
+    let g = f + ray.d * b;
+    let disc = r2 - dot(g, g);
+    if disc < 0.0 {
+        return no_hit();
+    }
+    let k = dot(f, f) - r2;
+    let q = b + select(-sqrt(disc), sqrt(disc), b >= 0.0);
+    if q == 0.0 {
+        return no_hit();
+    }
+    let r0 = k / q;
+    let t0 = min(r0, q);
+    let t1 = max(r0, q);
+    if !inside_only && t0 > 0.0 && t0 < t_max {
+        return hit_at(t0);
+    }
+    if t1 > 0.0 && t1 < t_max {
+        return hit_at(t1);
+    }
+    return no_hit();
+}
+
+// Ray/triangle, watertight; both sides are hit.
+fn intersect_triangle(p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>, ray: Ray, t_max: f32) -> PrimHit {
+    let s = ray.shear;
+    let a = p0 - ray.o;
+    let b = p1 - ray.o;
+    let c = p2 - ray.o;
+    let ax = a[ray.kx] - s.x * a[ray.kz];
+    let ay = a[ray.ky] - s.y * a[ray.kz];
+    let bx = b[ray.kx] - s.x * b[ray.kz];
+    let by = b[ray.ky] - s.y * b[ray.kz];
+    let cx = c[ray.kx] - s.x * c[ray.kz];
+    let cy = c[ray.ky] - s.y * c[ray.kz];
+    let u = cx * by - cy * bx;
+    let v = ax * cy - ay * cx;
+    let w = bx * ay - by * ax;
+    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        return no_hit();
+    }
+    let det = u + v + w;
+    if det == 0.0 {
+        return no_hit();
+    }
+    let t_scaled = s.z * (u * a[ray.kz] + v * b[ray.kz] + w * c[ray.kz]);
+    if det > 0.0 {
+        if t_scaled <= 0.0 || t_scaled >= t_max * det {
+            return no_hit();
+        }
+    } else if t_scaled >= 0.0 || t_scaled <= t_max * det {
+        return no_hit();
+    }
+    let inv = 1.0 / det;
+    let t = t_scaled * inv;
+    if !(t > 0.0 && t < t_max) {
+        return no_hit();
+    }
+    return PrimHit(true, t, v * inv, w * inv);
+}
+
+// Outward unit normal of a cone; at a cone's tip any direction across the axis serves.
+fn cone_normal(axis: vec3<f32>, slope: f32, radial: vec3<f32>) -> vec3<f32> {
+    let len = length(radial);
+    var radial_dir: vec3<f32>;
+    if len > 0.0 {
+        radial_dir = radial / len;
+    } else {
+        radial_dir = any_orthonormal(axis);
+    }
+    return normalize(radial_dir - axis * slope);
+}
+
+// A unit vector orthogonal to unit `v` (the same construction as glam's).
+fn any_orthonormal(v: vec3<f32>) -> vec3<f32> {
+    let sign = select(-1.0, 1.0, v.z >= 0.0);
+    let a = -1.0 / (sign + v.z);
+    let b = v.x * v.y * a;
+    return vec3<f32>(b, sign + v.y * v.y * a, -v.y);
+}
+
+// Ray/cylinder or truncated cone without caps; the discriminant as a difference of
+// squared lengths.
+fn intersect_cylinder(base: vec4<f32>, apex: vec4<f32>, inside_only: bool, ray: Ray, t_max: f32) -> PrimHit {
+    let v = apex.xyz - base.xyz;
+    let height = length(v);
+    let axis = v / height;
+    let slope = (apex.w - base.w) / height;
+    let w = ray.o - base.xyz;
+    let s0 = dot(w, axis);
+    let ds = dot(ray.d, axis);
+    let r_o = w - axis * s0;
+    let r_d = ray.d - axis * ds;
+    let r0 = base.w + slope * s0;
+    let dr = slope * ds;
+    let qa = dot(r_d, r_d) - dr * dr;
+    let qb = dot(r_o, r_d) - r0 * dr;
+    let qc = dot(r_o, r_o) - r0 * r0;
+    let e = r_d * r0 - r_o * dr;
+    let x = cross(r_o, r_d);
+    let disc = dot(e, e) - dot(x, x);
+    if disc < 0.0 {
+        return no_hit();
+    }
+    let q = -(qb + select(-sqrt(disc), sqrt(disc), qb >= 0.0));
+    if q == 0.0 {
+        return no_hit();
+    }
+    var roots = array<f32, 2>(qc / q, 0.0);
+    var n_roots = 1u;
+    if qa != 0.0 {
+        let other = q / qa;
+        if other < roots[0] {
+            roots[1] = roots[0];
+            roots[0] = other;
+        } else {
+            roots[1] = other;
+        }
+        n_roots = 2u;
+    }
+    for (var i = 0u; i < n_roots; i++) {
+        let t = roots[i];
+        if !(t > 0.0 && t < t_max) {
+            continue;
+        }
+        let s = s0 + t * ds;
+        if !(s >= 0.0 && s <= height) {
+            continue;
+        }
+        if inside_only {
+            let n = cone_normal(axis, slope, r_o + r_d * t);
+            if dot(n, ray.d) <= 0.0 {
+                continue;
+            }
+        }
+        return hit_at(t);
+    }
+    return no_hit();
+}
+
+fn intersect_prim(p: Prim, ray: Ray, t_max: f32) -> PrimHit {
+    let inside_only = (p.flags & 1u) != 0u;
+    switch p.kind {
+        case 0u: {
+            return intersect_sphere(p.a.xyz, p.a.w, inside_only, ray, t_max);
+        }
+        case 1u: {
+            return intersect_triangle(p.a.xyz, p.b.xyz, p.c.xyz, ray, t_max);
+        }
+        default: {
+            return intersect_cylinder(p.a, p.b, inside_only, ray, t_max);
+        }
+    }
+}
+
+// The surface at a hit.
+struct Surface {
+    p: vec3<f32>,
+    // Unit geometric normal, outward (not flipped toward the ray).
+    ng: vec3<f32>,
+    // Unit shading normal on the side of `ng`.
+    ns: vec3<f32>,
+    uv: vec2<f32>,
+    has_uv: bool,
+    // Size of the numbers behind `p`, for the spawn offset.
+    scale: f32,
+}
+
+fn max3(v: vec3<f32>) -> f32 {
+    return max(v.x, max(v.y, v.z));
+}
+
+fn surface(prim: Prim, ray: Ray, h: PrimHit) -> Surface {
+    var s: Surface;
+    s.has_uv = false;
+    s.uv = vec2<f32>(0.0);
+    let scale_ray = max3(abs(ray.o)) + h.t;
+    switch prim.kind {
+        case 0u: {
+            s.p = ray.o + ray.d * h.t;
+            s.ng = normalize(s.p - prim.a.xyz);
+            s.ns = s.ng;
+            s.scale = max(max(max3(abs(s.p)), scale_ray), max3(abs(prim.a.xyz)) + prim.a.w);
+        }
+        case 1u: {
+            let b0 = 1.0 - h.b1 - h.b2;
+            s.p = prim.a.xyz * b0 + prim.b.xyz * h.b1 + prim.c.xyz * h.b2;
+            s.ng = normalize(cross(prim.b.xyz - prim.a.xyz, prim.c.xyz - prim.a.xyz));
+            s.ns = s.ng;
+            if (prim.flags & 2u) != 0u {
+                let at = tri_attrs[prim.attr];
+                let n = at.n0.xyz * b0 + at.n1.xyz * h.b1 + at.n2.xyz * h.b2;
+                let len = length(n);
+                if len > 1e-12 {
+                    let sn = n / len;
+                    s.ns = select(sn, -sn, dot(sn, s.ng) < 0.0);
+                }
+            }
+            if (prim.flags & 4u) != 0u {
+                let at = tri_attrs[prim.attr];
+                s.uv = at.uv01.xy * b0 + at.uv01.zw * h.b1 + at.uv2.xy * h.b2;
+                s.has_uv = true;
+            }
+            let extent = max(max3(abs(prim.a.xyz)), max(max3(abs(prim.b.xyz)), max3(abs(prim.c.xyz))));
+            s.scale = max(max(max3(abs(s.p)), scale_ray), extent);
+        }
+        default: {
+            s.p = ray.o + ray.d * h.t;
+            let v = prim.b.xyz - prim.a.xyz;
+            let height = length(v);
+            let axis = v / height;
+            let slope = (prim.b.w - prim.a.w) / height;
+            let w = s.p - prim.a.xyz;
+            s.ng = cone_normal(axis, slope, w - axis * dot(w, axis));
+            s.ns = s.ng;
+            let extent = max(max3(abs(prim.a.xyz)), max3(abs(prim.b.xyz)));
+            s.scale = max(max(max3(abs(s.p)), scale_ray), extent);
+        }
+    }
+    return s;
+}
+
+// Relative size of the spawn offset in f32: 2⁻¹⁶ of the magnitude of the numbers behind
+// the hit point, about 128 f32 rounding units of that magnitude.
+const SPAWN_OFFSET_REL: f32 = 1.52587890625e-5;
+
+// The origin of a ray leaving surface `s` towards `dir`: the hit point moved along the
+// geometric normal to the side `dir` goes to.
+fn spawn_origin(s: Surface, dir: vec3<f32>) -> vec3<f32> {
+    let side = select(-s.ng, s.ng, dot(dir, s.ng) >= 0.0);
+    return s.p + side * (s.scale * SPAWN_OFFSET_REL);
+}

@@ -1,0 +1,195 @@
+// Whitted shading and the ray tree of one eye ray; twin of src/reference/shade.rs.
+// The ray tree is walked with an explicit stack of pending secondary rays, each carrying
+// the weight its radiance contributes with.
+
+// Shadow rays towards a positional light end this relative distance before it (f32).
+const SHADOW_END_REL: f32 = 9.5367431640625e-7;
+
+struct Incidence {
+    ok: bool,
+    dir: vec3<f32>,
+    positional: bool,
+    radiance: vec3<f32>,
+}
+
+// How light `l` reaches point `p`; `ok` false where it contributes nothing.
+fn incidence(l: Light, p: vec3<f32>) -> Incidence {
+    var inc: Incidence;
+    inc.ok = false;
+    inc.positional = l.kind != 2u;
+    if l.kind == 2u {
+        inc.dir = -l.direction;
+        inc.radiance = l.radiance;
+        inc.ok = max3(l.radiance) > 0.0;
+        return inc;
+    }
+    let to = l.position - p;
+    let d = length(to);
+    if !(d > 0.0) {
+        return inc;
+    }
+    inc.dir = to / d;
+    var scale = 1.0;
+    if l.inverse_square != 0u {
+        scale /= d * d;
+    }
+    if l.range > 0.0 {
+        let q = d / l.range;
+        scale *= clamp(1.0 - q * q * q * q, 0.0, 1.0);
+    }
+    if l.kind == 1u {
+        let a = clamp((dot(l.direction, -inc.dir) - l.cos_outer) / l.span, 0.0, 1.0);
+        scale *= a * a;
+    }
+    inc.radiance = l.radiance * scale;
+    inc.ok = max3(inc.radiance) > 0.0;
+    return inc;
+}
+
+fn base_color(m: Material, s: Surface) -> vec3<f32> {
+#if TEXTURES
+    if m.texture != 0u && s.has_uv {
+        return m.color * sample_texture(m.texture - 1u, s.uv);
+    }
+#endif
+    return m.color;
+}
+
+// What light `light` adds at a hit (zero when it faces away, is blocked or too far).
+fn light_contribution(light: Light, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>, diffuse: vec3<f32>) -> vec3<f32> {
+    let inc = incidence(light, s.p);
+    if !inc.ok {
+        return vec3<f32>(0.0);
+    }
+    let n_dot_l = dot(n, inc.dir);
+    if n_dot_l <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+#if SHADOWS
+    let o = spawn_origin(s, inc.dir);
+    var t_max = FAR;
+    if inc.positional {
+        t_max = length(light.position - o) * (1.0 - SHADOW_END_REL);
+    }
+    count(RAY_SHADOW);
+    if occluded(make_ray(o, inc.dir), t_max) {
+        count(C_SHADOW_BLOCKED);
+        return vec3<f32>(0.0);
+    }
+#endif
+    var local = diffuse * n_dot_l;
+    if m.ks > 0.0 {
+        let r = n * (2.0 * n_dot_l) - inc.dir;
+        let r_dot_v = dot(r, v);
+        if r_dot_v > 0.0 {
+            local += vec3<f32>(m.ks * pow(r_dot_v, m.shine));
+        }
+    }
+    return inc.radiance * local;
+}
+
+// Local illumination at a hit: emission, ambient and the lights (with shadow rays).
+fn shade_local(m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>) -> vec3<f32> {
+    let diffuse = base_color(m, s) * m.kd;
+    var l = params.ambient * diffuse;
+#if EMISSION
+    l += m.emission;
+#endif
+    for (var i = 0u; i < params.light_count; i++) {
+        l += light_contribution(lights[i], m, s, n, v, diffuse);
+    }
+    return l;
+}
+
+#if REFLECTION
+// Mirror reflection of unit `d` about unit `n`, renormalised.
+fn reflect_dir(d: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    return normalize(d - n * (2.0 * dot(d, n)));
+}
+#endif
+
+#if REFRACTION
+struct Refracted {
+    ok: bool,
+    dir: vec3<f32>,
+}
+
+fn snell(d: vec3<f32>, n: vec3<f32>, eta: f32) -> Refracted {
+    let cos_i = -dot(d, n);
+    let k = 1.0 - eta * eta * (1.0 - cos_i * cos_i);
+    if k < 0.0 {
+        return Refracted(false, vec3<f32>(0.0));
+    }
+    return Refracted(true, normalize(d * eta + n * (eta * cos_i - sqrt(k))));
+}
+
+// The refracted direction (normals facing the incoming ray); not ok on total internal
+// reflection.
+fn refract_dir(d: vec3<f32>, n: vec3<f32>, ng: vec3<f32>, entering: bool, ior: f32) -> Refracted {
+    let eta = select(ior, 1.0 / ior, entering);
+    let t = snell(d, n, eta);
+    if !t.ok || dot(t.dir, ng) < 0.0 {
+        return t;
+    }
+    return snell(d, ng, eta);
+}
+#endif
+
+// The ray-tree walk of the current grid point, one node per call: `state` (loaded from
+// and stored back to `states` by the kernel) holds the pending rays and the radiance so
+// far. Each kernel invocation handles one node so that no invocation runs long loops
+// (lavapipe stops every loop of an invocation after 65535 iterations in all).
+var<private> state: PointState;
+
+// Traces the ray on top of the stack and pushes the rays its hit spawns.
+fn trace_step() {
+    state.sp -= 1u;
+    let job = state.stack[state.sp];
+    let ray = make_ray(job.o, job.d);
+    count(job.kind);
+    let h = closest(ray, FAR, job.kind);
+    if !h.found {
+        state.color += job.weight * params.background;
+        return;
+    }
+    if job.kind == RAY_EYE {
+        count(C_EYE_HIT);
+    }
+    let prim = prims[h.prim];
+    let m = materials[prim.material];
+    let s = surface(prim, ray, h.hit);
+    let d = ray.d;
+    let entering = dot(d, s.ng) < 0.0;
+    let ng = select(-s.ng, s.ng, entering);
+    let n = select(-s.ns, s.ns, entering);
+    state.color += job.weight * shade_local(m, s, n, -d);
+#if REFLECTION
+    if job.depth < params.max_depth {
+        let transmits = m.transmittance > 0.0;
+        var weight = m.mirror;
+#if REFRACTION
+        var refracted = Refracted(false, vec3<f32>(0.0));
+        if transmits {
+            refracted = refract_dir(d, n, ng, entering, m.ior);
+            if !refracted.ok {
+                // Total internal reflection: what would have been transmitted is reflected.
+                weight += vec3<f32>(m.transmittance);
+            }
+        }
+        if refracted.ok {
+            state.stack[state.sp] = Pending(spawn_origin(s, refracted.dir), RAY_REFRACT, refracted.dir, job.depth + 1u,
+                job.weight * m.transmittance, h.prim);
+            state.sp += 1u;
+        }
+#endif
+        if max3(m.mirror) > 0.0 || transmits {
+            var r = reflect_dir(d, n);
+            if dot(r, ng) <= 0.0 {
+                r = reflect_dir(d, ng);
+            }
+            state.stack[state.sp] = Pending(spawn_origin(s, r), RAY_REFLECT, r, job.depth + 1u, job.weight * weight, h.prim);
+            state.sp += 1u;
+        }
+    }
+#endif
+}

@@ -1,0 +1,53 @@
+// Base colour textures: sRGB texels, wrap modes, nearest or bilinear; twin of
+// src/reference/texture.rs.
+
+fn srgb_to_linear(v: u32) -> f32 {
+    let c = f32(v) / 255.0;
+    if c <= 0.04045 {
+        return c / 12.92;
+    }
+    return pow((c + 0.055) / 1.055, 2.4);
+}
+
+fn wrap_coord(i: i32, n: i32, mode: u32) -> i32 {
+    switch mode {
+        case 0u: {
+            return ((i % n) + n) % n;
+        }
+        case 1u: {
+            let m = ((i % (2 * n)) + 2 * n) % (2 * n);
+            return select(m, 2 * n - 1 - m, m >= n);
+        }
+        default: {
+            return clamp(i, 0, n - 1);
+        }
+    }
+}
+
+fn texel(t: TextureInfo, i: i32, j: i32) -> vec3<f32> {
+    let x = wrap_coord(i, i32(t.width), t.flags & 3u);
+    let y = wrap_coord(j, i32(t.height), (t.flags >> 2u) & 3u);
+    let c = texels[t.offset + u32(y) * t.width + u32(x)];
+    return vec3<f32>(srgb_to_linear(c & 255u), srgb_to_linear((c >> 8u) & 255u), srgb_to_linear((c >> 16u) & 255u));
+}
+
+fn sample_texture(index: u32, uv: vec2<f32>) -> vec3<f32> {
+    let t = texture_infos[index];
+    // Beyond 2^24 an f32 holds no fraction; every wrap mode is periodic or constant there.
+    let x = clamp(uv.x * f32(t.width), -16777216.0, 16777216.0);
+    let y = clamp(uv.y * f32(t.height), -16777216.0, 16777216.0);
+    if (t.flags & 16u) == 0u {
+        return texel(t, i32(floor(x)), i32(floor(y)));
+    }
+    let xs = x - 0.5;
+    let ys = y - 0.5;
+    let x0 = floor(xs);
+    let y0 = floor(ys);
+    let fx = xs - x0;
+    let fy = ys - y0;
+    let i = i32(x0);
+    let j = i32(y0);
+    let top = texel(t, i, j) * (1.0 - fx) + texel(t, i + 1, j) * fx;
+    let bottom = texel(t, i, j + 1) * (1.0 - fx) + texel(t, i + 1, j + 1) * fx;
+    return top * (1.0 - fy) + bottom * fy;
+}

@@ -1,0 +1,532 @@
+//! The GPU renderer: uploads a packed scene, runs the composed kernels tile by tile and
+//! reads back the image, the ray and test counters and the kernel times.
+//!
+//! Each grid point (pixel, or pixel corner with SPD sampling) keeps its ray tree as a
+//! stack of pending rays in a storage buffer; one dispatch traces one ray of every point
+//! of a tile (`render` in `shaders/trace.wgsl`), and the host repeats dispatches until no
+//! point has work left. A single invocation looping over its whole ray tree was the first
+//! design, but lavapipe ends all loops of an invocation after 65535 iterations in total
+//! (a safety limit in Mesa's gallivm), which silently cut ray trees short on scenes of a
+//! few hundred primitives. Work is split into tiles of a bounded number of points (short
+//! dispatches for real GPUs' watchdogs, bounded state memory), which also drive the
+//! progress bar.
+
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+use glam::DVec3;
+use indicatif::ProgressBar;
+use wgpu::util::DeviceExt;
+
+use super::layout::{self, Packed, Params, PointState};
+use super::shader::{self, Variant};
+use super::{GpuContext, GpuError};
+use crate::output::{Aov, Image};
+use crate::reference::{self, sampling, simulated_effects, AccelKind, RenderOptions, Rendered, Sampling};
+use crate::scene::Scene;
+use crate::stats::{self, Counters, Stats};
+
+/// The deepest ray tree the kernels' stack holds (`STACK_SIZE` in shade.wgsl).
+pub const MAX_DEPTH: u32 = 16;
+
+/// Invocations per workgroup (`@workgroup_size` in trace.wgsl).
+const WORKGROUP: u32 = 64;
+
+/// Rough budget of primitive tests per eye sample and dispatch, which sets the tile size.
+const TESTS_PER_DISPATCH: u64 = 1 << 24;
+
+/// The most grid points per dispatch: bounds the point states' memory (800 bytes each).
+const MAX_TILE: u64 = 1 << 16;
+
+/// Mesa's llvmpipe limit on the loop iterations of one invocation (all loops together).
+const LAVAPIPE_LOOP_LIMIT: u64 = 65535;
+
+/// Counter slots in the kernels (`COUNTER_COUNT` in common.wgsl), each 64-bit.
+const COUNTER_SLOTS: usize = 18;
+
+#[derive(Debug, thiserror::Error)]
+pub enum GpuRenderError {
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    #[error("{0}")]
+    Options(String),
+    #[error("invalid scene: {0}")]
+    Scene(String),
+    #[error(transparent)]
+    Shader(#[from] shader::ShaderError),
+    #[error("the GPU failed: {0}")]
+    Device(String),
+}
+
+/// The two entry points of one composed module.
+pub struct Kernels {
+    render: wgpu::ComputePipeline,
+    aov: wgpu::ComputePipeline,
+}
+
+/// An open device with its kernels, compiled once per [`Variant`] and cached.
+pub struct GpuRenderer {
+    pub ctx: GpuContext,
+    bind_layout: wgpu::BindGroupLayout,
+    pipeline_layout: wgpu::PipelineLayout,
+    cache: Mutex<HashMap<Variant, Arc<Kernels>>>,
+    compiles: AtomicUsize,
+}
+
+fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+impl GpuRenderer {
+    /// Opens the GPU (see [`GpuContext::new`]).
+    pub fn new() -> Result<GpuRenderer, GpuError> {
+        Ok(Self::with_context(GpuContext::new()?))
+    }
+
+    pub fn with_context(ctx: GpuContext) -> GpuRenderer {
+        let mut entries = vec![wgpu::BindGroupLayoutEntry {
+            binding: 0,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        }];
+        entries.extend((1..=6).map(|b| storage_entry(b, true)));
+        entries.extend((7..=10).map(|b| storage_entry(b, false)));
+        let bind_layout = ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("cuberay scene"),
+            entries: &entries,
+        });
+        let pipeline_layout = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("cuberay"),
+            bind_group_layouts: &[Some(&bind_layout)],
+            immediate_size: 0,
+        });
+        GpuRenderer {
+            ctx,
+            bind_layout,
+            pipeline_layout,
+            cache: Mutex::new(HashMap::new()),
+            compiles: AtomicUsize::new(0),
+        }
+    }
+
+    /// How many modules have been compiled so far (each variant once).
+    pub fn compiled_variants(&self) -> usize {
+        self.compiles.load(Ordering::Relaxed)
+    }
+
+    /// The kernels of `variant`, compiled on first use.
+    pub fn kernels(&self, variant: Variant) -> Result<Arc<Kernels>, GpuRenderError> {
+        let mut cache = self.cache.lock().expect("kernel cache lock");
+        if let Some(k) = cache.get(&variant) {
+            return Ok(k.clone());
+        }
+        let source = shader::compose(variant)?;
+        let device = &self.ctx.device;
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("cuberay trace"),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+        let pipeline = |entry: &str| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(&self.pipeline_layout),
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        let k = Arc::new(Kernels { render: pipeline("render"), aov: pipeline("aov") });
+        self.compiles.fetch_add(1, Ordering::Relaxed);
+        cache.insert(variant, k.clone());
+        Ok(k)
+    }
+
+    /// Renders `scene` to linear radiance on the GPU.
+    pub fn render(
+        &self,
+        scene: &Scene,
+        opts: &RenderOptions,
+        progress: &ProgressBar,
+    ) -> Result<Rendered, GpuRenderError> {
+        check(scene, opts)?;
+        let (w, h) = (opts.width, opts.height);
+        let start = Instant::now();
+        let variant = Variant::for_effects(scene.effects(), opts.max_depth);
+        let kernels = self.kernels(variant)?;
+        let mut packed = layout::pack(scene, w, h);
+        let corners = opts.sampling == Sampling::Corners;
+        let (gw, gh) = if corners { (w + 1, h + 1) } else { (w, h) };
+        let seed_hash = sampling::pcg(sampling::pcg((opts.seed >> 32) as u32) ^ opts.seed as u32);
+        packed.params = Params {
+            grid_w: gw,
+            grid_h: gh,
+            spp: opts.spp,
+            lattice_g: if opts.spp > 1 { sampling::lattice_generator(opts.spp) } else { 1 },
+            seed_hash,
+            corners: corners as u32,
+            max_depth: opts.max_depth,
+            ..packed.params
+        };
+        let preprocess_s = start.elapsed().as_secs_f64();
+        let start = Instant::now();
+        let run = self.run(&kernels.render, true, scene, &packed, gw, gh, progress)?;
+        let trace_s = start.elapsed().as_secs_f64();
+
+        let mut image = Image::new(w, h, false);
+        let px = |v: DVec3| [v.x as f32, v.y as f32, v.z as f32, 1.0];
+        let at = |i: u32, j: u32| {
+            let p = run.values[(j * gw + i) as usize];
+            DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
+        };
+        for j in 0..h {
+            for i in 0..w {
+                let v = if corners {
+                    (at(i, j) + at(i + 1, j) + at(i, j + 1) + at(i + 1, j + 1)) * 0.25
+                } else {
+                    at(i, j) / opts.spp as f64
+                };
+                image.pixels[(j * w + i) as usize] = px(v);
+            }
+        }
+        let stats = Stats::new(
+            reference::settings(opts, "gpu", "brute"),
+            simulated_effects(scene, opts.max_depth),
+            &run.counters,
+            stats::Times { preprocess_s, trace_s, gpu_s: run.gpu_s },
+        );
+        Ok(Rendered { image, stats })
+    }
+
+    /// Renders an auxiliary output from the eye ray through each pixel centre, as
+    /// [`crate::reference::render_aov`] does.
+    pub fn render_aov(
+        &self,
+        scene: &Scene,
+        opts: &RenderOptions,
+        aov: Aov,
+        progress: &ProgressBar,
+    ) -> Result<Rendered, GpuRenderError> {
+        check(scene, opts)?;
+        let (w, h) = (opts.width, opts.height);
+        let start = Instant::now();
+        let variant = Variant::for_effects(scene.effects(), opts.max_depth);
+        let kernels = self.kernels(variant)?;
+        let mut packed = layout::pack(scene, w, h);
+        packed.params = Params {
+            grid_w: w,
+            grid_h: h,
+            spp: 1,
+            lattice_g: 1,
+            max_depth: 1,
+            aov: match aov {
+                Aov::Depth => 0,
+                Aov::Normal => 1,
+                Aov::Id => 2,
+            },
+            ..packed.params
+        };
+        let preprocess_s = start.elapsed().as_secs_f64();
+        let start = Instant::now();
+        let run = self.run(&kernels.aov, false, scene, &packed, w, h, progress)?;
+        let trace_s = start.elapsed().as_secs_f64();
+        let mut image = Image::new(w, h, true);
+        image.pixels = run.values;
+        let mut set = reference::settings(opts, "gpu", "brute");
+        set.sampling = "center".into();
+        set.spp = 1;
+        set.max_depth = 1;
+        let stats = Stats::new(
+            set,
+            Vec::new(),
+            &run.counters,
+            stats::Times { preprocess_s, trace_s, gpu_s: run.gpu_s },
+        );
+        Ok(Rendered { image, stats })
+    }
+
+    /// Runs `pipeline` over a `gw`×`gh` grid of points in tiles. A `stepped` kernel
+    /// (`render`) advances each point by one ray per dispatch and is repeated until no
+    /// point has work left; the `aov` kernel runs once per tile.
+    #[allow(clippy::too_many_arguments)]
+    fn run(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        stepped: bool,
+        scene: &Scene,
+        packed: &Packed,
+        gw: u32,
+        gh: u32,
+        progress: &ProgressBar,
+    ) -> Result<RunOutput, GpuRenderError> {
+        self.check_loop_budget(scene)?;
+        let device = &self.ctx.device;
+        let queue = &self.ctx.queue;
+        let total = gw as u64 * gh as u64;
+        // Primitive tests of one step of one point: the nearest hit and a shadow ray per light.
+        let work = scene.primitives.len() as u64 * (1 + scene.lights.len() as u64);
+        let tile = (TESTS_PER_DISPATCH / work.max(1)).clamp(256, MAX_TILE);
+        let tile = tile.div_ceil(WORKGROUP as u64) * WORKGROUP as u64;
+        let tiles = total.div_ceil(tile);
+
+        let storage = |label: &str, bytes: &[u8]| {
+            // Storage bindings may not be empty.
+            let contents = if bytes.is_empty() { &[0u8; 256][..] } else { bytes };
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage: wgpu::BufferUsages::STORAGE,
+            })
+        };
+        let prims = storage("prims", bytemuck::cast_slice(&packed.prims));
+        let materials = storage("materials", bytemuck::cast_slice(&packed.materials));
+        let lights = storage("lights", bytemuck::cast_slice(&packed.lights));
+        let attrs = storage("tri_attrs", bytemuck::cast_slice(&packed.tri_attrs));
+        let infos = storage("texture_infos", bytemuck::cast_slice(&packed.texture_infos));
+        let texels = storage("texels", bytemuck::cast_slice(&packed.texels));
+        let params = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("params"),
+            size: std::mem::size_of::<Params>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let out_bytes = tile * 16;
+        let out = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("out"),
+            size: out_bytes,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let counters = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("counters"),
+            contents: &[0u8; COUNTER_SLOTS * 8],
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        });
+        let state_bytes = std::mem::size_of::<PointState>() as u64;
+        let states = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("point states"),
+            size: if stepped { tile * state_bytes } else { state_bytes },
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let active = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("active"),
+            size: 4,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let active_read = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("active readback"),
+            size: 4,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let readback = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: out_bytes,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let timing = self.ctx.timestamps.then(|| {
+            let set = device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("kernel times"),
+                ty: wgpu::QueryType::Timestamp,
+                count: 2,
+            });
+            let resolve = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("timestamps"),
+                size: 16,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            let read = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("timestamps readback"),
+                size: 16,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            (set, resolve, read)
+        });
+        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("scene"),
+            layout: &self.bind_layout,
+            entries: &[
+                (0, &params),
+                (1, &prims),
+                (2, &materials),
+                (3, &lights),
+                (4, &attrs),
+                (5, &infos),
+                (6, &texels),
+                (7, &out),
+                (8, &counters),
+                (9, &states),
+                (10, &active),
+            ]
+            .map(|(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }),
+        });
+
+        progress.set_length(tiles);
+        let period_s = queue.get_timestamp_period() as f64 * 1e-9;
+        let mut gpu_s = 0.0;
+        let mut values = Vec::with_capacity(total as usize);
+        for t in 0..tiles {
+            let first = t * tile;
+            let count = tile.min(total - first) as u32;
+            let p = Params { first_point: first as u32, point_count: count, ..packed.params };
+            queue.write_buffer(&params, 0, bytemuck::bytes_of(&p));
+            let bytes = count as u64 * 16;
+            let mut first_step = true;
+            loop {
+                let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+                if stepped && first_step {
+                    enc.clear_buffer(&states, 0, Some(count as u64 * state_bytes));
+                }
+                first_step = false;
+                enc.clear_buffer(&active, 0, None);
+                {
+                    let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some("trace"),
+                        timestamp_writes: timing.as_ref().map(|(set, _, _)| {
+                            wgpu::ComputePassTimestampWrites {
+                                query_set: set,
+                                beginning_of_pass_write_index: Some(0),
+                                end_of_pass_write_index: Some(1),
+                            }
+                        }),
+                    });
+                    pass.set_pipeline(pipeline);
+                    pass.set_bind_group(0, &bind, &[]);
+                    pass.dispatch_workgroups(count.div_ceil(WORKGROUP), 1, 1);
+                }
+                enc.copy_buffer_to_buffer(&active, 0, &active_read, 0, 4);
+                if let Some((set, resolve, read)) = &timing {
+                    enc.resolve_query_set(set, 0..2, resolve, 0);
+                    enc.copy_buffer_to_buffer(resolve, 0, read, 0, 16);
+                }
+                queue.submit([enc.finish()]);
+                let left = u32::from_le_bytes(self.read(&active_read, 4)?.try_into().expect("4 bytes"));
+                if let Some((_, _, read)) = &timing {
+                    let ts = self.read(read, 16)?;
+                    let ts: &[u64] = bytemuck::cast_slice(&ts);
+                    gpu_s += ts[1].saturating_sub(ts[0]) as f64 * period_s;
+                }
+                if !stepped || left == 0 {
+                    break;
+                }
+            }
+            let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+            enc.copy_buffer_to_buffer(&out, 0, &readback, 0, bytes);
+            queue.submit([enc.finish()]);
+            let data = self.read(&readback, bytes)?;
+            values.extend(bytemuck::cast_slice::<u8, [f32; 4]>(&data).iter().copied());
+            progress.inc(1);
+        }
+
+        let counter_read = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("counters readback"),
+            size: (COUNTER_SLOTS * 8) as u64,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        enc.copy_buffer_to_buffer(&counters, 0, &counter_read, 0, (COUNTER_SLOTS * 8) as u64);
+        queue.submit([enc.finish()]);
+        let raw = self.read(&counter_read, (COUNTER_SLOTS * 8) as u64)?;
+        let words: &[u32] = bytemuck::cast_slice(&raw);
+        let slot = |i: usize| words[2 * i] as u64 | (words[2 * i + 1] as u64) << 32;
+        let mut c = Counters::default();
+        for k in 0..4 {
+            c.rays[k] = slot(k);
+            c.tests[k].sphere = slot(4 + 3 * k);
+            c.tests[k].triangle = slot(5 + 3 * k);
+            c.tests[k].cylinder = slot(6 + 3 * k);
+        }
+        c.eye_hit = slot(16);
+        c.shadow_blocked = slot(17);
+        Ok(RunOutput { values, counters: c, gpu_s: timing.is_some().then_some(gpu_s) })
+    }
+
+    /// lavapipe (Mesa's llvmpipe) ends every loop of an invocation once all of its loops
+    /// have run 65535 iterations in total. One step traces one ray and its shadow rays by
+    /// brute force; when that could exceed the limit the result would be silently wrong,
+    /// so it is an error instead.
+    fn check_loop_budget(&self, scene: &Scene) -> Result<(), GpuRenderError> {
+        if !self.ctx.info.name.to_lowercase().contains("llvmpipe") {
+            return Ok(());
+        }
+        let c = scene.counts();
+        let per_ray = (c.spheres + c.triangles + 3 * c.cylinders) as u64;
+        let lights = scene.lights.len() as u64;
+        let worst = per_ray * (1 + lights) + lights + COUNTER_SLOTS as u64 + 16;
+        if worst > LAVAPIPE_LOOP_LIMIT {
+            return Err(GpuRenderError::Options(format!(
+                "brute force over {} primitives and {lights} lights needs up to {worst} loop iterations per \
+                 ray on lavapipe, which stops at {LAVAPIPE_LOOP_LIMIT}; render this scene with --backend cpu",
+                scene.primitives.len()
+            )));
+        }
+        Ok(())
+    }
+
+    /// Waits for the queue and copies the first `bytes` of mappable `buffer`.
+    fn read(&self, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, GpuRenderError> {
+        let (tx, rx) = std::sync::mpsc::channel();
+        buffer.map_async(wgpu::MapMode::Read, 0..bytes, move |r| {
+            let _ = tx.send(r);
+        });
+        self.ctx
+            .device
+            .poll(wgpu::PollType::Wait { submission_index: None, timeout: None })
+            .map_err(|e| GpuRenderError::Device(e.to_string()))?;
+        rx.recv()
+            .map_err(|e| GpuRenderError::Device(e.to_string()))?
+            .map_err(|e| GpuRenderError::Device(e.to_string()))?;
+        let data =
+            buffer.get_mapped_range(0..bytes).map_err(|e| GpuRenderError::Device(format!("{e:?}")))?.to_vec();
+        buffer.unmap();
+        Ok(data)
+    }
+}
+
+struct RunOutput {
+    values: Vec<[f32; 4]>,
+    counters: Counters,
+    gpu_s: Option<f64>,
+}
+
+fn check(scene: &Scene, opts: &RenderOptions) -> Result<(), GpuRenderError> {
+    opts.validate().map_err(|e| GpuRenderError::Options(e.to_string()))?;
+    scene.validate().map_err(GpuRenderError::Scene)?;
+    if opts.max_depth > MAX_DEPTH {
+        return Err(GpuRenderError::Options(format!(
+            "--max-depth {} is deeper than the GPU backend's ray stack allows ({MAX_DEPTH}); use --backend cpu",
+            opts.max_depth
+        )));
+    }
+    if opts.accel == AccelKind::Bvh {
+        return Err(GpuRenderError::Options(
+            "the GPU backend has no BVH: use --accel brute (or auto) with --backend gpu".into(),
+        ));
+    }
+    if scene.primitives.len() >= u32::MAX as usize {
+        return Err(GpuRenderError::Scene("too many primitives for the GPU backend".into()));
+    }
+    Ok(())
+}
