@@ -101,17 +101,7 @@ impl World {
     }
 
     fn brute(&self, o: Vec3, d: Vec3, t_max: f32) -> (u32, f32) {
-        let mut best = (NO_ID, t_max);
-        for (i, p) in self.prims.iter().enumerate() {
-            let t = p.intersect(o, d);
-            if t < best.1 || (t == best.1 && best.0 != NO_ID && (i as u32) < best.0) {
-                best = (i as u32, t);
-            }
-        }
-        if best.0 == NO_ID {
-            best.1 = F32_MAX;
-        }
-        best
+        mirror::brute_nearest(&self.prims, o, d, t_max, NO_ID)
     }
 
     /// Nearest hit through the mirror walker and through the generic walker (f32 and f64

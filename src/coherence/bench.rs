@@ -96,24 +96,6 @@ struct Tracer<'a> {
     params: BenchParams,
 }
 
-/// Brute-force nearest hit with the walker's tie rule.
-fn brute_nearest(prims: &[Prim32], o: Vec3, d: Vec3, t_max: f32, skip: u32) -> (u32, f32) {
-    let mut best = (NO_ID, t_max);
-    for (i, p) in prims.iter().enumerate() {
-        if i as u32 == skip {
-            continue;
-        }
-        let t = p.intersect(o, d);
-        if t < best.1 || (t == best.1 && best.0 != NO_ID && (i as u32) < best.0) {
-            best = (i as u32, t);
-        }
-    }
-    if best.0 == NO_ID {
-        best.1 = F32_MAX;
-    }
-    best
-}
-
 fn kind_mut(r: &mut BenchResult, kind: Kind) -> &mut KindCount {
     match kind {
         Kind::Eye => &mut r.eye,
@@ -150,7 +132,7 @@ impl Tracer<'_> {
                 );
                 ((h.id, h.t), tests as u64, 0)
             }
-            None => (brute_nearest(&self.prims, o, d, F32_MAX, skip), self.prims.len() as u64, 1),
+            None => (mirror::brute_nearest(&self.prims, o, d, F32_MAX, skip), self.prims.len() as u64, 1),
         };
         let c = kind_mut(r, kind);
         c.rays += 1;
@@ -158,7 +140,7 @@ impl Tracer<'_> {
         c.tests += tests;
         if self.params.verify_every > 0 && n % self.params.verify_every as u64 == 0 {
             r.verified += 1;
-            let want = brute_nearest(&self.prims, o, d, F32_MAX, skip);
+            let want = mirror::brute_nearest(&self.prims, o, d, F32_MAX, skip);
             if want != hit {
                 r.mismatches += 1;
                 r.first_mismatch
@@ -200,7 +182,7 @@ impl Tracer<'_> {
             }
             None => {
                 r.shadow.untabled += 1;
-                (brute_nearest(&self.prims, o, d, t_max, skip).0 != NO_ID, self.prims.len() as u64)
+                (mirror::brute_nearest(&self.prims, o, d, t_max, skip).0 != NO_ID, self.prims.len() as u64)
             }
         };
         r.shadow.rays += 1;
@@ -208,7 +190,7 @@ impl Tracer<'_> {
         r.shadow_blocked += blocked as u64;
         if self.params.verify_every > 0 && n % self.params.verify_every as u64 == 0 {
             r.verified += 1;
-            let want = brute_nearest(&self.prims, o, d, t_max, skip);
+            let want = mirror::brute_nearest(&self.prims, o, d, t_max, skip);
             if (want.0 != NO_ID) != blocked {
                 r.mismatches += 1;
                 r.first_mismatch.get_or_insert(format!(

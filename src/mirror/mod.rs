@@ -404,6 +404,26 @@ impl Prim32 {
     }
 }
 
+/// Testing every primitive except `skip`, with the walkers' tie rule (equal distances go to
+/// the lower id): the answer the table walks must reproduce. Returns (id, t), with
+/// (`NO_ID`, `F32_MAX`) for a miss.
+pub fn brute_nearest(prims: &[Prim32], o: Vec3, d: Vec3, t_max: f32, skip: u32) -> (u32, f32) {
+    let mut best = (NO_ID, t_max);
+    for (i, p) in prims.iter().enumerate() {
+        if i as u32 == skip {
+            continue;
+        }
+        let t = p.intersect(o, d);
+        if t < best.1 || (t == best.1 && best.0 != NO_ID && (i as u32) < best.0) {
+            best = (i as u32, t);
+        }
+    }
+    if best.0 == NO_ID {
+        best.1 = F32_MAX;
+    }
+    best
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
