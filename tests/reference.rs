@@ -417,7 +417,7 @@ fn random_scene(seed: u32) -> Scene {
 }
 
 #[test]
-fn brute_and_bvh_give_identical_images() {
+fn brute_bvh_and_cube_give_identical_images() {
     for seed in 1..=4 {
         let s = random_scene(seed);
         let mut o = opts(40, 30);
@@ -434,12 +434,23 @@ fn brute_and_bvh_give_identical_images() {
         assert_eq!(brute.stats.rays, bvh.stats.rays, "seed {seed}: ray counts differ");
         // The BVH must test fewer primitives per eye ray than testing all 62.
         assert!(bvh.stats.tests_per_ray.eye < brute.stats.tests_per_ray.eye);
+        // The direction-cube tables choose which primitives the same f64 tests run on.
+        o.accel = AccelKind::Cube;
+        let cube = run(&s, &o);
+        assert_eq!(cube.stats.settings.accel, "cube");
+        check_stats(&cube);
+        assert_eq!(brute.image, cube.image, "seed {seed}: cube image differs");
+        assert_eq!(brute.stats.rays, cube.stats.rays, "seed {seed}: cube ray counts differ");
+        assert!(cube.stats.tests_per_ray.eye < brute.stats.tests_per_ray.eye);
+        assert!(cube.stats.tests_per_ray.shadow < brute.stats.tests_per_ray.shadow);
         for aov in [Aov::Id, Aov::Depth] {
             o.accel = AccelKind::Brute;
             let a = render_aov(&s, &o, aov, &ProgressBar::hidden()).unwrap();
-            o.accel = AccelKind::Bvh;
-            let b = render_aov(&s, &o, aov, &ProgressBar::hidden()).unwrap();
-            assert_eq!(a.image, b.image, "seed {seed}: {aov:?} differs");
+            for accel in [AccelKind::Bvh, AccelKind::Cube] {
+                o.accel = accel;
+                let b = render_aov(&s, &o, aov, &ProgressBar::hidden()).unwrap();
+                assert_eq!(a.image, b.image, "seed {seed}: {aov:?} differs with {accel:?}");
+            }
         }
     }
 }

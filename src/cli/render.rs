@@ -73,7 +73,7 @@ pub struct TraceArgs {
     #[arg(long, default_value_t = 5)]
     pub max_depth: u32,
     /// Acceleration structure (auto: brute force for tiny scenes, else a BVH on the CPU;
-    /// the GPU traces by brute force).
+    /// cube: the direction-cube candidate tables; the GPU traces by brute force).
     #[arg(long, value_enum, default_value_t = AccelKind::Auto)]
     pub accel: AccelKind,
     /// glTF: index of the camera to use.

@@ -17,6 +17,7 @@ use glam::{DVec3, Vec3A};
 use obvhs::{aabb::Aabb as BvhAabb, bvh2::Bvh2, Boundable, BvhBuildParams};
 
 use super::geometry::{intersect, PrimHit, Ray};
+use crate::coherence::BuildError;
 use crate::scene::{Aabb, Primitive, Scene};
 use crate::stats::TestCounts;
 
@@ -61,6 +62,8 @@ pub enum AccelKind {
     Brute,
     /// Bounding volume hierarchy.
     Bvh,
+    /// The direction-cube candidate tables of the coherence method (Ohta and Maekawa).
+    Cube,
 }
 
 /// The largest scene [`AccelKind::Auto`] traces by brute force.
@@ -78,21 +81,25 @@ pub trait Accel: Sync {
     fn occluded(&self, query: &ShadowQuery, tests: &mut TestCounts) -> bool;
 }
 
-/// Builds the structure `kind` asks for.
-pub fn build<'a>(scene: &'a Scene, kind: AccelKind) -> Box<dyn Accel + 'a> {
-    let brute = match kind {
-        AccelKind::Auto => scene.primitives.len() <= AUTO_BRUTE_MAX,
-        AccelKind::Brute => true,
-        AccelKind::Bvh => false,
-    };
-    if brute {
-        Box::new(Brute { prims: &scene.primitives })
-    } else {
-        Box::new(Bvh::new(&scene.primitives))
-    }
+/// Builds the structure `kind` asks for; the direction-cube tables cover primary rays of a
+/// `width`×`height` image.
+pub fn build<'a>(
+    scene: &'a Scene,
+    kind: AccelKind,
+    width: u32,
+    height: u32,
+) -> Result<Box<dyn Accel + 'a>, BuildError> {
+    Ok(match kind {
+        AccelKind::Auto if scene.primitives.len() <= AUTO_BRUTE_MAX => {
+            Box::new(Brute::new(&scene.primitives))
+        }
+        AccelKind::Brute => Box::new(Brute::new(&scene.primitives)),
+        AccelKind::Auto | AccelKind::Bvh => Box::new(Bvh::new(&scene.primitives)),
+        AccelKind::Cube => Box::new(super::cube::Cube::new(scene, width, height)?),
+    })
 }
 
-fn count(prim: &Primitive, tests: &mut TestCounts) {
+pub(super) fn count(prim: &Primitive, tests: &mut TestCounts) {
     match prim {
         Primitive::Sphere(_) => tests.sphere += 1,
         Primitive::Triangle(_) => tests.triangle += 1,
@@ -126,7 +133,7 @@ fn test_closest(
 }
 
 /// The next f64 above a finite `x` (kept for MSRV 1.85, where `f64::next_up` is missing).
-fn next_up(x: f64) -> f64 {
+pub(super) fn next_up(x: f64) -> f64 {
     if x.is_finite() {
         if x == 0.0 {
             f64::from_bits(1)

@@ -4,6 +4,8 @@
 //! - [`geometry`]: rays, exact-as-practical primitive intersection, robust spawn offsets;
 //! - [`accel`]: brute force and BVH behind the [`accel::Accel`] trait, which receives
 //!   each ray's origin entity so that the direction-cube tables can plug in;
+//! - [`cube`]: `--accel cube`, the reference's own intersection tests in the order and
+//!   number the direction-cube tables of [`crate::coherence`] choose;
 //! - [`shade`]: the Whitted shading model and the ray tree;
 //! - [`sampling`]: where eye rays go (pixel centres, stratified jitter, SPD corners);
 //! - [`texture`]: texture sampling.
@@ -23,6 +25,7 @@ use crate::scene::Scene;
 use crate::stats::{self, Counters, Stats};
 
 pub mod accel;
+pub mod cube;
 pub mod geometry;
 pub mod sampling;
 pub mod shade;
@@ -93,6 +96,9 @@ pub enum RenderError {
     /// The scene breaks an invariant of the scene model.
     #[error("invalid scene: {0}")]
     Scene(String),
+    /// The direction-cube tables (`--accel cube`) could not be built.
+    #[error(transparent)]
+    Tables(#[from] crate::coherence::BuildError),
 }
 
 /// A rendered image and its statistics.
@@ -142,7 +148,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions, progress: &ProgressBar) -> Re
     prepare(scene, opts)?;
     let (w, h) = (opts.width, opts.height);
     let start = Instant::now();
-    let accel = accel::build(scene, opts.accel);
+    let accel = accel::build(scene, opts.accel, w, h)?;
     let preprocess_s = start.elapsed().as_secs_f64();
     let tracer = Tracer { scene, accel: accel.as_ref(), max_depth: opts.max_depth };
     let cam = &scene.camera;
@@ -226,7 +232,7 @@ pub fn render_aov(
     prepare(scene, opts)?;
     let (w, h) = (opts.width, opts.height);
     let start = Instant::now();
-    let accel = accel::build(scene, opts.accel);
+    let accel = accel::build(scene, opts.accel, w, h)?;
     let preprocess_s = start.elapsed().as_secs_f64();
     let tracer = Tracer { scene, accel: accel.as_ref(), max_depth: 1 };
     let start = Instant::now();
