@@ -328,7 +328,7 @@ proptest! {
         let params = BuildParams { cluster_size: Some(k), ..small_params() };
         let w = World::new(&s, &params);
         let origins: Vec<usize> = (0..s.primitives.len())
-            .filter(|&i| w.tables.flat.origin(OriginKey::Surface(i as u32)).is_some())
+            .filter(|&i| w.tables.flat.has_surface(i as u32))
             .collect();
         // Exactly the reflecting and transmitting primitives have tables.
         for (i, p) in s.primitives.iter().enumerate() {
@@ -341,8 +341,8 @@ proptest! {
             let (p, ng) = w.surface_point(id, a, b);
             let d = legal(&s, id, ng, dir(x, y, z));
             let o = mirror::offset_ray_origin(p, ng, d);
-            w.check_nearest(OriginKey::Surface(id as u32), o, d).map_err(TestCaseError::fail)?;
-            w.check_any(OriginKey::Surface(id as u32), o, d, tm).map_err(TestCaseError::fail)?;
+            w.check_nearest(OriginKey::Surface(id as u32, o), o, d).map_err(TestCaseError::fail)?;
+            w.check_any(OriginKey::Surface(id as u32, o), o, d, tm).map_err(TestCaseError::fail)?;
         }
     }
 
@@ -363,7 +363,7 @@ proptest! {
                     continue; // the surface faces away from the light: no shadow ray
                 }
                 let o = mirror::offset_ray_origin(p, ng, d);
-                w.check_any(OriginKey::Surface(id as u32), o, d, (w.p(l.position) - o).length())
+                w.check_any(OriginKey::Surface(id as u32, o), o, d, (w.p(l.position) - o).length())
                     .map_err(TestCaseError::fail)?;
             }
         }
@@ -463,7 +463,7 @@ fn boundary_directions_from_every_origin_kind() {
             w.check_any(OriginKey::Light(0), w.p(c), d, 3.2).unwrap();
             let (p, ng) = (w.p(c) + 0.3 * d, d);
             let o = mirror::offset_ray_origin(p, ng, d);
-            w.check_nearest(OriginKey::Surface(centre_id), o, d).unwrap();
+            w.check_nearest(OriginKey::Surface(centre_id, o), o, d).unwrap();
         }
     }
 }
@@ -541,12 +541,12 @@ fn eye_inside_bounding_spheres() {
             let (p, ng) = w.surface_point(0, (k as f32 * 0.618) % 1.0, (k as f32 * 0.377) % 1.0);
             let d = dir(-ng.x + 0.3 * (k as f32).sin(), -ng.y, -ng.z + 0.3 * (k as f32).cos());
             let o = mirror::offset_ray_origin(p, ng, d);
-            w.check_nearest(OriginKey::Surface(0), o, d).unwrap();
+            w.check_nearest(OriginKey::Surface(0, o), o, d).unwrap();
             // The mirror sphere enclosing a smaller one reflects inside itself.
             let (p, ng) = w.surface_point(5, (k as f32 * 0.618) % 1.0, (k as f32 * 0.377) % 1.0);
             let d = dir(-ng.x + 0.5 * (k as f32).sin(), -ng.y + 0.5 * (k as f32).cos(), -ng.z);
             let o = mirror::offset_ray_origin(p, ng, d);
-            w.check_nearest(OriginKey::Surface(5), o, d).unwrap();
+            w.check_nearest(OriginKey::Surface(5, o), o, d).unwrap();
         }
     }
 }
@@ -590,7 +590,7 @@ fn tangent_and_nested_spheres() {
                         continue;
                     }
                     let o = mirror::offset_ray_origin(p, ng, d);
-                    w.check_nearest(OriginKey::Surface(id as u32), o, d).unwrap();
+                    w.check_nearest(OriginKey::Surface(id as u32, o), o, d).unwrap();
                 }
             }
         }
@@ -638,7 +638,7 @@ fn huge_ground_polygon() {
             let (p, ng) = w.surface_point(id, (m as f32 * 0.618) % 1.0, (m as f32 * 0.377) % 1.0);
             let d = dir(ng.x + 0.7 * (m as f32).sin(), ng.y + 0.7 * (m as f32).cos(), ng.z);
             let o = mirror::offset_ray_origin(p, ng, d);
-            w.check_nearest(OriginKey::Surface(id as u32), o, d).unwrap();
+            w.check_nearest(OriginKey::Surface(id as u32, o), o, d).unwrap();
         }
     }
 }
@@ -682,7 +682,7 @@ fn memory_budget_is_respected() {
         for m in 0..20 {
             let (p, ng) = w.surface_point(id, (m as f32 * 0.618) % 1.0, (m as f32 * 0.377) % 1.0);
             let o = mirror::offset_ray_origin(p, ng, ng);
-            w.check_nearest(OriginKey::Surface(id as u32), o, dir(ng.x + 0.3, ng.y, ng.z - 0.2)).unwrap();
+            w.check_nearest(OriginKey::Surface(id as u32, o), o, dir(ng.x + 0.3, ng.y, ng.z - 0.2)).unwrap();
         }
     }
 }
@@ -710,5 +710,52 @@ fn spd_scenes_every_ray_agrees_with_brute_force() {
             0,
             "{name}: rays without a table"
         );
+    }
+}
+
+#[test]
+fn mirror_floor_patches_match_brute_force() {
+    // A large mirror floor (two triangles) under small objects, some touching it: the floor
+    // is split into surface patches, and rays leaving it from anywhere (on patch borders
+    // too, up and down) find what brute force finds.
+    let (a, b, c, d) = (
+        DVec3::new(-10.0, -10.0, 0.0),
+        DVec3::new(10.0, -10.0, 0.0),
+        DVec3::new(10.0, 10.0, 0.0),
+        DVec3::new(-10.0, 10.0, 0.0),
+    );
+    let mut prims = vec![tri(a, b, c, 1), tri(a, c, d, 1)];
+    for i in 0..6 {
+        for j in 0..6 {
+            let (x, y) = (-7.5 + 3.0 * i as f64, -7.5 + 3.0 * j as f64);
+            prims.push(match (i + j) % 3 {
+                0 => sphere(DVec3::new(x, y, 0.5), 0.5, 0),
+                1 => tri(DVec3::new(x, y, 0.0), DVec3::new(x + 0.8, y, 0.4), DVec3::new(x, y + 0.8, 1.0), 0),
+                _ => sphere(DVec3::new(x, y, 1.5), 0.4, 1),
+            });
+        }
+    }
+    let s = scene(DVec3::new(0.0, -25.0, 12.0), DVec3::ZERO, &[DVec3::new(3.0, 2.0, 15.0)], prims);
+    let w = World::new(&s, &BuildParams { surface_n: Some(8), ..BuildParams::default() });
+    let f = &w.tables.flat;
+    assert!(f.prim_patches[0] > 1 && f.prim_patches[1] > 1, "the floor is split: {:?}", &f.prim_patches[..2]);
+    assert!(f.prim_patches[2..].iter().all(|&m| m == 1), "small objects are not split");
+    let m = f.prim_patches[0] as f32;
+    for k in 0..3000 {
+        let id = k % 2;
+        // Every third point sits on a grid line of the patches.
+        let (mut u, mut v) = ((k as f32 * 0.618_034) % 1.0, (k as f32 * 0.414_214) % 1.0);
+        if k % 3 == 0 {
+            u = (u * m).round() / m;
+        }
+        if u + v > 1.0 {
+            (u, v) = (1.0 - u, 1.0 - v);
+        }
+        let (p, ng) = w.surface_point(id, u, v);
+        let t = k as f32 * 0.7;
+        let dd = dir(t.sin(), t.cos(), if k % 5 == 0 { -0.3 } else { 0.05 + (k % 7) as f32 * 0.2 });
+        let o = mirror::offset_ray_origin(p, ng, dd);
+        w.check_nearest(OriginKey::Surface(id as u32, o), o, dd).unwrap();
+        w.check_any(OriginKey::Surface(id as u32, o), o, dd, 3.0).unwrap();
     }
 }

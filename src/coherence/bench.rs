@@ -272,7 +272,7 @@ impl Tracer<'_> {
                     (v.normalize(), v.length())
                 };
                 let skip = self.can_skip(id, true);
-                self.any(r, OriginKey::Surface(id), q, dir, t_max, skip, n);
+                self.any(r, OriginKey::Surface(id, q), q, dir, t_max, skip, n);
             }
         }
         if depth >= self.params.max_depth {
@@ -290,13 +290,13 @@ impl Tracer<'_> {
                 let dt = (eta * d + (eta * cosi - k.sqrt()) * nf).normalize();
                 let q = mirror::offset_ray_origin(p, ng, dt);
                 let skip = if matches!(prim, Primitive::Triangle(_)) { id } else { NO_ID };
-                self.trace(r, Kind::Refract, OriginKey::Surface(id), q, dt, skip, depth + 1, n);
+                self.trace(r, Kind::Refract, OriginKey::Surface(id, q), q, dt, skip, depth + 1, n);
             }
         }
         if want_reflect {
             let q = mirror::offset_ray_origin(p, ng, refl);
             let skip = self.can_skip(id, outside);
-            self.trace(r, Kind::Reflect, OriginKey::Surface(id), q, refl, skip, depth + 1, n);
+            self.trace(r, Kind::Reflect, OriginKey::Surface(id, q), q, refl, skip, depth + 1, n);
         }
     }
 }

@@ -24,7 +24,9 @@ use super::geom::{
     cell_cone, cell_span, point_segment_distance, point_triangle_distance, region_cone, sphere_cone,
     sphere_inner_cone, ArcBound, CellCone, Cone, TriEdges,
 };
-use super::origins::{bounding_sphere, cluster, mark_enclosing, Bvh, Shape, Target};
+use super::origins::{
+    bounding_sphere, cluster, mark_enclosing, patch_counts, patch_rounding, patch_sphere, Bvh, Shape, Target,
+};
 use crate::scene::{LightKind, Projection, Scene};
 
 /// Where shadow rays are looked up.
@@ -117,6 +119,9 @@ pub struct OriginDef {
     pub n: u32,
     /// Per face, the cells searched: `[iu0, iv0, width, height]`, or `None`.
     pub window: [Option<[u32; 4]>; 6],
+    /// Surface patches: `(m, index)` when this origin is patch `index` of the `m×m` patches
+    /// of its one member (see [`crate::mirror::triangle_patch`]).
+    pub patch: Option<(u32, u32)>,
 }
 
 /// One origin's built table, before flattening.
@@ -272,6 +277,83 @@ impl Pair {
     }
 }
 
+/// The planes of a surface origin whose members are all triangles. A ray leaving a
+/// triangle starts on the side of its plane it goes to (the spawn offset moves it there), so
+/// while it goes to the front (`d·n > 0`) it never reaches what lies wholly behind the plane,
+/// and while it goes to the back, nothing wholly in front. For a target wholly behind (in
+/// front of) every member's plane, the cells whose directions all point to the members'
+/// fronts (backs) are blind: the target is left out of them.
+struct Planes {
+    /// A point and the unit normal of each member.
+    planes: Vec<(DVec3, DVec3)>,
+    /// Every member normal lies within `beta` of `axis`.
+    axis: DVec3,
+    beta: f64,
+}
+
+impl Planes {
+    /// `None` when a member is not a triangle or the normals spread too widely to leave
+    /// any blind cell.
+    fn of(def: &OriginDef, ctx: &Ctx) -> Option<Planes> {
+        if def.kind != OriginKind::Surface || def.members.is_empty() {
+            return None;
+        }
+        let mut planes = Vec::with_capacity(def.members.len());
+        let mut sum = DVec3::ZERO;
+        for &m in &def.members {
+            let Shape::Triangle { v } = ctx.targets[m as usize].shape else { return None };
+            let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize();
+            if !n.is_finite() {
+                return None;
+            }
+            sum += n;
+            planes.push((v[0], n));
+        }
+        let axis = sum.normalize();
+        if !axis.is_finite() {
+            return None;
+        }
+        let beta = planes.iter().map(|(_, n)| n.dot(axis).clamp(-1.0, 1.0).acos()).fold(0.0, f64::max);
+        (beta + 2.0 * ctx.delta < std::f64::consts::FRAC_PI_2 - 1e-3).then_some(Planes { planes, axis, beta })
+    }
+
+    /// The cones of blind cells for target `t` (see [`Planes`]).
+    fn blind(&self, t: &Target, delta: f64) -> [Option<Cone>; 2] {
+        let (pts, pad): (&[DVec3], f64) = match &t.shape {
+            Shape::Triangle { v } => (v, 0.0),
+            Shape::Sphere { c, r } => (std::slice::from_ref(c), *r),
+            Shape::Capsule { p0, p1, rad } => (&[*p0, *p1][..], *rad),
+        };
+        // Owned copy for the capsule's temporary array.
+        let pts: Vec<DVec3> = pts.to_vec();
+        let (mut behind, mut front) = (true, true);
+        for (p, n) in &self.planes {
+            // Rounding noise of the signed distances; far below the smallest spawn offset.
+            let scale = pts.iter().fold(p.abs().max_element(), |m, x| m.max(x.abs().max_element()));
+            let tol = 1e-12 * scale;
+            let (lo, hi) = pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
+                let h = (*x - *p).dot(*n);
+                (lo.min(h), hi.max(h))
+            });
+            behind &= hi + pad <= tol;
+            front &= lo - pad >= -tol;
+            if !(behind || front) {
+                return [None, None];
+            }
+        }
+        let half = std::f64::consts::FRAC_PI_2 - self.beta - 2.0 * delta;
+        [behind.then(|| Cone::new(self.axis, half)), front.then(|| Cone::new(-self.axis, half))]
+    }
+}
+
+fn is_blind(blind: &[Option<Cone>; 2], cell: &CellCone) -> bool {
+    blind.iter().flatten().any(|k| k.contains(cell))
+}
+
+fn may_be_blind(blind: &[Option<Cone>; 2], cell: &CellCone) -> bool {
+    blind.iter().flatten().any(|k| k.meets(cell))
+}
+
 /// Cells of an origin's work windows, with cached or computed cell cones.
 struct Cells {
     n: u32,
@@ -419,8 +501,10 @@ pub fn store_dmin(x: f64, eps: f64) -> f32 {
     }
 }
 
-/// Budget estimates tried before falling back to the coarsest surface tables.
-const TRIALS: usize = 5;
+/// Budget estimates made while bisecting the surface candidates.
+const TRIALS: usize = 6;
+/// Surface origins built per estimate.
+const SAMPLE: usize = 16;
 
 /// Surface cubes finer than N = 8 are tried only for clusters of at most 4 primitives and
 /// while all surface origins together have at most this many cells.
@@ -438,6 +522,9 @@ const NEAR_THETA: f64 = 0.8;
 /// Clusters larger than this bound every target with their bounding sphere (the per-member
 /// union costs one bound per member).
 const NEAR_MEMBERS: usize = 16;
+/// Targets seen from a surface origin under a narrower cone than this skip the plane tests
+/// of [`Planes`].
+const BLIND_THETA: f64 = 0.3;
 /// Hierarchy nodes whose cone is wider than this are entered without a cull test.
 const CULL_THETA: f64 = 0.5;
 
@@ -453,6 +540,7 @@ pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
     let mut touched: Vec<u32> = Vec::new();
     let mut wide: Vec<GpuEntry> = Vec::new();
     let (c, r) = (def.center, def.radius);
+    let planes = Planes::of(def, ctx);
     let member_spheres: Vec<(u32, DVec3, f64)> = if def.members.len() > 1 {
         def.members
             .iter()
@@ -511,6 +599,11 @@ pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
                 continue;
             }
             let p = Pair::new(c, r, t, eps, delta, min_cover);
+            // Only targets seen over a wide angle are worth the plane tests.
+            let blind = match &planes {
+                Some(pl) if p.cone.is_none_or(|k| k.theta > BLIND_THETA) => pl.blind(t, delta),
+                _ => [None, None],
+            };
             if def.kind == OriginKind::Light && is_wide(&p) {
                 // Huge objects (ground polygons) around a light: tested for every shadow ray
                 // rather than stored in most cells (and left out of the light's window).
@@ -523,8 +616,8 @@ pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
             if !near {
                 cells.raster(
                     p.cone.as_ref(),
-                    |cell| p.meets(cell, delta),
-                    |cell| p.inside(cell, delta),
+                    |cell| p.meets(cell, delta) && !is_blind(&blind, cell),
+                    |cell| p.inside(cell, delta) && !may_be_blind(&blind, cell),
                     |it, cell| {
                         let dm = p.cell_dmin(cell, delta);
                         let cover = p.covers(cell, delta).map(|t| t * (1.0 + 1e-6) + 2.0 * eps);
@@ -549,8 +642,8 @@ pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
                 let pm = Pair::new(mc, mr, t, eps, delta, min_cover);
                 cells.raster(
                     pm.cone.as_ref(),
-                    |cell| pm.meets(cell, delta),
-                    |cell| pm.inside(cell, delta),
+                    |cell| pm.meets(cell, delta) && !is_blind(&blind, cell),
+                    |cell| pm.inside(cell, delta) && !may_be_blind(&blind, cell),
                     |it, cell| {
                         let dm = pm.cell_dmin(cell, delta);
                         for i in it {
@@ -683,6 +776,7 @@ fn finish(def: &OriginDef, cells: &Cells, mut recs: Vec<Rec>, ctx: &Ctx) -> Orig
 pub fn flatten(tables: &[OriginTable], defs: &[OriginDef], primitives: usize, lights: usize) -> FlatTables {
     let mut flat = FlatTables {
         prim_origin: vec![u32::MAX; primitives],
+        prim_patches: vec![1; primitives],
         light_origin: vec![u32::MAX; lights],
         eye_origin: u32::MAX,
         ..FlatTables::default()
@@ -718,11 +812,19 @@ pub fn flatten(tables: &[OriginTable], defs: &[OriginDef], primitives: usize, li
         match def.kind {
             OriginKind::Eye => flat.eye_origin = o as u32,
             OriginKind::Light => flat.light_origin[def.light.unwrap()] = o as u32,
-            OriginKind::Surface => {
-                for &m in &def.members {
-                    flat.prim_origin[m as usize] = o as u32;
+            OriginKind::Surface => match def.patch {
+                // Patches are consecutive origins; the first is the primitive's base.
+                Some((m, 0)) => {
+                    flat.prim_origin[def.members[0] as usize] = o as u32;
+                    flat.prim_patches[def.members[0] as usize] = m;
                 }
-            }
+                Some(_) => {}
+                None => {
+                    for &m in &def.members {
+                        flat.prim_origin[m as usize] = o as u32;
+                    }
+                }
+            },
         }
     }
     flat.cell_start.push(flat.entries.len() as u32);
@@ -885,6 +987,7 @@ fn eye_def(scene: &Scene, params: &BuildParams, eps: f64) -> OriginDef {
         light: None,
         n,
         window: rects.map(|r| r.map(|r| to_window(r, n))),
+        patch: None,
     }
 }
 
@@ -902,12 +1005,14 @@ fn light_def(i: usize, pos: DVec3, params: &BuildParams, eps: f64, ctx: &Ctx) ->
         light: Some(i),
         n,
         window: rects.map(|r| r.map(|r| to_window(r, n))),
+        patch: None,
     }
 }
 
-fn surface_defs(ids: &[u32], k: usize, n: u32, ctx: &Ctx) -> Vec<OriginDef> {
+fn surface_defs(ids: &[u32], k: usize, n: u32, ctx: &Ctx, patches: &[u32]) -> Vec<OriginDef> {
     let centers: Vec<DVec3> = ctx.targets.iter().map(|t| t.center).collect();
-    cluster(ids, &centers, k)
+    let (whole, patched): (Vec<u32>, Vec<u32>) = ids.iter().partition(|&&i| patches[i as usize] <= 1);
+    let mut defs: Vec<OriginDef> = cluster(&whole, &centers, k)
         .into_iter()
         .map(|members| {
             let (c, r) = bounding_sphere(&members, ctx.targets);
@@ -919,9 +1024,32 @@ fn surface_defs(ids: &[u32], k: usize, n: u32, ctx: &Ctx) -> Vec<OriginDef> {
                 light: None,
                 n,
                 window: [Some([0, 0, n, n]); 6],
+                patch: None,
             }
         })
-        .collect()
+        .collect();
+    for id in patched {
+        let Shape::Triangle { v } = ctx.targets[id as usize].shape else { continue };
+        let m = patches[id as usize];
+        for index in 0..m * m {
+            let (i, j) = (index % m, index / m);
+            // Patches past the hypotenuse are never looked up: no cells.
+            let used = i + j < m;
+            let (c, r) = patch_sphere(&v, m, i, j);
+            let window = if used { [Some([0, 0, n, n]); 6] } else { [None; 6] };
+            defs.push(OriginDef {
+                kind: OriginKind::Surface,
+                center: c,
+                radius: r + ctx.eps + patch_rounding(&v),
+                members: vec![id],
+                light: None,
+                n,
+                window,
+                patch: Some((m, index)),
+            });
+        }
+    }
+    defs
 }
 
 /// Bytes an origin table adds to the flattened buffers.
@@ -990,6 +1118,7 @@ pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables, BuildError> 
         })
         .map(|(i, _)| i as u32)
         .collect();
+    let patches = patch_counts(&surface_ids, &targets);
     let (mut surface_n, mut cluster_size) = (0, 0);
     let mut surface: Vec<OriginTable> = Vec::new();
     let mut surface_defs_built: Vec<OriginDef> = Vec::new();
@@ -1019,33 +1148,41 @@ pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables, BuildError> 
             }
         };
         let remaining = params.budget_bytes.saturating_sub(fixed_bytes);
-        let mut ci = candidates.len() - 1;
         // A sample that was the whole set, kept to avoid building it twice.
         let mut sampled: Option<(usize, Vec<OriginTable>)> = None;
-        // At most `TRIALS` estimates (each builds a sample), then the coarsest candidate.
-        for (i, &(k, n)) in candidates.iter().enumerate().take(candidates.len() - 1).take(TRIALS) {
-            // Estimate from a sample of origins spread over the scene.
-            let ds = surface_defs(&surface_ids, k, n, &ctx);
-            let step = (ds.len() / 8).max(1);
+        // Candidates run from fine to coarse and their bytes shrink roughly along the list:
+        // bisect for the finest one whose sampled estimate fits, with at most `TRIALS`
+        // estimates (each builds a sample of origins spread over the scene).
+        let (mut lo, mut hi) = (0, candidates.len() - 1);
+        for _ in 0..TRIALS {
+            if lo >= hi {
+                break;
+            }
+            let mid = (lo + hi) / 2;
+            let (k, n) = candidates[mid];
+            let ds = surface_defs(&surface_ids, k, n, &ctx, &patches);
+            let step = (ds.len() / SAMPLE).max(1);
             let sample: Vec<&OriginDef> = ds.iter().step_by(step).collect();
             let built: Vec<OriginTable> = sample.par_iter().map(|d| build_origin(d, &ctx)).collect();
             let bytes: usize = built.iter().map(table_bytes).sum();
             let estimate = bytes as f64 / sample.len() as f64 * ds.len() as f64;
             if estimate <= remaining as f64 * 0.9 {
-                ci = i;
+                hi = mid;
                 if step == 1 {
-                    sampled = Some((i, built));
+                    sampled = Some((mid, built));
                 }
-                break;
+            } else {
+                lo = mid + 1;
             }
         }
+        let mut ci = hi;
         // Build; should the estimate have been wrong and a buffer overflow wgpu's binding
         // limit, fall back to the next coarser candidate.
         let fixed_entries: usize = fixed.iter().map(|t| t.entries.len() + t.always.len()).sum();
         let fixed_cells: usize = fixed.iter().map(|t| t.starts.len() - 1).sum();
         loop {
             let (k, n) = candidates[ci];
-            let ds = surface_defs(&surface_ids, k, n, &ctx);
+            let ds = surface_defs(&surface_ids, k, n, &ctx, &patches);
             let built: Vec<OriginTable> = match sampled.take() {
                 Some((i, b)) if i == ci => b,
                 _ => ds.par_iter().map(|d| build_origin(d, &ctx)).collect(),
@@ -1068,7 +1205,12 @@ pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables, BuildError> 
     }
     defs.extend(surface_defs_built);
     fixed.extend(surface);
-    let flat = flatten(&fixed, &defs, targets.len(), scene.lights.len());
+    let mut flat = flatten(&fixed, &defs, targets.len(), scene.lights.len());
+    for (id, _) in patches.iter().enumerate().filter(|(_, m)| **m > 1) {
+        if let Shape::Triangle { v } = targets[id].shape {
+            flat.patch_tris.insert(id as u32, v.map(|p| (p - scene.camera.eye).as_vec3()));
+        }
+    }
     if flat.largest_buffer_bytes() > MAX_BINDING_BYTES {
         return Err(BuildError::TooLarge { bytes: flat.largest_buffer_bytes(), limit: MAX_BINDING_BYTES });
     }

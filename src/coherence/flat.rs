@@ -9,7 +9,11 @@
 //! cell_start: array<u32>            one per stored cell, plus one: cell c lists
 //!                                   entries[cell_start[c] .. cell_start[c+1]]
 //! entries:    array<GpuEntry>       candidate lists, each sorted by increasing d_min
-//! prim_origin:  array<u32>          per primitive: the origin its secondary rays use, or 0xffffffff
+//! prim_origin:  array<u32>          per primitive: the origin its secondary rays use, or 0xffffffff;
+//!                                   for a primitive split into m×m surface patches, the first
+//!                                   of its m² consecutive origins
+//! prim_patches: array<u32>          per primitive: m (1: one origin for the whole primitive);
+//!                                   a ray origin's patch is `mirror::triangle_patch`
 //! light_origin: array<u32>          per light: the origin of its shadow rays, or 0xffffffff
 //! ```
 //!
@@ -88,8 +92,14 @@ pub struct FlatTables {
     pub faces: Vec<GpuFace>,
     pub cell_start: Vec<u32>,
     pub entries: Vec<GpuEntry>,
-    /// Per primitive: its surface origin, or `u32::MAX`.
+    /// Per primitive: its surface origin (the first of its patches), or `u32::MAX`.
     pub prim_origin: Vec<u32>,
+    /// Per primitive: patches per side `m` (1: not split).
+    pub prim_patches: Vec<u32>,
+    /// The f32 vertices of each split triangle relative to the camera's eye (the frame of
+    /// the GPU and of the f32 walkers), for the CPU's patch lookup; the GPU uses its own copy
+    /// of the primitive. Not uploaded.
+    pub patch_tris: std::collections::HashMap<u32, [glam::Vec3; 3]>,
     /// Per light (index into `Scene::lights`): its light origin, or `u32::MAX` (directional
     /// lights, or no shadow tables).
     pub light_origin: Vec<u32>,
@@ -105,6 +115,7 @@ impl FlatTables {
             + std::mem::size_of_val(self.cell_start.as_slice())
             + std::mem::size_of_val(self.entries.as_slice())
             + std::mem::size_of_val(self.prim_origin.as_slice())
+            + std::mem::size_of_val(self.prim_patches.as_slice())
             + std::mem::size_of_val(self.light_origin.as_slice())
     }
 

@@ -13,15 +13,17 @@ use glam::Vec3;
 use super::flat::{FlatTables, GpuEntry};
 
 /// A ray's origin entity: what its table is keyed by.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum OriginKey {
     /// Primary rays from the camera.
     Eye,
     /// Shadow rays traced from light `i` (index into `Scene::lights`) toward a point.
     Light(usize),
     /// Secondary rays leaving primitive `id` (reflection, refraction, and shadow rays in
-    /// [`super::ShadowMode::HitObject`]).
-    Surface(u32),
+    /// [`super::ShadowMode::HitObject`]) from point `at` (the ray's origin, relative to the
+    /// camera's eye as on the GPU): a large triangle's table is split into surface patches,
+    /// and the point picks the patch.
+    Surface(u32, Vec3),
 }
 
 /// A hit distance type: f32 on the GPU and in the tests, f64 in the reference renderer.
@@ -43,9 +45,22 @@ impl FlatTables {
         let o = match key {
             OriginKey::Eye => self.eye_origin,
             OriginKey::Light(i) => *self.light_origin.get(i)?,
-            OriginKey::Surface(id) => *self.prim_origin.get(id as usize)?,
+            OriginKey::Surface(id, at) => {
+                let base = *self.prim_origin.get(id as usize)?;
+                match self.patch_tris.get(&id) {
+                    Some(v) if base != u32::MAX => {
+                        base + crate::mirror::triangle_patch(v, self.prim_patches[id as usize], at)
+                    }
+                    _ => base,
+                }
+            }
         };
         (o != u32::MAX).then_some(o)
+    }
+
+    /// Whether rays leaving primitive `id` have a table.
+    pub fn has_surface(&self, id: u32) -> bool {
+        self.prim_origin.get(id as usize).is_some_and(|&o| o != u32::MAX)
     }
 
     /// The next entry of the merged (cell, always) lists.

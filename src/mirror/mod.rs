@@ -62,6 +62,29 @@ pub fn cube_face_cell(d: Vec3, n: u32) -> [u32; 3] {
     [face, iu, iv]
 }
 
+/// The surface patch of triangle `v` (split into an `m×m` barycentric grid) holding point
+/// `at` (a ray origin on or just off the triangle): `j·m + i` for the grid square
+/// `b1 ∈ [i/m, (i+1)/m)`, `b2 ∈ [j/m, (j+1)/m)`, clamped into the triangle's squares
+/// (`i + j < m`). Rounding may put a point near a square's edge into its neighbour; the
+/// tables inflate each patch's origin sphere for that.
+pub fn triangle_patch(v: &[Vec3; 3], m: u32, at: Vec3) -> u32 {
+    let e1 = v[1] - v[0];
+    let e2 = v[2] - v[0];
+    let w = at - v[0];
+    let d11 = e1.dot(e1);
+    let d12 = e1.dot(e2);
+    let d22 = e2.dot(e2);
+    let w1 = w.dot(e1);
+    let w2 = w.dot(e2);
+    let den = d11 * d22 - d12 * d12;
+    let b1 = (d22 * w1 - d12 * w2) / den;
+    let b2 = (d11 * w2 - d12 * w1) / den;
+    let last = (m - 1) as f32;
+    let i = (b1 * m as f32).floor().max(0.0).min(last) as u32;
+    let j = (b2 * m as f32).floor().max(0.0).min(last) as u32;
+    j.min(m - 1 - i) * m + i
+}
+
 /// The range `[begin, end)` of `entries` holding the candidate list of the cell that
 /// direction `d` falls in, for origin `origin`. Directions outside the origin's stored
 /// window of a face have an empty list.

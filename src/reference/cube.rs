@@ -13,6 +13,8 @@
 //! table (a primitive that spawns no secondary rays under the current tables) fall back to
 //! testing every primitive, and are counted as such.
 
+use glam::DVec3;
+
 use crate::coherence::{self, BuildError, BuildParams, FlatTables, OriginKey, Tables};
 use crate::scene::{Primitive, Scene};
 use crate::stats::TestCounts;
@@ -24,6 +26,8 @@ use super::geometry::{intersect, Ray};
 pub struct Cube<'a> {
     prims: &'a [Primitive],
     tables: Tables,
+    /// The camera's eye: table lookups take points relative to it.
+    eye: DVec3,
 }
 
 impl<'a> Cube<'a> {
@@ -32,7 +36,7 @@ impl<'a> Cube<'a> {
     pub fn new(scene: &'a Scene, width: u32, height: u32) -> Result<Cube<'a>, BuildError> {
         let params = BuildParams { image: Some((width, height)), ..BuildParams::default() };
         let tables = coherence::build(scene, &params)?;
-        Ok(Cube { prims: &scene.primitives, tables })
+        Ok(Cube { prims: &scene.primitives, tables, eye: scene.camera.eye })
     }
 
     /// The tables as built (for statistics).
@@ -44,11 +48,12 @@ impl<'a> Cube<'a> {
         &self.tables.flat
     }
 
-    fn key(origin: RayOrigin) -> OriginKey {
+    /// The table key of a ray from `origin` starting at `at`.
+    fn key(&self, origin: RayOrigin, at: DVec3) -> OriginKey {
         match origin {
             RayOrigin::Eye => OriginKey::Eye,
             RayOrigin::Light(i) => OriginKey::Light(i as usize),
-            RayOrigin::Surface(id) => OriginKey::Surface(id),
+            RayOrigin::Surface(id) => OriginKey::Surface(id, (at - self.eye).as_vec3()),
         }
     }
 
@@ -82,7 +87,7 @@ impl Accel for Cube<'_> {
 
     fn closest(&self, ray: &Ray, origin: RayOrigin, t_max: f64, tests: &mut TestCounts) -> Option<Hit> {
         let flat = self.flat();
-        let Some(o) = flat.origin(Self::key(origin)) else {
+        let Some(o) = flat.origin(self.key(origin, ray.origin)) else {
             return self.brute_closest(ray, t_max, tests);
         };
         let prims = self.prims;
@@ -122,7 +127,7 @@ impl Accel for Cube<'_> {
                 return blocked;
             }
         }
-        if let Some(o) = flat.origin(OriginKey::Surface(q.object)) {
+        if let Some(o) = flat.origin(self.key(RayOrigin::Surface(q.object), q.ray.origin)) {
             let (blocked, _) = flat
                 .walk_any(o, q.ray.dir.as_vec3(), q.t_max, u32::MAX, |id, _| test(id, tests).then_some(0.0));
             return blocked;
