@@ -1118,7 +1118,7 @@ pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables, BuildError> 
         })
         .map(|(i, _)| i as u32)
         .collect();
-    let patches = patch_counts(&surface_ids, &targets);
+    let mut patches = patch_counts(&surface_ids, &targets);
     let (mut surface_n, mut cluster_size) = (0, 0);
     let mut surface: Vec<OriginTable> = Vec::new();
     let mut surface_defs_built: Vec<OriginDef> = Vec::new();
@@ -1194,6 +1194,11 @@ pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables, BuildError> 
                 || (cells + 1) * 4 > MAX_BINDING_BYTES;
             if too_big && ci + 1 < candidates.len() {
                 ci += 1;
+                continue;
+            }
+            if too_big && patches.iter().any(|&m| m > 1) {
+                // Even the coarsest tables overflow: coarsen the surface patches too.
+                patches.iter_mut().for_each(|m| *m = (*m / 2).max(1));
                 continue;
             }
             surface_n = n;

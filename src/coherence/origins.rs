@@ -304,7 +304,7 @@ const PATCH_SCALE: f64 = 4.0;
 /// At most `m×m` patches per triangle.
 const MAX_PATCH_SIDE: u32 = 16;
 /// At most this many patch origins in a scene.
-const MAX_PATCHES: u32 = 16384;
+const MAX_PATCHES: u32 = 1024;
 
 /// How many patches per side each primitive's origin is split into (1: not split).
 ///
@@ -328,13 +328,17 @@ pub fn patch_counts(surface_ids: &[u32], targets: &[Target]) -> Vec<u32> {
     for &id in surface_ids {
         let t = &targets[id as usize];
         let Shape::Triangle { v } = t.shape else { continue };
-        // Well-shaped triangles only: the barycentric lookup divides by this.
+        // Well-shaped triangles only (no angle under 30° at v[0], the corner the barycentric
+        // grid spans): a sliver's patches would be slivers too.
         let (e1, e2) = (v[1] - v[0], v[2] - v[0]);
-        let den = e1.length_squared() * e2.length_squared() - e1.dot(e2).powi(2);
-        if !(den >= 1e-3 * e1.length_squared() * e2.length_squared()) {
+        let (l1, l2) = (e1.length_squared(), e2.length_squared());
+        let den = l1 * l2 - e1.dot(e2).powi(2);
+        if !(den >= 0.25 * l1 * l2) {
             continue;
         }
-        let side = (t.radius / unit).ceil().clamp(1.0, MAX_PATCH_SIDE as f64) as u32;
+        // Size by area: a patch is about `unit` across.
+        let size = (0.5 * den.sqrt()).sqrt();
+        let side = (size / unit).ceil().clamp(1.0, MAX_PATCH_SIDE as f64) as u32;
         m[id as usize] = side;
         total += (side * side) as u64;
     }
