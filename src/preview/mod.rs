@@ -55,8 +55,9 @@ pub struct Config {
 #[derive(Debug, thiserror::Error)]
 pub enum PreviewError {
     #[error(
-        "cannot open a window: {0}. The preview needs a display (X11 or Wayland); to render \
-         without one use `cuberay render SCENE -o image.png` (with --spp N for the same samples)"
+        "cannot open a window ({0}): the preview needs a display (X11 or Wayland). To render \
+         without one use `cuberay render SCENE -o image.png` (--spp N renders the samples of N \
+         preview frames)"
     )]
     NoDisplay(String),
     #[error("the window system failed: {0}")]
@@ -70,6 +71,10 @@ pub enum PreviewError {
 /// Opens the window and runs until it is closed, Escape is pressed or `--frames` passes
 /// are done.
 pub fn run(config: Config) -> Result<(), PreviewError> {
+    let set = |v: &str| std::env::var_os(v).is_some_and(|s| !s.is_empty());
+    if !set("DISPLAY") && !set("WAYLAND_DISPLAY") && !set("WAYLAND_SOCKET") {
+        return Err(PreviewError::NoDisplay("neither DISPLAY nor WAYLAND_DISPLAY is set".into()));
+    }
     let event_loop = EventLoop::new().map_err(|e| PreviewError::NoDisplay(e.to_string()))?;
     let mut app = App { config: Some(config), view: None, error: None };
     event_loop.run_app(&mut app).map_err(|e| PreviewError::Window(e.to_string()))?;
