@@ -37,7 +37,7 @@ use controls::Controller;
 use session::{Session, Toggles};
 
 /// GPU time a redraw may spend on steps before it presents.
-pub const FRAME_BUDGET: Duration = Duration::from_millis(25);
+pub const FRAME_BUDGET: Duration = Duration::from_millis(40);
 
 /// What to preview and how.
 pub struct Config {
@@ -75,7 +75,15 @@ pub fn run(config: Config) -> Result<(), PreviewError> {
     if !set("DISPLAY") && !set("WAYLAND_DISPLAY") && !set("WAYLAND_SOCKET") {
         return Err(PreviewError::NoDisplay("neither DISPLAY nor WAYLAND_DISPLAY is set".into()));
     }
-    let event_loop = EventLoop::new().map_err(|e| PreviewError::NoDisplay(e.to_string()))?;
+    let event_loop = EventLoop::new().map_err(|e| {
+        // winit says "os error at <source file>:<line>: <reason>"; keep the reason.
+        let text = e.to_string();
+        let reason = match text.strip_prefix("os error at ").and_then(|t| t.split_once(": ")) {
+            Some((_, reason)) => reason.to_string(),
+            None => text,
+        };
+        PreviewError::NoDisplay(reason)
+    })?;
     let mut app = App { config: Some(config), view: None, error: None };
     event_loop.run_app(&mut app).map_err(|e| PreviewError::Window(e.to_string()))?;
     match app.error {

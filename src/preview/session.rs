@@ -29,10 +29,13 @@ pub const SHADER: &str = include_str!("../../shaders/preview.wgsl");
 const TESTS_PER_DISPATCH: u64 = 1 << 24;
 
 /// The wall time one step should take; tiles shrink or grow towards it.
-const STEP_TARGET: Duration = Duration::from_millis(8);
+const STEP_TARGET: Duration = Duration::from_millis(30);
 
 /// The smallest tile (grid points).
 const MIN_TILE: u64 = 256;
+
+/// The most `render` dispatches in one submission.
+const MAX_DISPATCHES: u32 = 16;
 
 /// Which of the scene's effects are switched on (all at first). Refraction rays are
 /// spawned beside reflection rays: with reflection off there is no refraction either.
@@ -107,8 +110,11 @@ pub struct Session {
     /// started).
     next_point: u64,
     tile_count: u64,
-    /// Points of the next tile, adapted to [`STEP_TARGET`].
+    /// Points of the next tile and dispatches per submission, adapted to [`STEP_TARGET`].
     tile_size: u64,
+    dispatches: u32,
+    /// How long the last submission took to finish.
+    last_step: Duration,
     /// Time of the last eye-dependent update.
     pub last_eye_update: Duration,
 }
@@ -204,6 +210,8 @@ impl Session {
             next_point: 0,
             tile_count: 0,
             tile_size: tile.min(4096),
+            dispatches: 1,
+            last_step: Duration::ZERO,
             last_eye_update: Duration::ZERO,
         };
         s.restart();
@@ -306,12 +314,12 @@ impl Session {
         self.tile_count = 0;
     }
 
-    /// Runs steps until `budget` has passed (at least one step unless complete).
-    /// Returns whether any work was done.
+    /// Runs steps while another one is expected to end within `budget` (at least one
+    /// step unless complete). Returns whether any work was done.
     pub fn advance(&mut self, budget: Duration) -> Result<bool, GpuRenderError> {
         let start = Instant::now();
         let mut worked = false;
-        while !self.is_complete() && (!worked || start.elapsed() < budget) {
+        while !self.is_complete() && (!worked || start.elapsed() + self.last_step < budget) {
             self.step()?;
             worked = true;
         }
@@ -348,8 +356,10 @@ impl Session {
             enc.clear_buffer(&self.buffers.states, 0, Some(self.tile_count * state_bytes));
         }
         let count = self.tile_count as u32;
-        enc.clear_buffer(&self.buffers.active, 0, None);
-        {
+        // Several dispatches per submission save a wait each; dispatches after a tile is
+        // done change nothing (`active` counts the last one).
+        for _ in 0..self.dispatches {
+            enc.clear_buffer(&self.buffers.active, 0, None);
             let mut pass = enc.begin_compute_pass(&Default::default());
             pass.set_pipeline(self.kernels.render());
             pass.set_bind_group(0, &self.buffers.bind, &[]);
@@ -360,11 +370,25 @@ impl Session {
         queue.submit([enc.finish()]);
         let left = u32::from_le_bytes(self.gpu.read(&self.active_read, 4)?.try_into().expect("4 bytes"));
         let took = start.elapsed();
-        // Aim the next tile at the step target.
+        self.last_step = took;
+        log::trace!(
+            "step: {count} points x {} dispatches, {:.1} ms, {left} left",
+            self.dispatches,
+            took.as_secs_f64() * 1e3
+        );
+        // Aim at the step target: larger tiles first, then more dispatches per submission.
         if took > STEP_TARGET * 2 {
-            self.tile_size = (self.tile_size / 2).max(MIN_TILE);
-        } else if took < STEP_TARGET / 4 {
-            self.tile_size = (self.tile_size * 2).min(self.buffers.tile);
+            if self.dispatches > 1 {
+                self.dispatches /= 2;
+            } else {
+                self.tile_size = (self.tile_size / 2).max(MIN_TILE);
+            }
+        } else if took < STEP_TARGET / 2 {
+            if self.tile_size < self.buffers.tile {
+                self.tile_size = (self.tile_size * 2).min(self.buffers.tile);
+            } else {
+                self.dispatches = (self.dispatches * 2).min(MAX_DISPATCHES);
+            }
         }
         if left == 0 {
             let tile = [self.next_point as u32, count, 0, 0];
