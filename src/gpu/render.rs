@@ -381,8 +381,8 @@ impl GpuRenderer {
         let tile = tile_points(scene, TESTS_PER_DISPATCH);
         let tiles = total.div_ceil(tile);
 
-        let buffers = self.upload(packed, tile, stepped);
-        let SceneBuffers { params, out, counters, states, active, bind, .. } = &buffers;
+        // The bind group keeps the scene buffers that are not named here alive.
+        let SceneBuffers { params, out, counters, states, active, bind, .. } = self.upload(packed, tile, stepped);
         let active_read = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("active readback"),
             size: 4,
@@ -447,7 +447,7 @@ impl GpuRenderer {
                         }),
                     });
                     pass.set_pipeline(pipeline);
-                    pass.set_bind_group(0, bind, &[]);
+                    pass.set_bind_group(0, &bind, &[]);
                     pass.dispatch_workgroups(count.div_ceil(WORKGROUP), 1, 1);
                 }
                 enc.copy_buffer_to_buffer(&active, 0, &active_read, 0, 4);

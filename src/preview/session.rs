@@ -32,7 +32,7 @@ const TESTS_PER_DISPATCH: u64 = 1 << 24;
 const STEP_TARGET: Duration = Duration::from_millis(30);
 
 /// The smallest tile (grid points).
-const MIN_TILE: u64 = 256;
+const MIN_TILE: u64 = WORKGROUP as u64;
 
 /// The most `render` dispatches in one submission.
 const MAX_DISPATCHES: u32 = 16;
@@ -465,6 +465,18 @@ impl Session {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn preview_shader_validates() {
+        let module =
+            naga::front::wgsl::parse_str(SHADER).unwrap_or_else(|e| panic!("{}", e.emit_to_string(SHADER)));
+        naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::default(),
+        )
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{}", e.emit_to_string(SHADER)));
+    }
 
     #[test]
     fn pass_order_is_a_permutation() {
