@@ -382,7 +382,8 @@ impl GpuRenderer {
         let tiles = total.div_ceil(tile);
 
         // The bind group keeps the scene buffers that are not named here alive.
-        let SceneBuffers { params, out, counters, states, active, bind, .. } = self.upload(packed, tile, stepped);
+        let SceneBuffers { params, out, counters, states, active, bind, .. } =
+            self.upload(packed, tile, stepped);
         let active_read = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("active readback"),
             size: 4,

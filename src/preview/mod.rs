@@ -126,6 +126,8 @@ struct View {
 struct FrameStats {
     since: Instant,
     frames: u32,
+    /// Time spent in those frames (idle time between frames excluded).
+    busy: Duration,
     rays_at: u64,
     ms_per_frame: f64,
     rays_per_s: f64,
@@ -248,6 +250,7 @@ impl View {
             stats: FrameStats {
                 since: Instant::now(),
                 frames: 0,
+                busy: Duration::ZERO,
                 rays_at: 0,
                 ms_per_frame: 0.0,
                 rays_per_s: 0.0,
@@ -294,6 +297,11 @@ impl View {
                 self.cursor = Some(position);
             }
             WindowEvent::CursorLeft { .. } => self.cursor = None,
+            // Keys released while another window has the focus are never reported.
+            WindowEvent::Focused(false) => {
+                self.held.clear();
+                self.drag = None;
+            }
             WindowEvent::MouseWheel { delta, .. } => {
                 let lines = match delta {
                     MouseScrollDelta::LineDelta(_, y) => y as f64,
@@ -385,14 +393,16 @@ impl View {
             self.session.passes()
         );
         self.stats.frames += 1;
-        self.stats.ms_per_frame = frame_start.elapsed().as_secs_f64() * 1e3;
+        self.stats.busy += frame_start.elapsed();
         let elapsed = self.stats.since.elapsed();
         if elapsed > Duration::from_millis(500) || self.session.is_complete() {
             let rays = self.session.rays()?;
             self.stats.rays_per_s = rays.saturating_sub(self.stats.rays_at) as f64 / elapsed.as_secs_f64();
+            self.stats.ms_per_frame = self.stats.busy.as_secs_f64() * 1e3 / self.stats.frames as f64;
             self.stats.rays_at = rays;
             self.stats.since = Instant::now();
             self.stats.frames = 0;
+            self.stats.busy = Duration::ZERO;
             self.update_title();
         }
         if self.frames.is_some_and(|f| self.session.passes() >= f) {
