@@ -23,7 +23,13 @@ struct Params {
     max_depth: u32,
     light_count: u32,
     aov: u32,
-    pad: u32,
+    // The samples started by `render` are sample_first..sample_end (0..spp for a whole
+    // render; the preview renders one sample per pass); spp sizes the jitter lattice.
+    sample_first: u32,
+    sample_end: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 }
 
 // One primitive. Sphere: a = (centre, radius). Triangle: a, b, c = vertices. Cylinder:

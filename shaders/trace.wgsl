@@ -13,7 +13,8 @@
 
 const WORKGROUP: u32 = 64u;
 
-// One step of every grid point of the tile: start the next sample when the point's tree
+// One step of every grid point of the tile: start the next sample (of
+// sample_first..sample_end; `state.sample` counts those started) when the point's tree
 // is done, trace one pending ray, and write the radiance summed so far. The host repeats
 // steps until no point has work left (`points_left[0]` stays 0).
 @compute @workgroup_size(64)
@@ -22,10 +23,10 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocati
     if k < params.point_count {
         let point = params.first_point + k;
         state = states[k];
-        if state.sp == 0u && state.sample < params.spp {
+        if state.sp == 0u && params.sample_first + state.sample < params.sample_end {
             let i = point % params.grid_w;
             let j = point / params.grid_w;
-            let eye = camera_ray(sample_position(i, j, state.sample));
+            let eye = camera_ray(sample_position(i, j, params.sample_first + state.sample));
             state.stack[0] = Pending(eye.o, RAY_EYE, eye.d, 1u, vec3<f32>(1.0), 0xffffffffu);
             state.sp = 1u;
             state.sample += 1u;
@@ -33,7 +34,7 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocati
         if state.sp > 0u {
             trace_step();
         }
-        if state.sp > 0u || state.sample < params.spp {
+        if state.sp > 0u || params.sample_first + state.sample < params.sample_end {
             atomicAdd(&points_left[0], 1u);
         }
         states[k] = state;

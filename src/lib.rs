@@ -12,7 +12,8 @@
 //! - [`load`]: NFF and glTF loaders that produce a validated [`scene::Scene`];
 //! - [`info`]: the summary `cuberay info` prints;
 //! - [`coherence`]: the direction-cube candidate tables, flattened for the GPU, and their CPU walker;
-//! - [`mirror`]: f32 Rust twins of the WGSL functions (cell lookup, intersections, table walk).
+//! - [`mirror`]: f32 Rust twins of the WGSL functions (cell lookup, intersections, table walk);
+//! - [`preview`]: the interactive window that refines a render progressively.
 
 pub mod coherence;
 pub mod compare;
@@ -21,6 +22,7 @@ pub mod info;
 pub mod load;
 pub mod mirror;
 pub mod output;
+pub mod preview;
 pub mod reference;
 pub mod scene;
 pub mod stats;

@@ -10,6 +10,7 @@ use cuberay::info::SceneInfo;
 use cuberay::load::{self, LoadOptions, Loaded};
 
 mod compare;
+mod preview;
 mod render;
 
 #[derive(Parser, Debug)]
@@ -39,6 +40,8 @@ enum Command {
     Render(render::RenderArgs),
     /// Render a scene on the GPU and with the CPU reference and report the differences.
     Compare(compare::CompareArgs),
+    /// Open a window that refines the scene progressively (orbit, pan, zoom, fly).
+    Preview(preview::PreviewArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -81,6 +84,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         }
         Command::Render(args) => render::run(args),
         Command::Compare(args) => compare::run(args),
+        Command::Preview(args) => preview::run(args),
     }
 }
 

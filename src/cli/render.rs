@@ -60,9 +60,10 @@ pub struct TraceArgs {
     /// Image height.
     #[arg(long)]
     pub height: Option<u32>,
-    /// Samples per pixel: 1 samples the pixel centre, N > 1 stratified jitter.
-    #[arg(long, default_value_t = 1)]
-    pub spp: u32,
+    /// Samples per pixel: 1 samples the pixel centre, N > 1 stratified jitter (default 1;
+    /// preview: the samples it accumulates, default --frames, else 256).
+    #[arg(long)]
+    pub spp: Option<u32>,
     /// Seed of the jitter (--spp > 1).
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -94,7 +95,7 @@ impl TraceArgs {
         let opts = RenderOptions {
             width: self.width.unwrap_or(dw),
             height: self.height.unwrap_or(dh),
-            spp: self.spp,
+            spp: self.spp.unwrap_or(1),
             seed: self.seed,
             sampling: self.sampling,
             max_depth: self.max_depth,

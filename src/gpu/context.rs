@@ -41,12 +41,23 @@ impl GpuContext {
     }
 
     async fn new_async() -> Result<GpuContext, GpuError> {
-        // Compute needs no GL: the primary backends (Vulkan, Metal, DX12) unless
-        // WGPU_BACKEND says otherwise.
-        let mut desc = InstanceDescriptor::new_without_display_handle_from_env();
+        Self::open(&Self::instance(InstanceDescriptor::new_without_display_handle_from_env()), None).await
+    }
+
+    /// An instance on the primary backends (Vulkan, Metal, DX12; compute needs no GL)
+    /// unless `WGPU_BACKEND` says otherwise.
+    pub fn instance(mut desc: InstanceDescriptor) -> Instance {
         desc.backends = desc_backends();
-        let instance = Instance::new(desc);
-        let adapter = pick_adapter(&instance, desc_backends()).await?;
+        Instance::new(desc)
+    }
+
+    /// Opens an adapter of `instance` (one that can present to `surface` when given) as
+    /// [`GpuContext::new`] does.
+    pub async fn open(
+        instance: &Instance,
+        surface: Option<&wgpu::Surface<'_>>,
+    ) -> Result<GpuContext, GpuError> {
+        let adapter = pick_adapter(instance, desc_backends(), surface).await?;
         let info = adapter.get_info();
         let wanted = Features::TIMESTAMP_QUERY;
         let features = adapter.features() & wanted;
@@ -82,17 +93,23 @@ fn desc_backends() -> Backends {
     Backends::from_env().unwrap_or(Backends::PRIMARY)
 }
 
-async fn pick_adapter(instance: &Instance, backends: Backends) -> Result<Adapter, GpuError> {
+async fn pick_adapter(
+    instance: &Instance,
+    backends: Backends,
+    surface: Option<&wgpu::Surface<'_>>,
+) -> Result<Adapter, GpuError> {
     let adapters = instance.enumerate_adapters(backends).await;
     if let Ok(name) = std::env::var("WGPU_ADAPTER_NAME") {
         let name = name.to_lowercase();
         return adapters
             .into_iter()
+            .filter(|a| surface.is_none_or(|s| a.is_surface_supported(s)))
             .find(|a| a.get_info().name.to_lowercase().contains(&name))
             .ok_or(GpuError::NoAdapter { filter: format!(" matching WGPU_ADAPTER_NAME='{name}'") });
     }
     let options = wgpu::RequestAdapterOptions {
         power_preference: wgpu::PowerPreference::from_env().unwrap_or(wgpu::PowerPreference::HighPerformance),
+        compatible_surface: surface,
         ..Default::default()
     };
     match instance.request_adapter(&options).await {

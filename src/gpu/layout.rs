@@ -37,7 +37,12 @@ pub struct Params {
     pub light_count: u32,
     /// 0 depth, 1 normal, 2 object id (the `aov` entry point).
     pub aov: u32,
-    pub pad: u32,
+    /// `render` starts samples `sample_first..sample_end` of the `spp`-sample lattice.
+    pub sample_first: u32,
+    pub sample_end: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
 }
 
 /// One primitive (WGSL `Prim`); see the WGSL comment for the fields per kind.
@@ -182,7 +187,11 @@ pub fn twins() -> Vec<Twin> {
             max_depth,
             light_count,
             aov,
-            pad
+            sample_first,
+            sample_end,
+            pad0,
+            pad1,
+            pad2
         }),
         twin!(Prim { a, b, c, kind, material, flags, attr }),
         twin!(TriAttr { n0, n1, n2, uv01, uv2 }),

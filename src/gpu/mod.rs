@@ -8,4 +8,7 @@ mod render;
 pub mod shader;
 
 pub use context::{GpuContext, GpuError};
-pub use render::{GpuRenderError, GpuRenderer, Kernels, MAX_DEPTH};
+pub use render::{
+    check, decode_counters, tile_points, GpuRenderError, GpuRenderer, Kernels, SceneBuffers, COUNTER_SLOTS,
+    MAX_DEPTH, WORKGROUP,
+};

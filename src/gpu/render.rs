@@ -32,7 +32,7 @@ use crate::stats::{self, Counters, Stats};
 pub const MAX_DEPTH: u32 = 16;
 
 /// Invocations per workgroup (`@workgroup_size` in trace.wgsl).
-const WORKGROUP: u32 = 64;
+pub const WORKGROUP: u32 = 64;
 
 /// Rough budget of primitive tests per eye sample and dispatch, which sets the tile size.
 const TESTS_PER_DISPATCH: u64 = 1 << 24;
@@ -44,7 +44,7 @@ const MAX_TILE: u64 = 1 << 16;
 const LAVAPIPE_LOOP_LIMIT: u64 = 65535;
 
 /// Counter slots in the kernels (`COUNTER_COUNT` in common.wgsl), each 64-bit.
-const COUNTER_SLOTS: usize = 18;
+pub const COUNTER_SLOTS: usize = 18;
 
 #[derive(Debug, thiserror::Error)]
 pub enum GpuRenderError {
@@ -64,6 +64,32 @@ pub enum GpuRenderError {
 pub struct Kernels {
     render: wgpu::ComputePipeline,
     aov: wgpu::ComputePipeline,
+}
+
+impl Kernels {
+    /// The stepped `render` entry point (one ray per grid point and dispatch).
+    pub fn render(&self) -> &wgpu::ComputePipeline {
+        &self.render
+    }
+}
+
+/// A packed scene's buffers on the GPU with their bind group (the layout of
+/// `shaders/common.wgsl`), sized for tiles of up to `tile` grid points. Positions are
+/// relative to the eye: a camera move rewrites `prims`, `lights` and `params`.
+pub struct SceneBuffers {
+    pub params: wgpu::Buffer,
+    pub prims: wgpu::Buffer,
+    pub lights: wgpu::Buffer,
+    /// One `vec4<f32>` per point of the tile: the radiance summed by `render` so far.
+    pub out: wgpu::Buffer,
+    /// The 64-bit counters (`COUNTER_SLOTS` of them, low word first).
+    pub counters: wgpu::Buffer,
+    /// One [`PointState`] per point of the tile (one only for the `aov` kernel).
+    pub states: wgpu::Buffer,
+    /// One `u32`: grid points with work left after a step.
+    pub active: wgpu::Buffer,
+    pub bind: wgpu::BindGroup,
+    pub tile: u64,
 }
 
 /// An open device with its kernels, compiled once per [`Variant`] and cached.
@@ -182,6 +208,8 @@ impl GpuRenderer {
             seed_hash,
             corners: corners as u32,
             max_depth: opts.max_depth,
+            sample_first: 0,
+            sample_end: opts.spp,
             ..packed.params
         };
         let preprocess_s = start.elapsed().as_secs_f64();
@@ -261,55 +289,35 @@ impl GpuRenderer {
         Ok(Rendered { image, stats })
     }
 
-    /// Runs `pipeline` over a `gw`×`gh` grid of points in tiles. A `stepped` kernel
-    /// (`render`) advances each point by one ray per dispatch and is repeated until no
-    /// point has work left; the `aov` kernel runs once per tile.
-    #[allow(clippy::too_many_arguments)]
-    fn run(
-        &self,
-        pipeline: &wgpu::ComputePipeline,
-        stepped: bool,
-        scene: &Scene,
-        packed: &Packed,
-        gw: u32,
-        gh: u32,
-        progress: &ProgressBar,
-    ) -> Result<RunOutput, GpuRenderError> {
-        self.check_loop_budget(scene)?;
+    /// Uploads `packed` and creates the kernels' buffers for tiles of up to `tile` grid
+    /// points (`stepped`: with a point state each, for the `render` kernel).
+    pub fn upload(&self, packed: &Packed, tile: u64, stepped: bool) -> SceneBuffers {
         let device = &self.ctx.device;
-        let queue = &self.ctx.queue;
-        let total = gw as u64 * gh as u64;
-        // Primitive tests of one step of one point: the nearest hit and a shadow ray per light.
-        let work = scene.primitives.len() as u64 * (1 + scene.lights.len() as u64);
-        let tile = (TESTS_PER_DISPATCH / work.max(1)).clamp(256, MAX_TILE);
-        let tile = tile.div_ceil(WORKGROUP as u64) * WORKGROUP as u64;
-        let tiles = total.div_ceil(tile);
-
-        let storage = |label: &str, bytes: &[u8]| {
+        let storage = |label: &str, bytes: &[u8], extra: wgpu::BufferUsages| {
             // Storage bindings may not be empty.
             let contents = if bytes.is_empty() { &[0u8; 256][..] } else { bytes };
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
                 contents,
-                usage: wgpu::BufferUsages::STORAGE,
+                usage: wgpu::BufferUsages::STORAGE | extra,
             })
         };
-        let prims = storage("prims", bytemuck::cast_slice(&packed.prims));
-        let materials = storage("materials", bytemuck::cast_slice(&packed.materials));
-        let lights = storage("lights", bytemuck::cast_slice(&packed.lights));
-        let attrs = storage("tri_attrs", bytemuck::cast_slice(&packed.tri_attrs));
-        let infos = storage("texture_infos", bytemuck::cast_slice(&packed.texture_infos));
-        let texels = storage("texels", bytemuck::cast_slice(&packed.texels));
+        let none = wgpu::BufferUsages::empty();
+        let prims = storage("prims", bytemuck::cast_slice(&packed.prims), wgpu::BufferUsages::COPY_DST);
+        let materials = storage("materials", bytemuck::cast_slice(&packed.materials), none);
+        let lights = storage("lights", bytemuck::cast_slice(&packed.lights), wgpu::BufferUsages::COPY_DST);
+        let attrs = storage("tri_attrs", bytemuck::cast_slice(&packed.tri_attrs), none);
+        let infos = storage("texture_infos", bytemuck::cast_slice(&packed.texture_infos), none);
+        let texels = storage("texels", bytemuck::cast_slice(&packed.texels), none);
         let params = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("params"),
             size: std::mem::size_of::<Params>() as u64,
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let out_bytes = tile * 16;
         let out = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("out"),
-            size: out_bytes,
+            size: tile * 16,
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
@@ -331,18 +339,65 @@ impl GpuRenderer {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("scene"),
+            layout: &self.bind_layout,
+            entries: &[
+                (0, &params),
+                (1, &prims),
+                (2, &materials),
+                (3, &lights),
+                (4, &attrs),
+                (5, &infos),
+                (6, &texels),
+                (7, &out),
+                (8, &counters),
+                (9, &states),
+                (10, &active),
+            ]
+            .map(|(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }),
+        });
+        SceneBuffers { params, prims, lights, out, counters, states, active, bind, tile }
+    }
+
+    /// Runs `pipeline` over a `gw`×`gh` grid of points in tiles. A `stepped` kernel
+    /// (`render`) advances each point by one ray per dispatch and is repeated until no
+    /// point has work left; the `aov` kernel runs once per tile.
+    #[allow(clippy::too_many_arguments)]
+    fn run(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        stepped: bool,
+        scene: &Scene,
+        packed: &Packed,
+        gw: u32,
+        gh: u32,
+        progress: &ProgressBar,
+    ) -> Result<RunOutput, GpuRenderError> {
+        self.check_loop_budget(scene)?;
+        let device = &self.ctx.device;
+        let queue = &self.ctx.queue;
+        let total = gw as u64 * gh as u64;
+        let tile = tile_points(scene, TESTS_PER_DISPATCH);
+        let tiles = total.div_ceil(tile);
+
+        // The bind group keeps the scene buffers that are not named here alive.
+        let SceneBuffers { params, out, counters, states, active, bind, .. } =
+            self.upload(packed, tile, stepped);
         let active_read = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("active readback"),
             size: 4,
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        let out_bytes = tile * 16;
         let readback = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("readback"),
             size: out_bytes,
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        let state_bytes = std::mem::size_of::<PointState>() as u64;
         let timing = self.ctx.timestamps.then(|| {
             let set = device.create_query_set(&wgpu::QuerySetDescriptor {
                 label: Some("kernel times"),
@@ -363,25 +418,6 @@ impl GpuRenderer {
             });
             (set, resolve, read)
         });
-        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("scene"),
-            layout: &self.bind_layout,
-            entries: &[
-                (0, &params),
-                (1, &prims),
-                (2, &materials),
-                (3, &lights),
-                (4, &attrs),
-                (5, &infos),
-                (6, &texels),
-                (7, &out),
-                (8, &counters),
-                (9, &states),
-                (10, &active),
-            ]
-            .map(|(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }),
-        });
-
         progress.set_length(tiles);
         let period_s = queue.get_timestamp_period() as f64 * 1e-9;
         let mut gpu_s = 0.0;
@@ -449,17 +485,7 @@ impl GpuRenderer {
         enc.copy_buffer_to_buffer(&counters, 0, &counter_read, 0, (COUNTER_SLOTS * 8) as u64);
         queue.submit([enc.finish()]);
         let raw = self.read(&counter_read, (COUNTER_SLOTS * 8) as u64)?;
-        let words: &[u32] = bytemuck::cast_slice(&raw);
-        let slot = |i: usize| words[2 * i] as u64 | (words[2 * i + 1] as u64) << 32;
-        let mut c = Counters::default();
-        for k in 0..4 {
-            c.rays[k] = slot(k);
-            c.tests[k].sphere = slot(4 + 3 * k);
-            c.tests[k].triangle = slot(5 + 3 * k);
-            c.tests[k].cylinder = slot(6 + 3 * k);
-        }
-        c.eye_hit = slot(16);
-        c.shadow_blocked = slot(17);
+        let c = decode_counters(&raw);
         Ok(RunOutput { values, counters: c, gpu_s: timing.is_some().then_some(gpu_s) })
     }
 
@@ -467,7 +493,7 @@ impl GpuRenderer {
     /// have run 65535 iterations in total. One step traces one ray and its shadow rays by
     /// brute force; when that could exceed the limit the result would be silently wrong,
     /// so it is an error instead.
-    fn check_loop_budget(&self, scene: &Scene) -> Result<(), GpuRenderError> {
+    pub fn check_loop_budget(&self, scene: &Scene) -> Result<(), GpuRenderError> {
         if !self.ctx.info.name.to_lowercase().contains("llvmpipe") {
             return Ok(());
         }
@@ -486,7 +512,7 @@ impl GpuRenderer {
     }
 
     /// Waits for the queue and copies the first `bytes` of mappable `buffer`.
-    fn read(&self, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, GpuRenderError> {
+    pub fn read(&self, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, GpuRenderError> {
         let (tx, rx) = std::sync::mpsc::channel();
         buffer.map_async(wgpu::MapMode::Read, 0..bytes, move |r| {
             let _ = tx.send(r);
@@ -505,13 +531,38 @@ impl GpuRenderer {
     }
 }
 
+/// Grid points per tile for about `tests` primitive tests per dispatch (brute force: one
+/// step of a point tests every primitive for its ray and for a shadow ray per light).
+pub fn tile_points(scene: &Scene, tests: u64) -> u64 {
+    let work = scene.primitives.len() as u64 * (1 + scene.lights.len() as u64);
+    let tile = (tests / work.max(1)).clamp(256, MAX_TILE);
+    tile.div_ceil(WORKGROUP as u64) * WORKGROUP as u64
+}
+
+/// The counters from the bytes of the kernels' `counters` buffer.
+pub fn decode_counters(raw: &[u8]) -> Counters {
+    let words: &[u32] = bytemuck::cast_slice(raw);
+    let slot = |i: usize| words[2 * i] as u64 | (words[2 * i + 1] as u64) << 32;
+    let mut c = Counters::default();
+    for k in 0..4 {
+        c.rays[k] = slot(k);
+        c.tests[k].sphere = slot(4 + 3 * k);
+        c.tests[k].triangle = slot(5 + 3 * k);
+        c.tests[k].cylinder = slot(6 + 3 * k);
+    }
+    c.eye_hit = slot(16);
+    c.shadow_blocked = slot(17);
+    c
+}
+
 struct RunOutput {
     values: Vec<[f32; 4]>,
     counters: Counters,
     gpu_s: Option<f64>,
 }
 
-fn check(scene: &Scene, opts: &RenderOptions) -> Result<(), GpuRenderError> {
+/// Checks that the GPU backend can render `scene` with `opts`.
+pub fn check(scene: &Scene, opts: &RenderOptions) -> Result<(), GpuRenderError> {
     opts.validate().map_err(|e| GpuRenderError::Options(e.to_string()))?;
     scene.validate().map_err(GpuRenderError::Scene)?;
     if opts.max_depth > MAX_DEPTH {

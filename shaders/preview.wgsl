@@ -1,0 +1,84 @@
+// The preview window's own passes (src/preview/): `accumulate` adds one tile of the
+// `render` kernel's output to the whole-image accumulation, and `vs_main`/`fs_main` draw
+// the accumulation's average as the headless PNG output encodes it (clamp to [0, 1], sRGB).
+
+struct Tile {
+    first_point: u32,
+    point_count: u32,
+    pad0: u32,
+    pad1: u32,
+}
+
+@group(0) @binding(0) var<uniform> tile: Tile;
+@group(0) @binding(1) var<storage, read> tile_out: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> accum: array<vec4<f32>>;
+
+@compute @workgroup_size(64)
+fn accumulate(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = gid.x;
+    if k < tile.point_count {
+        let p = tile.first_point + k;
+        accum[p] = vec4<f32>(accum[p].xyz + tile_out[k].xyz, 1.0);
+    }
+}
+
+struct View {
+    width: u32,
+    height: u32,
+    grid_w: u32,
+    // Samples accumulated per grid point (0: nothing to show yet).
+    samples: u32,
+    // 1: the accumulation holds pixel corners (SPD sampling); a pixel averages four.
+    corners: u32,
+    // 1: the target is not an sRGB format, so the shader encodes; 0: the hardware does.
+    encode: u32,
+    pad0: u32,
+    pad1: u32,
+}
+
+@group(0) @binding(3) var<uniform> view: View;
+@group(0) @binding(4) var<storage, read> image: array<vec4<f32>>;
+
+struct VertexOut {
+    @builtin(position) position: vec4<f32>,
+}
+
+// One triangle that covers the viewport.
+@vertex
+fn vs_main(@builtin(vertex_index) v: u32) -> VertexOut {
+    let x = f32((v << 1u) & 2u) * 2.0 - 1.0;
+    let y = f32(v & 2u) * 2.0 - 1.0;
+    return VertexOut(vec4<f32>(x, y, 0.0, 1.0));
+}
+
+fn srgb(c: f32) -> f32 {
+    if c <= 0.0031308 {
+        return 12.92 * c;
+    }
+    return 1.055 * pow(c, 1.0 / 2.4) - 0.055;
+}
+
+@fragment
+fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
+    let i = u32(in.position.x);
+    let j = u32(in.position.y);
+    if i >= view.width || j >= view.height || view.samples == 0u {
+        return vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    }
+    var c: vec3<f32>;
+    if view.corners != 0u {
+        let w = view.grid_w;
+        let a = image[j * w + i].xyz + image[j * w + i + 1u].xyz;
+        let b = image[(j + 1u) * w + i].xyz + image[(j + 1u) * w + i + 1u].xyz;
+        c = (a + b) * 0.25;
+    } else {
+        c = image[j * view.grid_w + i].xyz / f32(view.samples);
+    }
+    // NaN fails every comparison: max(NaN, 0) is 0 or NaN by platform, so map it first.
+    c = select(c, vec3<f32>(0.0), c != c);
+    c = clamp(c, vec3<f32>(0.0), vec3<f32>(1.0));
+    if view.encode != 0u {
+        c = vec3<f32>(srgb(c.x), srgb(c.y), srgb(c.z));
+    }
+    return vec4<f32>(c, 1.0);
+}

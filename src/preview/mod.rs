@@ -1,0 +1,628 @@
+//! The interactive preview window (`cuberay preview`): a winit window with a wgpu
+//! surface that shows a scene refined progressively by the headless renderer's kernels.
+//!
+//! - [`session`]: the GPU side without a window — passes of one sample each, split into
+//!   short steps, added to an accumulation; camera, effect and depth changes restart it;
+//! - [`controls`]: orbit, pan, zoom and fly as camera geometry;
+//! - this module: the window, input, the display pass (the accumulation's average,
+//!   clamped and sRGB-encoded like the PNG output), the title (samples per pixel,
+//!   milliseconds per frame, rays per second) and screenshots.
+//!
+//! Each redraw spends at most [`FRAME_BUDGET`] on GPU steps before presenting, so the
+//! window keeps responding on big scenes; a frame may finish several passes on small ones.
+//! After `N` passes of a session with `spp = N` the picture is `cuberay render --spp N`
+//! with the same seed.
+
+pub mod controls;
+pub mod session;
+
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use glam::DVec3;
+use winit::application::ApplicationHandler;
+use winit::dpi::{PhysicalPosition, PhysicalSize};
+use winit::event::{ElementState, KeyEvent, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
+use winit::keyboard::{KeyCode, PhysicalKey};
+use winit::window::{Window, WindowId};
+
+use crate::gpu::{GpuContext, GpuRenderError, GpuRenderer, MAX_DEPTH};
+use crate::output::{self, OutputError};
+use crate::reference::RenderOptions;
+use crate::scene::Scene;
+use controls::Controller;
+use session::{Session, Toggles};
+
+/// GPU time a redraw may spend on steps before it presents.
+pub const FRAME_BUDGET: Duration = Duration::from_millis(40);
+
+/// What to preview and how.
+pub struct Config {
+    pub scene: Scene,
+    /// Shown in the title and used for screenshot names.
+    pub name: String,
+    /// The initial image (window) size, the sample lattice (`spp`) and seed, the depth.
+    pub opts: RenderOptions,
+    /// Exit after this many passes (samples per pixel).
+    pub frames: Option<u32>,
+    /// Save the last frame here on exit.
+    pub screenshot: Option<PathBuf>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum PreviewError {
+    #[error(
+        "cannot open a window ({0}): the preview needs a display (X11 or Wayland). To render \
+         without one use `cuberay render SCENE -o image.png` (--spp N renders the samples of N \
+         preview frames)"
+    )]
+    NoDisplay(String),
+    #[error("the window system failed: {0}")]
+    Window(String),
+    #[error(transparent)]
+    Gpu(#[from] GpuRenderError),
+    #[error(transparent)]
+    Output(#[from] OutputError),
+}
+
+/// Opens the window and runs until it is closed, Escape is pressed or `--frames` passes
+/// are done.
+pub fn run(config: Config) -> Result<(), PreviewError> {
+    let set = |v: &str| std::env::var_os(v).is_some_and(|s| !s.is_empty());
+    if !set("DISPLAY") && !set("WAYLAND_DISPLAY") && !set("WAYLAND_SOCKET") {
+        return Err(PreviewError::NoDisplay("neither DISPLAY nor WAYLAND_DISPLAY is set".into()));
+    }
+    let event_loop = EventLoop::new().map_err(|e| {
+        // winit says "os error at <source file>:<line>: <reason>"; keep the reason.
+        let text = e.to_string();
+        let reason = match text.strip_prefix("os error at ").and_then(|t| t.split_once(": ")) {
+            Some((_, reason)) => reason.to_string(),
+            None => text,
+        };
+        PreviewError::NoDisplay(reason)
+    })?;
+    let mut app = App { config: Some(config), view: None, error: None };
+    event_loop.run_app(&mut app).map_err(|e| PreviewError::Window(e.to_string()))?;
+    match app.error {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}
+
+struct App {
+    /// Taken when the window opens.
+    config: Option<Config>,
+    view: Option<View>,
+    error: Option<PreviewError>,
+}
+
+/// An open window and everything that draws into it.
+struct View {
+    window: Arc<Window>,
+    surface: wgpu::Surface<'static>,
+    surface_config: wgpu::SurfaceConfiguration,
+    gpu: Arc<GpuRenderer>,
+    session: Session,
+    display: Display,
+    controller: Controller,
+    name: String,
+    frames: Option<u32>,
+    screenshot: Option<PathBuf>,
+    /// A resize waiting for the next redraw (resizes come in bursts).
+    pending_size: Option<PhysicalSize<u32>>,
+    camera_moved: bool,
+    drag: Option<MouseButton>,
+    cursor: Option<PhysicalPosition<f64>>,
+    held: HashSet<KeyCode>,
+    last_frame: Instant,
+    stats: FrameStats,
+    screenshots_saved: u32,
+}
+
+/// Frame times and ray throughput for the title, over about half a second.
+struct FrameStats {
+    since: Instant,
+    frames: u32,
+    /// Time spent in those frames (idle time between frames excluded).
+    busy: Duration,
+    rays_at: u64,
+    ms_per_frame: f64,
+    rays_per_s: f64,
+}
+
+impl ApplicationHandler for App {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        let Some(config) = self.config.take() else { return };
+        match View::open(event_loop, config) {
+            Ok(v) => {
+                v.window.request_redraw();
+                self.view = Some(v);
+            }
+            Err(e) => {
+                self.error = Some(e);
+                event_loop.exit();
+            }
+        }
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        let Some(view) = self.view.as_mut() else { return };
+        match view.handle(event) {
+            Ok(Flow::Continue) => {}
+            Ok(Flow::Exit) => {
+                if let Err(e) = view.save_final_screenshot() {
+                    self.error = Some(e);
+                }
+                event_loop.exit();
+            }
+            Err(e) => {
+                self.error = Some(e);
+                event_loop.exit();
+            }
+        }
+    }
+
+    fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
+        let Some(view) = self.view.as_ref() else { return };
+        if view.busy() {
+            view.window.request_redraw();
+            event_loop.set_control_flow(ControlFlow::Poll);
+        } else {
+            event_loop.set_control_flow(ControlFlow::Wait);
+        }
+    }
+}
+
+enum Flow {
+    Continue,
+    Exit,
+}
+
+impl View {
+    fn open(event_loop: &ActiveEventLoop, config: Config) -> Result<View, PreviewError> {
+        let Config { scene, name, opts, frames, screenshot } = config;
+        let attrs = Window::default_attributes()
+            .with_title(format!("cuberay preview: {name}"))
+            .with_inner_size(PhysicalSize::new(opts.width, opts.height));
+        let window =
+            Arc::new(event_loop.create_window(attrs).map_err(|e| PreviewError::Window(e.to_string()))?);
+        let instance = GpuContext::instance(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let surface = instance
+            .create_surface(window.clone())
+            .map_err(|e| PreviewError::Window(format!("cannot create a GPU surface for the window: {e}")))?;
+        let ctx =
+            pollster::block_on(GpuContext::open(&instance, Some(&surface))).map_err(GpuRenderError::from)?;
+        let caps = surface.get_capabilities(&ctx.adapter);
+        // The shader encodes sRGB itself on a plain format (as the PNG writer does).
+        let format = caps
+            .formats
+            .iter()
+            .copied()
+            .find(|f| {
+                !f.is_srgb() && matches!(f, wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Rgba8Unorm)
+            })
+            .or_else(|| caps.formats.first().copied())
+            .ok_or_else(|| PreviewError::Window("the GPU cannot present to this window".into()))?;
+        let size = window.inner_size();
+        let surface_config = wgpu::SurfaceConfiguration {
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            format,
+            width: size.width.max(1),
+            height: size.height.max(1),
+            present_mode: wgpu::PresentMode::AutoVsync,
+            desired_maximum_frame_latency: 2,
+            alpha_mode: caps.alpha_modes.first().copied().unwrap_or(wgpu::CompositeAlphaMode::Auto),
+            view_formats: vec![],
+            color_space: wgpu::SurfaceColorSpace::Auto,
+        };
+        surface.configure(&ctx.device, &surface_config);
+        let gpu = Arc::new(GpuRenderer::with_context(ctx));
+        let mut opts = opts;
+        // The window manager may not grant the size asked for: render what is shown.
+        if size.width > 0 && size.height > 0 {
+            (opts.width, opts.height) = (size.width, size.height);
+        }
+        let limit = frames.unwrap_or(opts.spp);
+        let controller = Controller::new(&scene);
+        let session = Session::new(gpu.clone(), scene, opts, Toggles::default(), limit)?;
+        let display = Display::new(&gpu.ctx.device, format);
+        log::info!("preview on {} ({:?}), surface {format:?}", gpu.ctx.info.name, gpu.ctx.info.backend);
+        Ok(View {
+            window,
+            surface,
+            surface_config,
+            gpu,
+            session,
+            display,
+            controller,
+            name,
+            frames,
+            screenshot,
+            pending_size: None,
+            camera_moved: false,
+            drag: None,
+            cursor: None,
+            held: HashSet::new(),
+            last_frame: Instant::now(),
+            stats: FrameStats {
+                since: Instant::now(),
+                frames: 0,
+                busy: Duration::ZERO,
+                rays_at: 0,
+                ms_per_frame: 0.0,
+                rays_per_s: 0.0,
+            },
+            screenshots_saved: 0,
+        })
+    }
+
+    /// Whether redraws are needed without new input.
+    fn busy(&self) -> bool {
+        !self.session.is_complete()
+            || !self.held.is_empty()
+            || self.camera_moved
+            || self.pending_size.is_some()
+    }
+
+    fn handle(&mut self, event: WindowEvent) -> Result<Flow, PreviewError> {
+        match event {
+            WindowEvent::CloseRequested => return Ok(Flow::Exit),
+            WindowEvent::Resized(size) => {
+                self.pending_size = Some(size);
+                self.window.request_redraw();
+            }
+            WindowEvent::RedrawRequested => return self.redraw(),
+            WindowEvent::KeyboardInput { event, .. } => return self.key(event),
+            WindowEvent::MouseInput { state, button, .. } => {
+                self.drag = match state {
+                    ElementState::Pressed => Some(button),
+                    ElementState::Released => None,
+                };
+            }
+            WindowEvent::CursorMoved { position, .. } => {
+                if let (Some(button), Some(last)) = (self.drag, self.cursor) {
+                    let (dx, dy) = (position.x - last.x, position.y - last.y);
+                    match button {
+                        MouseButton::Left => self.controller.orbit(dx, dy),
+                        MouseButton::Right | MouseButton::Middle => {
+                            self.controller.pan(dx, dy, self.session.options().height)
+                        }
+                        _ => {}
+                    }
+                    self.moved();
+                }
+                self.cursor = Some(position);
+            }
+            WindowEvent::CursorLeft { .. } => self.cursor = None,
+            // Keys released while another window has the focus are never reported.
+            WindowEvent::Focused(false) => {
+                self.held.clear();
+                self.drag = None;
+            }
+            WindowEvent::MouseWheel { delta, .. } => {
+                let lines = match delta {
+                    MouseScrollDelta::LineDelta(_, y) => y as f64,
+                    MouseScrollDelta::PixelDelta(p) => p.y / 40.0,
+                };
+                self.controller.zoom(lines);
+                self.moved();
+            }
+            _ => {}
+        }
+        Ok(Flow::Continue)
+    }
+
+    fn moved(&mut self) {
+        self.camera_moved = true;
+        self.window.request_redraw();
+    }
+
+    fn key(&mut self, event: KeyEvent) -> Result<Flow, PreviewError> {
+        let PhysicalKey::Code(code) = event.physical_key else { return Ok(Flow::Continue) };
+        if event.state == ElementState::Released {
+            self.held.remove(&code);
+            return Ok(Flow::Continue);
+        }
+        if is_fly_key(code) {
+            if self.held.insert(code) {
+                self.last_frame = Instant::now();
+            }
+            self.window.request_redraw();
+            return Ok(Flow::Continue);
+        }
+        if event.repeat {
+            return Ok(Flow::Continue);
+        }
+        let mut toggles = self.session.toggles();
+        let mut depth = self.session.options().max_depth;
+        let effects = self.session.scene().effects();
+        match code {
+            KeyCode::Escape => return Ok(Flow::Exit),
+            KeyCode::KeyR => {
+                self.controller.reset();
+                self.moved();
+                return Ok(Flow::Continue);
+            }
+            KeyCode::KeyP | KeyCode::F12 => {
+                self.save_screenshot_key()?;
+                return Ok(Flow::Continue);
+            }
+            KeyCode::Digit1 if effects.shadows => toggles.shadows ^= true,
+            KeyCode::Digit2 if effects.reflection => toggles.reflection ^= true,
+            KeyCode::Digit3 if effects.refraction => toggles.refraction ^= true,
+            KeyCode::Equal | KeyCode::NumpadAdd => depth = (depth + 1).min(MAX_DEPTH),
+            KeyCode::Minus | KeyCode::NumpadSubtract => depth = depth.saturating_sub(1).max(1),
+            _ => return Ok(Flow::Continue),
+        }
+        if toggles != self.session.toggles() || depth != self.session.options().max_depth {
+            self.session.set_effects(toggles, depth)?;
+            self.update_title();
+            self.window.request_redraw();
+        }
+        Ok(Flow::Continue)
+    }
+
+    fn redraw(&mut self) -> Result<Flow, PreviewError> {
+        let frame_start = Instant::now();
+        if let Some(size) = self.pending_size.take() {
+            self.resize(size)?;
+        }
+        let dt = frame_start.duration_since(self.last_frame).as_secs_f64().min(0.1);
+        self.last_frame = frame_start;
+        let fly = self.fly_direction();
+        if fly != DVec3::ZERO {
+            self.controller.fly(fly, dt);
+            self.camera_moved = true;
+        }
+        if self.camera_moved {
+            self.camera_moved = false;
+            let took = self.session.set_camera(self.controller.camera().clone());
+            log::debug!("eye-dependent update: {:.3} ms", took.as_secs_f64() * 1e3);
+        }
+        let t_advance = Instant::now();
+        self.session.advance(FRAME_BUDGET)?;
+        let t_draw = Instant::now();
+        self.draw()?;
+        log::debug!(
+            "frame: advance {:.1} ms, draw {:.1} ms, passes {}",
+            (t_draw - t_advance).as_secs_f64() * 1e3,
+            t_draw.elapsed().as_secs_f64() * 1e3,
+            self.session.passes()
+        );
+        self.stats.frames += 1;
+        self.stats.busy += frame_start.elapsed();
+        let elapsed = self.stats.since.elapsed();
+        if elapsed > Duration::from_millis(500) || self.session.is_complete() {
+            let rays = self.session.rays()?;
+            self.stats.rays_per_s = rays.saturating_sub(self.stats.rays_at) as f64 / elapsed.as_secs_f64();
+            self.stats.ms_per_frame = self.stats.busy.as_secs_f64() * 1e3 / self.stats.frames as f64;
+            self.stats.rays_at = rays;
+            self.stats.since = Instant::now();
+            self.stats.frames = 0;
+            self.stats.busy = Duration::ZERO;
+            self.update_title();
+        }
+        if self.frames.is_some_and(|f| self.session.passes() >= f) {
+            return Ok(Flow::Exit);
+        }
+        Ok(Flow::Continue)
+    }
+
+    fn fly_direction(&self) -> DVec3 {
+        let k = |c: KeyCode| if self.held.contains(&c) { 1.0 } else { 0.0 };
+        DVec3::new(
+            k(KeyCode::KeyD) - k(KeyCode::KeyA),
+            k(KeyCode::KeyE) - k(KeyCode::KeyQ),
+            k(KeyCode::KeyW) - k(KeyCode::KeyS),
+        )
+    }
+
+    /// Renders the image at the window's new size (a new session on the same device).
+    fn resize(&mut self, size: PhysicalSize<u32>) -> Result<(), PreviewError> {
+        if size.width == 0 || size.height == 0 {
+            return Ok(());
+        }
+        self.surface_config.width = size.width;
+        self.surface_config.height = size.height;
+        self.surface.configure(&self.gpu.ctx.device, &self.surface_config);
+        let opts = self.session.options();
+        if (opts.width, opts.height) == (size.width, size.height) {
+            return Ok(());
+        }
+        let opts = RenderOptions { width: size.width, height: size.height, ..opts.clone() };
+        let mut scene = self.session.scene().clone();
+        scene.camera = self.controller.camera().clone();
+        let (toggles, limit) = (self.session.toggles(), self.session.limit());
+        self.session = Session::new(self.gpu.clone(), scene, opts, toggles, limit)?;
+        Ok(())
+    }
+
+    fn draw(&mut self) -> Result<(), PreviewError> {
+        let texture = match self.surface.get_current_texture() {
+            wgpu::CurrentSurfaceTexture::Success(t) | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
+            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
+                self.surface.configure(&self.gpu.ctx.device, &self.surface_config);
+                return Ok(());
+            }
+            wgpu::CurrentSurfaceTexture::Timeout | wgpu::CurrentSurfaceTexture::Occluded => return Ok(()),
+            other => return Err(PreviewError::Window(format!("cannot draw into the window: {other:?}"))),
+        };
+        let target = texture.texture.create_view(&Default::default());
+        self.display.draw(&self.gpu.ctx, &self.session, &target);
+        self.window.pre_present_notify();
+        self.gpu.ctx.queue.present(texture);
+        Ok(())
+    }
+
+    fn update_title(&self) {
+        let o = self.session.options();
+        let t = self.session.toggles();
+        let e = self.session.scene().effects();
+        let mut flags = Vec::new();
+        for (has, on, name) in [
+            (e.shadows, t.shadows, "1 shadows"),
+            (e.reflection, t.reflection, "2 reflection"),
+            (e.refraction, t.refraction && t.reflection, "3 refraction"),
+        ] {
+            if has {
+                flags.push(format!("{name} {}", if on { "on" } else { "off" }));
+            }
+        }
+        let title = format!(
+            "cuberay preview: {} | {}/{} spp | {:.1} ms/frame | {} rays/s | depth {} | {}x{}{}{}",
+            self.name,
+            self.session.passes(),
+            self.session.limit(),
+            self.stats.ms_per_frame,
+            si(self.stats.rays_per_s),
+            o.max_depth,
+            o.width,
+            o.height,
+            if flags.is_empty() { "" } else { " | " },
+            flags.join(", "),
+        );
+        self.window.set_title(&title);
+    }
+
+    /// P or F12: the next free `cuberay-<scene>-<n>.png` in the current directory.
+    fn save_screenshot_key(&mut self) -> Result<(), PreviewError> {
+        if self.session.passes() == 0 {
+            log::warn!("no sample accumulated yet: no screenshot");
+            return Ok(());
+        }
+        let stem =
+            Path::new(&self.name).file_stem().map_or("scene".into(), |s| s.to_string_lossy().to_string());
+        let path = loop {
+            self.screenshots_saved += 1;
+            let p = PathBuf::from(format!("cuberay-{stem}-{}.png", self.screenshots_saved));
+            if !p.exists() {
+                break p;
+            }
+        };
+        self.write_image(&path)?;
+        eprintln!("saved {} ({} spp)", path.display(), self.session.passes());
+        Ok(())
+    }
+
+    fn save_final_screenshot(&self) -> Result<(), PreviewError> {
+        match &self.screenshot {
+            Some(path) => self.write_image(path),
+            None => Ok(()),
+        }
+    }
+
+    fn write_image(&self, path: &Path) -> Result<(), PreviewError> {
+        let image = self.session.image()?;
+        if !image.is_finite() {
+            return Err(PreviewError::Gpu(GpuRenderError::Device(
+                "the render produced a non-finite pixel; nothing written (this is a renderer bug)".into(),
+            )));
+        }
+        output::write(&image, path)?;
+        Ok(())
+    }
+}
+
+fn is_fly_key(c: KeyCode) -> bool {
+    matches!(c, KeyCode::KeyW | KeyCode::KeyA | KeyCode::KeyS | KeyCode::KeyD | KeyCode::KeyQ | KeyCode::KeyE)
+}
+
+/// 1234567 as "1.23 M".
+fn si(v: f64) -> String {
+    let (v, unit) = if v >= 1e9 {
+        (v / 1e9, "G")
+    } else if v >= 1e6 {
+        (v / 1e6, "M")
+    } else if v >= 1e3 {
+        (v / 1e3, "k")
+    } else {
+        (v, "")
+    };
+    format!("{v:.2} {unit}")
+}
+
+/// The display pass: a full-window triangle whose fragments read the accumulation.
+struct Display {
+    pipeline: wgpu::RenderPipeline,
+    uniform: wgpu::Buffer,
+    encode: bool,
+}
+
+impl Display {
+    fn new(device: &wgpu::Device, format: wgpu::TextureFormat) -> Display {
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("cuberay preview display"),
+            source: wgpu::ShaderSource::Wgsl(session::SHADER.into()),
+        });
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("display"),
+            layout: None,
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: Default::default(),
+            depth_stencil: None,
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[Some(format.into())],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let uniform = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("display view"),
+            size: 32,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        Display { pipeline, uniform, encode: !format.is_srgb() }
+    }
+
+    fn draw(&self, ctx: &GpuContext, session: &Session, target: &wgpu::TextureView) {
+        let o = session.options();
+        let corners = o.sampling == crate::reference::Sampling::Corners;
+        let view =
+            [o.width, o.height, session.grid().0, session.passes(), corners as u32, self.encode as u32, 0, 0];
+        ctx.queue.write_buffer(&self.uniform, 0, bytemuck::cast_slice(&view));
+        let bind = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("display"),
+            layout: &self.pipeline.get_bind_group_layout(0),
+            entries: &[
+                wgpu::BindGroupEntry { binding: 3, resource: self.uniform.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 4, resource: session.accumulation().as_entire_binding() },
+            ],
+        });
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("display"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: target,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &bind, &[]);
+            pass.draw(0..3, 0..1);
+        }
+        ctx.queue.submit([enc.finish()]);
+    }
+}

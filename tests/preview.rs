@@ -1,0 +1,186 @@
+//! The preview: its progressive session converges to the headless render (no window
+//! needed), and the window itself, run under Xvfb with `--frames`/`--screenshot`, shows
+//! what `cuberay render` writes for the same samples and seed.
+
+mod common;
+
+use std::io::{BufRead, BufReader};
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::sync::Arc;
+
+use cuberay::gpu::GpuRenderer;
+use cuberay::load;
+use cuberay::preview::session::{Session, Toggles};
+use cuberay::reference::RenderOptions;
+use cuberay::scene::Camera;
+use indicatif::ProgressBar;
+
+use common::cuberay;
+
+fn opts(w: u32, h: u32, spp: u32) -> RenderOptions {
+    RenderOptions { spp, seed: 3, ..RenderOptions::new(w, h) }
+}
+
+fn max_abs(a: &cuberay::output::Image, b: &cuberay::output::Image) -> f32 {
+    a.pixels
+        .iter()
+        .zip(&b.pixels)
+        .flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs()))
+        .fold(0.0, f32::max)
+}
+
+/// After N passes the session holds the headless render's N samples; after a camera move
+/// (the eye-dependent rebuild) it renders what the headless renderer renders from there.
+#[test]
+fn session_converges_to_the_headless_render() {
+    let gpu = Arc::new(GpuRenderer::new().expect("a GPU adapter (run `bash .ci/setup`)"));
+    let scene = load::showcase().unwrap().scene;
+    let o = opts(40, 30, 5);
+    let reference = gpu.render(&scene, &o, &ProgressBar::hidden()).unwrap().image;
+    let mut s = Session::new(gpu.clone(), scene.clone(), o.clone(), Toggles::default(), o.spp).unwrap();
+    s.finish().unwrap();
+    assert_eq!(s.passes(), 5);
+    let img = s.image().unwrap();
+    let d = max_abs(&reference, &img);
+    assert!(d < 1e-4, "session differs from the headless render by {d}");
+    // Not trivially equal: something was rendered.
+    assert!(img.pixels.iter().any(|p| p[0] > 0.05), "the image is black");
+
+    // Move the eye: the session restarts and matches a headless render from the new eye.
+    let c = &scene.camera;
+    let moved =
+        Camera::from_basis(c.eye + c.right * 0.7 - c.forward * 0.5, c.forward, c.up, c.projection).unwrap();
+    s.set_camera(moved.clone());
+    assert_eq!(s.passes(), 0);
+    s.finish().unwrap();
+    let mut there = scene.clone();
+    there.camera = moved;
+    let reference2 = gpu.render(&there, &o, &ProgressBar::hidden()).unwrap().image;
+    let d = max_abs(&reference2, &s.image().unwrap());
+    assert!(d < 1e-4, "after the camera move: differs by {d}");
+    assert!(max_abs(&reference, &reference2) > 0.05, "the move changed nothing");
+}
+
+/// Effects switched off render as the headless renderer does without them.
+#[test]
+fn session_toggles_and_depth_restart_and_change_the_picture() {
+    let gpu = Arc::new(GpuRenderer::new().expect("a GPU adapter (run `bash .ci/setup`)"));
+    let scene = load::showcase().unwrap().scene;
+    let o = opts(32, 24, 1);
+    let mut s = Session::new(gpu.clone(), scene.clone(), o.clone(), Toggles::default(), 1).unwrap();
+    s.finish().unwrap();
+    let all = s.image().unwrap();
+    s.set_effects(Toggles { shadows: false, ..Toggles::default() }, 5).unwrap();
+    assert_eq!(s.passes(), 0);
+    s.finish().unwrap();
+    let unshadowed = s.image().unwrap();
+    assert!(max_abs(&all, &unshadowed) > 0.05, "turning shadows off changed nothing");
+    // Depth 1 is the same as no reflection at all.
+    s.set_effects(Toggles::default(), 1).unwrap();
+    s.finish().unwrap();
+    let depth1 = s.image().unwrap();
+    s.set_effects(Toggles { reflection: false, ..Toggles::default() }, 5).unwrap();
+    s.finish().unwrap();
+    assert!(max_abs(&depth1, &s.image().unwrap()) < 1e-6);
+    assert!(max_abs(&all, &depth1) > 0.05, "the showcase has mirrors and glass");
+}
+
+/// An Xvfb server on a display number it picks itself (`-displayfd`), killed on drop.
+struct Xvfb {
+    child: Child,
+    display: String,
+}
+
+impl Xvfb {
+    fn start() -> Xvfb {
+        let mut child = Command::new("Xvfb")
+            .args(["-displayfd", "1", "-screen", "0", "640x480x24", "-nolisten", "tcp"])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap_or_else(|e| {
+                panic!(
+                    "cannot start Xvfb ({e}): the preview test needs a virtual X display. \
+                     Install it with `bash .ci/setup` (Debian package xvfb)"
+                )
+            });
+        let mut line = String::new();
+        BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+        let n = line.trim();
+        assert!(
+            !n.is_empty() && n.chars().all(|c| c.is_ascii_digit()),
+            "Xvfb did not report a display: {line:?}"
+        );
+        Xvfb { display: format!(":{n}"), child }
+    }
+}
+
+impl Drop for Xvfb {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn rgb8(path: &Path) -> image::RgbImage {
+    image::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display())).into_rgb8()
+}
+
+#[test]
+fn preview_window_matches_the_headless_render() {
+    let x = Xvfb::start();
+    let dir = tempfile::tempdir().unwrap();
+    let shot = dir.path().join("preview.png");
+    let reference = dir.path().join("render.png");
+    let size = ["--width", "64", "--height", "48", "--seed", "11"];
+    let out = cuberay()
+        .arg("preview")
+        .args(size)
+        .args(["--frames", "3", "--screenshot"])
+        .arg(&shot)
+        .env("DISPLAY", &x.display)
+        .env_remove("WAYLAND_DISPLAY")
+        .env("XDG_RUNTIME_DIR", dir.path())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "preview failed: {stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    let out = cuberay().arg("render").args(size).args(["--spp", "3", "-o"]).arg(&reference).output().unwrap();
+    assert!(out.status.success(), "render failed: {}", String::from_utf8_lossy(&out.stderr));
+
+    let (a, b) = (rgb8(&reference), rgb8(&shot));
+    assert_eq!(a.dimensions(), (64, 48));
+    assert_eq!(b.dimensions(), (64, 48));
+    let fa = nv_flip::FlipImageRgb8::with_data(64, 48, a.as_raw());
+    let fb = nv_flip::FlipImageRgb8::with_data(64, 48, b.as_raw());
+    let map = nv_flip::flip(fa, fb, nv_flip::DEFAULT_PIXELS_PER_DEGREE);
+    let mean = nv_flip::FlipPool::from_image(&map).mean();
+    assert!(mean <= 0.02, "FLIP mean {mean} between the preview and the headless render");
+    // The showcase is not one flat colour: the comparison means something.
+    let first = b.get_pixel(0, 0);
+    assert!(b.pixels().any(|p| p != first), "the screenshot is uniform");
+}
+
+#[test]
+fn preview_without_a_display_says_how_to_render_headlessly() {
+    let out = cuberay()
+        .args(["preview", "--width", "16", "--height", "16"])
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .env_remove("WAYLAND_SOCKET")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(stderr.contains("cuberay render"), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
+
+#[test]
+fn preview_rejects_more_frames_than_samples() {
+    let out = cuberay().args(["preview", "--spp", "2", "--frames", "3"]).output().unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--frames 3"));
+}
