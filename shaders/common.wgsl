@@ -23,7 +23,13 @@ struct Params {
     max_depth: u32,
     light_count: u32,
     aov: u32,
-    pad: u32,
+    // `--accel cube`: the eye's origin, and the origin listing every primitive that rays
+    // from an entity without a table use.
+    eye_origin: u32,
+    fallback_origin: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 }
 
 // One primitive. Sphere: a = (centre, radius). Triangle: a, b, c = vertices. Cylinder:
@@ -88,6 +94,8 @@ struct TextureInfo {
 // A ray waiting in a grid point's ray tree, with the weight its radiance counts with.
 struct Pending {
     o: vec3<f32>,
+    // Ray kind (bits 0-1, RAY_KIND_MASK); RAY_SKIP_FROM: `from_prim` need not be tested
+    // (the ray leaves a triangle, or a sphere outwards).
     kind: u32,
     d: vec3<f32>,
     depth: u32,
@@ -132,6 +140,8 @@ const RAY_EYE: u32 = 0u;
 const RAY_SHADOW: u32 = 1u;
 const RAY_REFLECT: u32 = 2u;
 const RAY_REFRACT: u32 = 3u;
+const RAY_KIND_MASK: u32 = 3u;
+const RAY_SKIP_FROM: u32 = 4u;
 
 // Counter slots: rays by kind (0-3), tests by ray kind x primitive kind (4-15), eye
 // hits (16), blocked shadow rays (17). Each is 64-bit in `counters` (low, high word).

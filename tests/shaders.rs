@@ -71,7 +71,7 @@ fn a_scene_without_mirrors_or_glass_has_no_such_code() {
 
 #[test]
 fn wgsl_structs_match_their_rust_twins() {
-    let m = module(Variant::all()[31]);
+    let m = module(Variant::all()[63]);
     let mut layouter = naga::proc::Layouter::default();
     layouter.update(m.to_ctx()).unwrap();
     let shared: Vec<String> = twins().iter().map(|t| t.name.to_string()).collect();

@@ -4,11 +4,13 @@
 //! The scene is re-centred on the camera in f64 before the conversion to f32, so that
 //! scenes far from the origin keep their precision near the eye. [`TWINS`] lists every
 //! twin with its size and member offsets; a test compares it with naga's layout of the
-//! composed module.
+//! composed module. The table structs of `shaders/cube.wgsl` are twinned by
+//! [`crate::coherence::flat`]'s `GpuOrigin`, `GpuFace` and `GpuEntry`.
 
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 
+use crate::coherence::flat::{GpuEntry, GpuFace, GpuOrigin};
 use crate::scene::{LightKind, Primitive, Projection, Scene, Wrap};
 
 /// Kernel parameters (WGSL `Params`, a uniform).
@@ -37,7 +39,12 @@ pub struct Params {
     pub light_count: u32,
     /// 0 depth, 1 normal, 2 object id (the `aov` entry point).
     pub aov: u32,
-    pub pad: u32,
+    /// `--accel cube`: the eye's origin and the fallback origin (every primitive).
+    pub eye_origin: u32,
+    pub fallback_origin: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
 }
 
 /// One primitive (WGSL `Prim`); see the WGSL comment for the fields per kind.
@@ -182,7 +189,11 @@ pub fn twins() -> Vec<Twin> {
             max_depth,
             light_count,
             aov,
-            pad
+            eye_origin,
+            fallback_origin,
+            pad0,
+            pad1,
+            pad2
         }),
         twin!(Prim { a, b, c, kind, material, flags, attr }),
         twin!(TriAttr { n0, n1, n2, uv01, uv2 }),
@@ -202,6 +213,9 @@ pub fn twins() -> Vec<Twin> {
         twin!(TextureInfo { offset, width, height, flags }),
         twin!(Pending { o, kind, d, depth, weight, from_prim }),
         twin!(PointState { color, sp, sample, pad0, pad1, pad2, stack }),
+        twin!(GpuOrigin { n, always_start, always_count, kind }),
+        twin!(GpuFace { iu0, iv0, width, height, cell_base, _pad0, _pad1, _pad2 }),
+        twin!(GpuEntry { id, d_min }),
     ]
 }
 

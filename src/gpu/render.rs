@@ -22,6 +22,7 @@ use wgpu::util::DeviceExt;
 
 use super::layout::{self, Packed, Params, PointState};
 use super::shader::{self, Variant};
+use super::tables::{self, GpuTables};
 use super::{GpuContext, GpuError};
 use crate::output::{Aov, Image};
 use crate::reference::{self, sampling, simulated_effects, AccelKind, RenderOptions, Rendered, Sampling};
@@ -107,6 +108,8 @@ impl GpuRenderer {
         }];
         entries.extend((1..=6).map(|b| storage_entry(b, true)));
         entries.extend((7..=10).map(|b| storage_entry(b, false)));
+        // The candidate tables (cube.wgsl); brute-force kernels leave them unused.
+        entries.extend((11..=16).map(|b| storage_entry(b, true)));
         let bind_layout = ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cuberay scene"),
             entries: &entries,
@@ -167,10 +170,12 @@ impl GpuRenderer {
     ) -> Result<Rendered, GpuRenderError> {
         check(scene, opts)?;
         let (w, h) = (opts.width, opts.height);
-        let start = Instant::now();
-        let variant = Variant::for_effects(scene.effects(), opts.max_depth);
+        let variant = Variant::for_effects(scene.effects(), opts.max_depth).with_cube(uses_tables(opts.accel));
         let kernels = self.kernels(variant)?;
+        // Preprocessing: packing the scene and building the tables (not compiling kernels).
+        let start = Instant::now();
         let mut packed = layout::pack(scene, w, h);
+        let tables = self.tables(scene, w, h, variant, &mut packed.params)?;
         let corners = opts.sampling == Sampling::Corners;
         let (gw, gh) = if corners { (w + 1, h + 1) } else { (w, h) };
         let seed_hash = sampling::pcg(sampling::pcg((opts.seed >> 32) as u32) ^ opts.seed as u32);
@@ -186,7 +191,7 @@ impl GpuRenderer {
         };
         let preprocess_s = start.elapsed().as_secs_f64();
         let start = Instant::now();
-        let run = self.run(&kernels.render, true, scene, &packed, gw, gh, progress)?;
+        let run = self.run(&kernels.render, true, scene, &packed, tables.as_ref(), gw, gh, progress)?;
         let trace_s = start.elapsed().as_secs_f64();
 
         let mut image = Image::new(w, h, false);
@@ -206,7 +211,7 @@ impl GpuRenderer {
             }
         }
         let stats = Stats::new(
-            reference::settings(opts, "gpu", "brute"),
+            reference::settings(opts, "gpu", accel_name(variant)),
             simulated_effects(scene, opts.max_depth),
             &run.counters,
             stats::Times { preprocess_s, trace_s, gpu_s: run.gpu_s },
@@ -225,10 +230,12 @@ impl GpuRenderer {
     ) -> Result<Rendered, GpuRenderError> {
         check(scene, opts)?;
         let (w, h) = (opts.width, opts.height);
-        let start = Instant::now();
-        let variant = Variant::for_effects(scene.effects(), opts.max_depth);
+        let variant = Variant::for_effects(scene.effects(), opts.max_depth).with_cube(uses_tables(opts.accel));
         let kernels = self.kernels(variant)?;
+        // Preprocessing: packing the scene and building the tables (not compiling kernels).
+        let start = Instant::now();
         let mut packed = layout::pack(scene, w, h);
+        let tables = self.tables(scene, w, h, variant, &mut packed.params)?;
         packed.params = Params {
             grid_w: w,
             grid_h: h,
@@ -244,11 +251,11 @@ impl GpuRenderer {
         };
         let preprocess_s = start.elapsed().as_secs_f64();
         let start = Instant::now();
-        let run = self.run(&kernels.aov, false, scene, &packed, w, h, progress)?;
+        let run = self.run(&kernels.aov, false, scene, &packed, tables.as_ref(), w, h, progress)?;
         let trace_s = start.elapsed().as_secs_f64();
         let mut image = Image::new(w, h, true);
         image.pixels = run.values;
-        let mut set = reference::settings(opts, "gpu", "brute");
+        let mut set = reference::settings(opts, "gpu", accel_name(variant));
         set.sampling = "center".into();
         set.spp = 1;
         set.max_depth = 1;
@@ -261,6 +268,26 @@ impl GpuRenderer {
         Ok(Rendered { image, stats })
     }
 
+    /// Builds the candidate tables when `variant` traces them, and points `params` at the
+    /// eye and fallback origins.
+    fn tables(
+        &self,
+        scene: &Scene,
+        w: u32,
+        h: u32,
+        variant: Variant,
+        params: &mut Params,
+    ) -> Result<Option<GpuTables>, GpuRenderError> {
+        if !variant.cube {
+            return Ok(None);
+        }
+        let t = tables::build(scene, w, h, variant)
+            .map_err(|e| GpuRenderError::Scene(format!("cannot build the candidate tables: {e}")))?;
+        params.eye_origin = t.flat.eye_origin;
+        params.fallback_origin = t.fallback;
+        Ok(Some(t))
+    }
+
     /// Runs `pipeline` over a `gw`×`gh` grid of points in tiles. A `stepped` kernel
     /// (`render`) advances each point by one ray per dispatch and is repeated until no
     /// point has work left; the `aov` kernel runs once per tile.
@@ -271,16 +298,22 @@ impl GpuRenderer {
         stepped: bool,
         scene: &Scene,
         packed: &Packed,
+        tables: Option<&GpuTables>,
         gw: u32,
         gh: u32,
         progress: &ProgressBar,
     ) -> Result<RunOutput, GpuRenderError> {
-        self.check_loop_budget(scene)?;
+        self.check_loop_budget(scene, tables)?;
         let device = &self.ctx.device;
         let queue = &self.ctx.queue;
         let total = gw as u64 * gh as u64;
-        // Primitive tests of one step of one point: the nearest hit and a shadow ray per light.
-        let work = scene.primitives.len() as u64 * (1 + scene.lights.len() as u64);
+        // Primitive tests of one step of one point: the nearest hit and a shadow ray per
+        // light (with the tables, a rough mean).
+        let per_ray = match tables {
+            Some(t) => t.mean_list.ceil() as u64 + 1,
+            None => scene.primitives.len() as u64,
+        };
+        let work = per_ray * (1 + scene.lights.len() as u64);
         let tile = (TESTS_PER_DISPATCH / work.max(1)).clamp(256, MAX_TILE);
         let tile = tile.div_ceil(WORKGROUP as u64) * WORKGROUP as u64;
         let tiles = total.div_ceil(tile);
@@ -300,6 +333,14 @@ impl GpuRenderer {
         let attrs = storage("tri_attrs", bytemuck::cast_slice(&packed.tri_attrs));
         let infos = storage("texture_infos", bytemuck::cast_slice(&packed.texture_infos));
         let texels = storage("texels", bytemuck::cast_slice(&packed.texels));
+        let flat = tables.map(|t| &t.flat);
+        let table = |label: &str, bytes: Option<&[u8]>| storage(label, bytes.unwrap_or(&[]));
+        let origins = table("origins", flat.map(|f| bytemuck::cast_slice(&f.origins)));
+        let faces = table("faces", flat.map(|f| bytemuck::cast_slice(&f.faces)));
+        let cell_start = table("cell_start", flat.map(|f| bytemuck::cast_slice(&f.cell_start)));
+        let entries = table("entries", flat.map(|f| bytemuck::cast_slice(&f.entries)));
+        let prim_origin = table("prim_origin", flat.map(|f| bytemuck::cast_slice(&f.prim_origin)));
+        let light_origin = table("light_origin", flat.map(|f| bytemuck::cast_slice(&f.light_origin)));
         let params = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("params"),
             size: std::mem::size_of::<Params>() as u64,
@@ -378,6 +419,12 @@ impl GpuRenderer {
                 (8, &counters),
                 (9, &states),
                 (10, &active),
+                (11, &origins),
+                (12, &faces),
+                (13, &cell_start),
+                (14, &entries),
+                (15, &prim_origin),
+                (16, &light_origin),
             ]
             .map(|(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }),
         });
@@ -464,20 +511,29 @@ impl GpuRenderer {
     }
 
     /// lavapipe (Mesa's llvmpipe) ends every loop of an invocation once all of its loops
-    /// have run 65535 iterations in total. One step traces one ray and its shadow rays by
-    /// brute force; when that could exceed the limit the result would be silently wrong,
-    /// so it is an error instead.
-    fn check_loop_budget(&self, scene: &Scene) -> Result<(), GpuRenderError> {
+    /// have run 65535 iterations in total. One step traces one ray and its shadow rays, by
+    /// brute force or through the candidate lists; when the longest lists it may walk could
+    /// exceed the limit the result would be silently wrong, so it is an error instead.
+    fn check_loop_budget(&self, scene: &Scene, tables: Option<&GpuTables>) -> Result<(), GpuRenderError> {
         if !self.ctx.info.name.to_lowercase().contains("llvmpipe") {
             return Ok(());
         }
         let c = scene.counts();
-        let per_ray = (c.spheres + c.triangles + 3 * c.cylinders) as u64;
         let lights = scene.lights.len() as u64;
-        let worst = per_ray * (1 + lights) + lights + COUNTER_SLOTS as u64 + 16;
+        // A cylinder test loops over its two roots.
+        let per_test = if c.cylinders > 0 { 3 } else { 1 };
+        let (closest, shadow, what) = match tables {
+            Some(t) => (t.worst_closest, t.worst_shadow, "the longest candidate lists"),
+            None => {
+                let per_ray = (c.spheres + c.triangles + 3 * c.cylinders) as u64;
+                (per_ray, per_ray, "brute force")
+            }
+        };
+        let per_test = if tables.is_some() { per_test } else { 1 };
+        let worst = per_test * (closest + lights * shadow) + lights + COUNTER_SLOTS as u64 + 16;
         if worst > LAVAPIPE_LOOP_LIMIT {
             return Err(GpuRenderError::Options(format!(
-                "brute force over {} primitives and {lights} lights needs up to {worst} loop iterations per \
+                "{what} over {} primitives and {lights} lights need up to {worst} loop iterations per \
                  ray on lavapipe, which stops at {LAVAPIPE_LOOP_LIMIT}; render this scene with --backend cpu",
                 scene.primitives.len()
             )));
@@ -505,6 +561,20 @@ impl GpuRenderer {
     }
 }
 
+/// Whether the GPU traces the candidate tables for `accel`: `cube` and `auto` do, `brute`
+/// does not (`bvh` is refused).
+pub fn uses_tables(accel: AccelKind) -> bool {
+    matches!(accel, AccelKind::Auto | AccelKind::Cube)
+}
+
+fn accel_name(variant: Variant) -> &'static str {
+    if variant.cube {
+        "cube"
+    } else {
+        "brute"
+    }
+}
+
 struct RunOutput {
     values: Vec<[f32; 4]>,
     counters: Counters,
@@ -522,7 +592,7 @@ fn check(scene: &Scene, opts: &RenderOptions) -> Result<(), GpuRenderError> {
     }
     if opts.accel == AccelKind::Bvh {
         return Err(GpuRenderError::Options(
-            "the GPU backend has no BVH: use --accel brute (or auto) with --backend gpu".into(),
+            "the GPU backend has no BVH: use --accel cube (the default) or brute with --backend gpu".into(),
         ));
     }
     if scene.primitives.len() >= u32::MAX as usize {

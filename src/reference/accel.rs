@@ -61,6 +61,9 @@ pub enum AccelKind {
     Brute,
     /// Bounding volume hierarchy.
     Bvh,
+    /// The direction-cube candidate tables: the GPU backend only (its default, as `auto`);
+    /// the reference refuses it.
+    Cube,
 }
 
 /// The largest scene [`AccelKind::Auto`] traces by brute force.
@@ -81,7 +84,8 @@ pub trait Accel: Sync {
 /// Builds the structure `kind` asks for.
 pub fn build<'a>(scene: &'a Scene, kind: AccelKind) -> Box<dyn Accel + 'a> {
     let brute = match kind {
-        AccelKind::Auto => scene.primitives.len() <= AUTO_BRUTE_MAX,
+        // The renderer refuses `cube` before building (see `prepare`).
+        AccelKind::Auto | AccelKind::Cube => scene.primitives.len() <= AUTO_BRUTE_MAX,
         AccelKind::Brute => true,
         AccelKind::Bvh => false,
     };

@@ -130,6 +130,13 @@ pub fn simulated_effects(scene: &Scene, max_depth: u32) -> Vec<&'static str> {
 
 fn prepare(scene: &Scene, opts: &RenderOptions) -> Result<(), RenderError> {
     opts.validate()?;
+    if opts.accel == AccelKind::Cube {
+        return Err(RenderError::Options(
+            "the CPU reference has no --accel cube (the tables are traced on the GPU): use --accel auto, \
+             brute or bvh with --backend cpu"
+                .into(),
+        ));
+    }
     scene.validate().map_err(RenderError::Scene)
 }
 
