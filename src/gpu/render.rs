@@ -170,7 +170,8 @@ impl GpuRenderer {
     ) -> Result<Rendered, GpuRenderError> {
         check(scene, opts)?;
         let (w, h) = (opts.width, opts.height);
-        let variant = Variant::for_effects(scene.effects(), opts.max_depth).with_cube(uses_tables(opts.accel));
+        let variant =
+            Variant::for_effects(scene.effects(), opts.max_depth).with_cube(uses_tables(opts.accel));
         let kernels = self.kernels(variant)?;
         // Preprocessing: packing the scene and building the tables (not compiling kernels).
         let start = Instant::now();
@@ -230,7 +231,8 @@ impl GpuRenderer {
     ) -> Result<Rendered, GpuRenderError> {
         check(scene, opts)?;
         let (w, h) = (opts.width, opts.height);
-        let variant = Variant::for_effects(scene.effects(), opts.max_depth).with_cube(uses_tables(opts.accel));
+        let variant =
+            Variant::for_effects(scene.effects(), opts.max_depth).with_cube(uses_tables(opts.accel));
         let kernels = self.kernels(variant)?;
         // Preprocessing: packing the scene and building the tables (not compiling kernels).
         let start = Instant::now();

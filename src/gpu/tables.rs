@@ -126,10 +126,7 @@ fn fallback_reachable(scene: &Scene, flat: &FlatTables, variant: Variant) -> boo
     if flat.eye_origin == u32::MAX && !scene.primitives.is_empty() {
         return true;
     }
-    if variant.shadows
-        && flat.light_origin.contains(&u32::MAX)
-        && (0..scene.primitives.len()).any(missing)
-    {
+    if variant.shadows && flat.light_origin.contains(&u32::MAX) && (0..scene.primitives.len()).any(missing) {
         return true;
     }
     if variant.reflection {
