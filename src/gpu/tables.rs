@@ -137,3 +137,89 @@ fn fallback_reachable(scene: &Scene, flat: &FlatTables, variant: Variant) -> boo
     }
     false
 }
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+
+    use super::*;
+    use crate::mirror::{self, Prim32, F32_MAX};
+
+    fn scene(src: &str) -> Scene {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("s.nff");
+        std::fs::write(&p, src).unwrap();
+        crate::load::load(&p, &Default::default()).unwrap().scene
+    }
+
+    const VIEW: &str =
+        "v\nfrom 0 -6 2\nat 0 0 0\nup 0 0 1\nangle 40\nhither 0.01\nresolution 16 16\nl 3 -3 5\n";
+
+    fn spheres(material: &str) -> Scene {
+        let mut s = format!("{VIEW}f {material}\n");
+        for i in 0..5 {
+            s += &format!("s {} {} 0 0.4\n", i as f64 - 2.0, (i % 2) as f64);
+        }
+        s += "p 3\n-3 -3 -0.5\n3 -3 -0.5\n0 3 -0.5\n";
+        scene(&s)
+    }
+
+    #[test]
+    fn the_fallback_origin_walks_every_primitive_like_brute_force() {
+        let sc = spheres("1 1 1 0.2 0.8 10 0 1");
+        let t = build(&sc, 16, 16, Variant::for_effects(sc.effects(), 5).with_cube(true)).unwrap();
+        let f = &t.flat;
+        assert_eq!(f.origins[t.fallback as usize].always_count as usize, sc.primitives.len());
+        let prims = Prim32::from_scene(&sc, sc.camera.eye);
+        for k in 0..200 {
+            let a = k as f32 * 0.37;
+            let d = Vec3::new(a.cos(), a.sin(), (a * 1.7).sin() * 0.6).normalize();
+            let o = Vec3::new(0.1, 0.3, 0.2) * (k % 7) as f32;
+            let (hit, tests) = mirror::cube_walk_nearest(
+                &f.origins,
+                &f.faces,
+                &f.cell_start,
+                &f.entries,
+                t.fallback,
+                d,
+                F32_MAX,
+                mirror::NO_ID,
+                |id| prims[id as usize].intersect(o, d),
+            );
+            let want = mirror::brute_nearest(&prims, o, d, F32_MAX, mirror::NO_ID);
+            assert_eq!((hit.id, hit.t), want, "ray {k}");
+            assert_eq!(tests as usize, sc.primitives.len(), "the fallback never stops early");
+        }
+    }
+
+    #[test]
+    fn matte_scenes_build_no_surface_tables_and_never_need_the_fallback() {
+        let sc = spheres("1 0.5 0.5 0.8 0 10 0 1");
+        let v = Variant::for_effects(sc.effects(), 5).with_cube(true);
+        assert!(!v.reflection);
+        let t = build(&sc, 16, 16, v).unwrap();
+        assert!(t.flat.origins.iter().all(|o| o.kind != OriginKind::Surface as u32));
+        assert!(!t.fallback_reachable);
+        assert!(t.flat.light_origin.iter().all(|&o| o != u32::MAX), "the point light has a table");
+        // Mirrors: every mirror has a surface table, so no ray needs the fallback either.
+        let sc = spheres("1 1 1 0.2 0.8 10 0 1");
+        let t = build(&sc, 16, 16, Variant::for_effects(sc.effects(), 5).with_cube(true)).unwrap();
+        assert!(t.flat.origins.iter().any(|o| o.kind == OriginKind::Surface as u32));
+        assert!(!t.fallback_reachable);
+        assert!(t.worst_closest < sc.primitives.len() as u64 + 1);
+    }
+
+    #[test]
+    fn the_spawn_offset_bound_covers_the_kernels_offset() {
+        let sc = spheres("1 1 1 0.2 0.8 10 0 1");
+        let bound = spawn_offset_bound(&sc, 16, 16);
+        // The largest `scale` the kernels can see: a hit at the far corner of the bounds,
+        // reached from the opposite corner.
+        let b = sc.bounds();
+        let eye = sc.camera.eye;
+        let m = (b.min - eye).abs().max_element().max((b.max - eye).abs().max_element());
+        let offset = (m + (b.max - b.min).length()) * 2f64.powi(-16);
+        assert!(bound >= offset, "{bound} < {offset}");
+        assert!(bound < 100.0 * offset, "{bound} is needlessly large");
+    }
+}
