@@ -1,5 +1,10 @@
-//! The GPU renderer: uploads a packed scene, runs the composed kernels tile by tile and
-//! reads back the image, the ray and test counters and the kernel times.
+//! The GPU renderer: uploads a packed scene (and, with `--accel cube`, the candidate tables
+//! of [`super::tables`]), runs the composed kernels tile by tile and reads back the image,
+//! the ray and test counters and the kernel times.
+//!
+//! `--accel auto` and `cube` trace the tables, `brute` tests every primitive, `bvh` is
+//! refused (the BVH is the CPU reference's). Both query sets have the same WGSL entry
+//! points, and a module contains only one of them ([`Variant::cube`]).
 //!
 //! Each grid point (pixel, or pixel corner with SPD sampling) keeps its ray tree as a
 //! stack of pending rays in a storage buffer; one dispatch traces one ray of every point
