@@ -33,6 +33,11 @@ fn closest(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) -> Cl
     return brute_nearest(ray, t_max, skip, ray_kind);
 }
 
+// `closest` for the ray on top of the point's stack: brute force ends in one step.
+fn closest_step(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) -> Stepped {
+    return Stepped(true, closest(ray, t_max, ray_kind, from_prim, skip));
+}
+
 #if SHADOWS
 // True when some primitive other than `skip` blocks the ray before t_max.
 fn brute_any(ray: Ray, t_max: f32, skip: u32) -> bool {

@@ -107,15 +107,29 @@ struct Pending {
 // Deep enough for the largest --max-depth the GPU backend accepts (checked on the CPU).
 const STACK_SIZE: u32 = 16u;
 
-// One grid point's progress between kernel steps: radiance so far, pending rays, and
-// how many of its samples have been started.
+// A nearest-hit table walk interrupted at the end of a step (`--accel cube`): the merged
+// lists' positions and the nearest hit so far (prim NO_ID: none yet).
+struct WalkState {
+    i: u32,
+    iend: u32,
+    j: u32,
+    jend: u32,
+    prim: u32,
+    t: f32,
+    b1: f32,
+    b2: f32,
+}
+
+// One grid point's progress between kernel steps: radiance so far, pending rays, how many
+// of its samples have been started, and whether the top ray's table walk is under way.
 struct PointState {
     color: vec3<f32>,
     sp: u32,
     sample: u32,
-    pad0: u32,
+    walking: u32,
     pad1: u32,
     pad2: u32,
+    walk: WalkState,
     stack: array<Pending, STACK_SIZE>,
 }
 

@@ -144,23 +144,21 @@ fn walk_done(w: Walk) -> bool {
     return w.i >= w.iend && w.j >= w.jend;
 }
 
-// The nearest hit with 0 < t < t_max from the table of `origin`, ties to the lower id;
-// `skip` is never tested (NO_ID: none).
-fn cube_walk_nearest(origin: u32, ray: Ray, t_max: f32, skip: u32, ray_kind: u32) -> Closest {
-    var best: Closest;
-    best.found = false;
-    best.prim = NO_ID;
-    best.hit = no_hit();
-    var best_t = t_max;
-    if max3(abs(ray.d)) == 0.0 {
-        return best;
-    }
-    var w = walk_start(origin, ray.d);
+// Continues the nearest-hit walk `w` for at most `budget` entries, keeping the nearest hit
+// in `best` (ties to the lower id; `skip` never tested). True when the walk is over.
+fn walk_nearest(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, t_max: f32, skip: u32, ray_kind: u32,
+    budget: u32) -> bool {
+    var left = budget;
+    var best_t = select(t_max, (*best).hit.t, (*best).found);
     loop {
-        if walk_done(w) {
+        if walk_done(*w) {
             break;
         }
-        let e = walk_next(&w);
+        if left == 0u {
+            return false;
+        }
+        left -= 1u;
+        let e = walk_next(w);
         if e.d_min > best_t {
             break;
         }
@@ -170,13 +168,29 @@ fn cube_walk_nearest(origin: u32, ray: Ray, t_max: f32, skip: u32, ray_kind: u32
         let p = prims[e.id];
         count_test(ray_kind, p.kind);
         let h = intersect_prim(p, ray, t_max);
-        if h.ok && (h.t < best_t || (h.t == best_t && best.found && e.id < best.prim)) {
-            best.found = true;
-            best.prim = e.id;
-            best.hit = h;
+        if h.ok && (h.t < best_t || (h.t == best_t && (*best).found && e.id < (*best).prim)) {
+            (*best).found = true;
+            (*best).prim = e.id;
+            (*best).hit = h;
             best_t = h.t;
         }
     }
+    return true;
+}
+
+fn no_closest() -> Closest {
+    return Closest(false, NO_ID, no_hit());
+}
+
+// The nearest hit with 0 < t < t_max from the table of `origin`, ties to the lower id;
+// `skip` is never tested (NO_ID: none).
+fn cube_walk_nearest(origin: u32, ray: Ray, t_max: f32, skip: u32, ray_kind: u32) -> Closest {
+    var best = no_closest();
+    if max3(abs(ray.d)) == 0.0 {
+        return best;
+    }
+    var w = walk_start(origin, ray.d);
+    walk_nearest(&w, &best, ray, t_max, skip, ray_kind, 0xffffffffu);
     return best;
 }
 
@@ -184,6 +198,37 @@ fn cube_walk_nearest(origin: u32, ray: Ray, t_max: f32, skip: u32, ray_kind: u32
 fn closest(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) -> Closest {
     let key = select(KEY_SURFACE, KEY_EYE, from_prim == NO_ID);
     return cube_walk_nearest(cube_origin(key, from_prim), ray, t_max, skip, ray_kind);
+}
+
+// Entries a step walks at most: lavapipe ends an invocation's loops after 65535 iterations,
+// so a long candidate list is walked over several steps, its position kept in `state.walk`.
+const WALK_CHUNK: u32 = 8192u;
+
+// `closest` for the ray on top of the point's stack, in bounded steps: `done` false when
+// the walk goes on in the next step.
+fn closest_step(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) -> Stepped {
+    var best = no_closest();
+    var w: Walk;
+    if state.walking == 0u {
+        if max3(abs(ray.d)) == 0.0 {
+            return Stepped(true, best);
+        }
+        let key = select(KEY_SURFACE, KEY_EYE, from_prim == NO_ID);
+        w = walk_start(cube_origin(key, from_prim), ray.d);
+    } else {
+        let s = state.walk;
+        w = Walk(s.i, s.iend, s.j, s.jend);
+        if s.prim != NO_ID {
+            best = Closest(true, s.prim, PrimHit(true, s.t, s.b1, s.b2));
+        }
+    }
+    if walk_nearest(&w, &best, ray, t_max, skip, ray_kind, WALK_CHUNK) {
+        state.walking = 0u;
+        return Stepped(true, best);
+    }
+    state.walking = 1u;
+    state.walk = WalkState(w.i, w.iend, w.j, w.jend, best.prim, best.hit.t, best.hit.b1, best.hit.b2);
+    return Stepped(false, best);
 }
 
 #if SHADOWS

@@ -56,6 +56,12 @@ struct Closest {
     hit: PrimHit,
 }
 
+// `closest_step`'s answer: `done` false when the query continues in the next step.
+struct Stepped {
+    done: bool,
+    c: Closest,
+}
+
 // Ray/sphere, Haines' precise form: the discriminant as r² − |f + b·d|².
 fn intersect_sphere(center: vec3<f32>, radius: f32, inside_only: bool, ray: Ray, t_max: f32) -> PrimHit {
     let f = ray.o - center;

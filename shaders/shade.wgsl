@@ -155,15 +155,21 @@ fn refract_dir(d: vec3<f32>, n: vec3<f32>, ng: vec3<f32>, entering: bool, ior: f
 // (lavapipe stops every loop of an invocation after 65535 iterations in all).
 var<private> state: PointState;
 
-// Traces the ray on top of the stack and pushes the rays its hit spawns.
+// Traces the ray on top of the stack (a long table walk over several calls) and, once its
+// nearest hit is known, pops it and pushes the rays its hit spawns.
 fn trace_step() {
-    state.sp -= 1u;
-    let job = state.stack[state.sp];
+    let job = state.stack[state.sp - 1u];
     let ray = make_ray(job.o, job.d);
     let kind = job.kind & RAY_KIND_MASK;
-    count(kind);
     let skip = select(NO_ID, job.from_prim, (job.kind & RAY_SKIP_FROM) != 0u);
-    let h = closest(ray, FAR, kind, job.from_prim, skip);
+    let stepped = closest_step(ray, FAR, kind, job.from_prim, skip);
+    if !stepped.done {
+        // The ray stays on the stack; its walk goes on in the next step.
+        return;
+    }
+    let h = stepped.c;
+    state.sp -= 1u;
+    count(kind);
     if !h.found {
         state.color += job.weight * params.background;
         return;

@@ -133,6 +133,20 @@ pub struct Pending {
 /// Pending rays per grid point (`STACK_SIZE` in common.wgsl).
 pub const STACK_SIZE: usize = 16;
 
+/// A table walk interrupted between steps (WGSL `WalkState`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct WalkState {
+    pub i: u32,
+    pub iend: u32,
+    pub j: u32,
+    pub jend: u32,
+    pub prim: u32,
+    pub t: f32,
+    pub b1: f32,
+    pub b2: f32,
+}
+
 /// A grid point's progress between kernel steps (WGSL `PointState`); all zero at the
 /// start.
 #[repr(C)]
@@ -141,9 +155,11 @@ pub struct PointState {
     pub color: [f32; 3],
     pub sp: u32,
     pub sample: u32,
-    pub pad0: u32,
+    /// 1 while the top ray's nearest-hit walk continues in the next step.
+    pub walking: u32,
     pub pad1: u32,
     pub pad2: u32,
+    pub walk: WalkState,
     pub stack: [Pending; STACK_SIZE],
 }
 
@@ -212,7 +228,8 @@ pub fn twins() -> Vec<Twin> {
         }),
         twin!(TextureInfo { offset, width, height, flags }),
         twin!(Pending { o, kind, d, depth, weight, from_prim }),
-        twin!(PointState { color, sp, sample, pad0, pad1, pad2, stack }),
+        twin!(WalkState { i, iend, j, jend, prim, t, b1, b2 }),
+        twin!(PointState { color, sp, sample, walking, pad1, pad2, walk, stack }),
         twin!(GpuOrigin { n, always_start, always_count, kind }),
         twin!(GpuFace { iu0, iv0, width, height, cell_base, _pad0, _pad1, _pad2 }),
         twin!(GpuEntry { id, d_min }),

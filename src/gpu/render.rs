@@ -43,11 +43,14 @@ const WORKGROUP: u32 = 64;
 /// Rough budget of primitive tests per eye sample and dispatch, which sets the tile size.
 const TESTS_PER_DISPATCH: u64 = 1 << 24;
 
-/// The most grid points per dispatch: bounds the point states' memory (800 bytes each).
+/// The most grid points per dispatch: bounds the point states' memory (832 bytes each).
 const MAX_TILE: u64 = 1 << 16;
 
 /// Mesa's llvmpipe limit on the loop iterations of one invocation (all loops together).
 const LAVAPIPE_LOOP_LIMIT: u64 = 65535;
+
+/// Candidate-list entries one `render` step walks at most (`WALK_CHUNK` in cube.wgsl).
+const WALK_CHUNK: u64 = 8192;
 
 /// Counter slots in the kernels (`COUNTER_COUNT` in common.wgsl), each 64-bit.
 const COUNTER_SLOTS: usize = 18;
@@ -290,6 +293,14 @@ impl GpuRenderer {
         }
         let t = tables::build(scene, w, h, variant)
             .map_err(|e| GpuRenderError::Scene(format!("cannot build the candidate tables: {e}")))?;
+        log::info!(
+            "tables: {} origins, {} entries, longest lists {} (nearest) {} (shadow), fallback reachable: {}",
+            t.flat.origins.len(),
+            t.flat.entries.len(),
+            t.worst_closest,
+            t.worst_shadow,
+            t.fallback_reachable
+        );
         params.eye_origin = t.flat.eye_origin;
         params.fallback_origin = t.fallback;
         Ok(Some(t))
@@ -310,7 +321,7 @@ impl GpuRenderer {
         gh: u32,
         progress: &ProgressBar,
     ) -> Result<RunOutput, GpuRenderError> {
-        self.check_loop_budget(scene, tables)?;
+        self.check_loop_budget(scene, tables, stepped)?;
         let device = &self.ctx.device;
         let queue = &self.ctx.queue;
         let total = gw as u64 * gh as u64;
@@ -521,7 +532,14 @@ impl GpuRenderer {
     /// have run 65535 iterations in total. One step traces one ray and its shadow rays, by
     /// brute force or through the candidate lists; when the longest lists it may walk could
     /// exceed the limit the result would be silently wrong, so it is an error instead.
-    fn check_loop_budget(&self, scene: &Scene, tables: Option<&GpuTables>) -> Result<(), GpuRenderError> {
+    /// A `stepped` kernel walks at most [`WALK_CHUNK`] entries of a nearest-hit list per step
+    /// (the rest in later steps); the `aov` kernel walks the eye's lists in one go.
+    fn check_loop_budget(
+        &self,
+        scene: &Scene,
+        tables: Option<&GpuTables>,
+        stepped: bool,
+    ) -> Result<(), GpuRenderError> {
         if !self.ctx.info.name.to_lowercase().contains("llvmpipe") {
             return Ok(());
         }
@@ -530,7 +548,10 @@ impl GpuRenderer {
         // A cylinder test loops over its two roots.
         let per_test = if c.cylinders > 0 { 3 } else { 1 };
         let (closest, shadow, what) = match tables {
-            Some(t) => (t.worst_closest, t.worst_shadow, "the longest candidate lists"),
+            Some(t) if stepped => {
+                (t.worst_closest.min(WALK_CHUNK), t.worst_shadow, "the longest candidate lists")
+            }
+            Some(t) => (t.worst_eye, 0, "the eye's longest candidate lists"),
             None => {
                 let per_ray = (c.spheres + c.triangles + 3 * c.cylinders) as u64;
                 (per_ray, per_ray, "brute force")

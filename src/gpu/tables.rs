@@ -21,8 +21,10 @@ pub struct GpuTables {
     pub fallback: u32,
     /// Whether some ray of the render may use the fallback origin.
     pub fallback_reachable: bool,
-    /// The longest merged list (cell + always) a nearest-hit walk may meet, and a shadow walk.
+    /// The longest merged list (cell + always) a nearest-hit walk may meet, an eye ray's
+    /// walk, and a shadow walk.
     pub worst_closest: u64,
+    pub worst_eye: u64,
     pub worst_shadow: u64,
     /// Mean entries per stored cell (a rough cost of one walk, for the tile size).
     pub mean_list: f64,
@@ -73,7 +75,7 @@ pub fn build(scene: &Scene, width: u32, height: u32, variant: Variant) -> Result
         return Err("the tables' light or primitive index does not match the scene".into());
     }
     let reachable = fallback_reachable(scene, &flat, variant);
-    let (mut worst_closest, mut worst_shadow) = (0u64, 0u64);
+    let (mut worst_closest, mut worst_eye, mut worst_shadow) = (0u64, 0u64, 0u64);
     for (o, org) in flat.origins.iter().enumerate() {
         let mut longest = 0u64;
         for f in &flat.faces[o * 6..o * 6 + 6] {
@@ -83,6 +85,9 @@ pub fn build(scene: &Scene, width: u32, height: u32, variant: Variant) -> Result
             }
         }
         let list = longest + org.always_count as u64;
+        if org.kind == OriginKind::Eye as u32 {
+            worst_eye = worst_eye.max(list);
+        }
         if org.kind == OriginKind::Light as u32 {
             worst_shadow = worst_shadow.max(list);
         } else {
@@ -97,6 +102,7 @@ pub fn build(scene: &Scene, width: u32, height: u32, variant: Variant) -> Result
     let n = scene.primitives.len() as u32;
     if reachable {
         worst_closest = worst_closest.max(n as u64);
+        worst_eye = worst_eye.max(n as u64);
         worst_shadow = worst_shadow.max(n as u64);
     }
     let mean_list = flat.entries.len() as f64 / flat.cells().max(1) as f64;
@@ -111,6 +117,7 @@ pub fn build(scene: &Scene, width: u32, height: u32, variant: Variant) -> Result
         fallback,
         fallback_reachable: reachable,
         worst_closest,
+        worst_eye,
         worst_shadow,
         mean_list,
         build_s,
