@@ -27,9 +27,11 @@ struct Params {
     // render; the preview renders one sample per pass); spp sizes the jitter lattice.
     sample_first: u32,
     sample_end: u32,
+    // `--accel cube`: the eye's origin, and the origin listing every primitive that rays
+    // from an entity without a table use.
+    eye_origin: u32,
+    fallback_origin: u32,
     pad0: u32,
-    pad1: u32,
-    pad2: u32,
 }
 
 // One primitive. Sphere: a = (centre, radius). Triangle: a, b, c = vertices. Cylinder:
@@ -94,6 +96,8 @@ struct TextureInfo {
 // A ray waiting in a grid point's ray tree, with the weight its radiance counts with.
 struct Pending {
     o: vec3<f32>,
+    // Ray kind (bits 0-1, RAY_KIND_MASK); RAY_SKIP_FROM: `from_prim` need not be tested
+    // (the ray leaves a triangle, or a sphere outwards).
     kind: u32,
     d: vec3<f32>,
     depth: u32,
@@ -105,15 +109,29 @@ struct Pending {
 // Deep enough for the largest --max-depth the GPU backend accepts (checked on the CPU).
 const STACK_SIZE: u32 = 16u;
 
-// One grid point's progress between kernel steps: radiance so far, pending rays, and
-// how many of its samples have been started.
+// A nearest-hit table walk interrupted at the end of a step (`--accel cube`): the merged
+// lists' positions and the nearest hit so far (prim NO_ID: none yet).
+struct WalkState {
+    i: u32,
+    iend: u32,
+    j: u32,
+    jend: u32,
+    prim: u32,
+    t: f32,
+    b1: f32,
+    b2: f32,
+}
+
+// One grid point's progress between kernel steps: radiance so far, pending rays, how many
+// of its samples have been started, and whether the top ray's table walk is under way.
 struct PointState {
     color: vec3<f32>,
     sp: u32,
     sample: u32,
-    pad0: u32,
+    walking: u32,
     pad1: u32,
     pad2: u32,
+    walk: WalkState,
     stack: array<Pending, STACK_SIZE>,
 }
 
@@ -138,6 +156,8 @@ const RAY_EYE: u32 = 0u;
 const RAY_SHADOW: u32 = 1u;
 const RAY_REFLECT: u32 = 2u;
 const RAY_REFRACT: u32 = 3u;
+const RAY_KIND_MASK: u32 = 3u;
+const RAY_SKIP_FROM: u32 = 4u;
 
 // Counter slots: rays by kind (0-3), tests by ray kind x primitive kind (4-15), eye
 // hits (16), blocked shadow rays (17). Each is 64-bit in `counters` (low, high word).

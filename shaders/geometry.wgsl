@@ -46,6 +46,22 @@ fn hit_at(t: f32) -> PrimHit {
     return PrimHit(true, t, 0.0, 0.0);
 }
 
+// "No primitive".
+const NO_ID: u32 = 0xffffffffu;
+
+// A nearest-hit answer (`closest` in brute.wgsl or cube.wgsl): the primitive and its hit.
+struct Closest {
+    found: bool,
+    prim: u32,
+    hit: PrimHit,
+}
+
+// `closest_step`'s answer: `done` false when the query continues in the next step.
+struct Stepped {
+    done: bool,
+    c: Closest,
+}
+
 // Ray/sphere, Haines' precise form: the discriminant as r² − |f + b·d|².
 fn intersect_sphere(center: vec3<f32>, radius: f32, inside_only: bool, ray: Ray, t_max: f32) -> PrimHit {
     let f = ray.o - center;

@@ -55,8 +55,21 @@ fn base_color(m: Material, s: Surface) -> vec3<f32> {
     return m.color;
 }
 
-// What light `light` adds at a hit (zero when it faces away, is blocked or too far).
-fn light_contribution(light: Light, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>, diffuse: vec3<f32>) -> vec3<f32> {
+// Which primitive a ray leaving primitive `id` towards `dir` need not test: the primitive
+// itself when it cannot meet it again (a triangle; a sphere whose outward normal `ng`
+// the ray leaves along), else NO_ID.
+fn leave_skip(id: u32, dir: vec3<f32>, ng: vec3<f32>) -> u32 {
+    let p = prims[id];
+    if p.kind == KIND_TRIANGLE || (p.kind == KIND_SPHERE && (p.flags & 1u) == 0u && dot(dir, ng) > 0.0) {
+        return id;
+    }
+    return NO_ID;
+}
+
+// What light `li` adds at a hit on primitive `id` (zero when it faces away, is blocked or
+// too far).
+fn light_contribution(li: u32, id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>, diffuse: vec3<f32>) -> vec3<f32> {
+    let light = lights[li];
     let inc = incidence(light, s.p);
     if !inc.ok {
         return vec3<f32>(0.0);
@@ -72,7 +85,7 @@ fn light_contribution(light: Light, m: Material, s: Surface, n: vec3<f32>, v: ve
         t_max = length(light.position - o) * (1.0 - SHADOW_END_REL);
     }
     count(RAY_SHADOW);
-    if occluded(make_ray(o, inc.dir), t_max) {
+    if occluded(o, inc.dir, t_max, li, id, leave_skip(id, inc.dir, s.ng)) {
         count(C_SHADOW_BLOCKED);
         return vec3<f32>(0.0);
     }
@@ -88,15 +101,16 @@ fn light_contribution(light: Light, m: Material, s: Surface, n: vec3<f32>, v: ve
     return inc.radiance * local;
 }
 
-// Local illumination at a hit: emission, ambient and the lights (with shadow rays).
-fn shade_local(m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>) -> vec3<f32> {
+// Local illumination at a hit on primitive `id`: emission, ambient and the lights (with
+// shadow rays).
+fn shade_local(id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>) -> vec3<f32> {
     let diffuse = base_color(m, s) * m.kd;
     var l = params.ambient * diffuse;
 #if EMISSION
     l += m.emission;
 #endif
     for (var i = 0u; i < params.light_count; i++) {
-        l += light_contribution(lights[i], m, s, n, v, diffuse);
+        l += light_contribution(i, id, m, s, n, v, diffuse);
     }
     return l;
 }
@@ -141,18 +155,26 @@ fn refract_dir(d: vec3<f32>, n: vec3<f32>, ng: vec3<f32>, entering: bool, ior: f
 // (lavapipe stops every loop of an invocation after 65535 iterations in all).
 var<private> state: PointState;
 
-// Traces the ray on top of the stack and pushes the rays its hit spawns.
+// Traces the ray on top of the stack (a long table walk over several calls) and, once its
+// nearest hit is known, pops it and pushes the rays its hit spawns.
 fn trace_step() {
-    state.sp -= 1u;
-    let job = state.stack[state.sp];
+    let job = state.stack[state.sp - 1u];
     let ray = make_ray(job.o, job.d);
-    count(job.kind);
-    let h = closest(ray, FAR, job.kind);
+    let kind = job.kind & RAY_KIND_MASK;
+    let skip = select(NO_ID, job.from_prim, (job.kind & RAY_SKIP_FROM) != 0u);
+    let stepped = closest_step(ray, FAR, kind, job.from_prim, skip);
+    if !stepped.done {
+        // The ray stays on the stack; its walk goes on in the next step.
+        return;
+    }
+    let h = stepped.c;
+    state.sp -= 1u;
+    count(kind);
     if !h.found {
         state.color += job.weight * params.background;
         return;
     }
-    if job.kind == RAY_EYE {
+    if kind == RAY_EYE {
         count(C_EYE_HIT);
     }
     let prim = prims[h.prim];
@@ -162,7 +184,7 @@ fn trace_step() {
     let entering = dot(d, s.ng) < 0.0;
     let ng = select(-s.ng, s.ng, entering);
     let n = select(-s.ns, s.ns, entering);
-    state.color += job.weight * shade_local(m, s, n, -d);
+    state.color += job.weight * shade_local(h.prim, m, s, n, -d);
 #if REFLECTION
     if job.depth < params.max_depth {
         let transmits = m.transmittance > 0.0;
@@ -177,8 +199,9 @@ fn trace_step() {
             }
         }
         if refracted.ok {
-            state.stack[state.sp] = Pending(spawn_origin(s, refracted.dir), RAY_REFRACT, refracted.dir, job.depth + 1u,
-                job.weight * m.transmittance, h.prim);
+            let flags = select(0u, RAY_SKIP_FROM, leave_skip(h.prim, refracted.dir, s.ng) != NO_ID);
+            state.stack[state.sp] = Pending(spawn_origin(s, refracted.dir), RAY_REFRACT | flags, refracted.dir,
+                job.depth + 1u, job.weight * m.transmittance, h.prim);
             state.sp += 1u;
         }
 #endif
@@ -187,7 +210,9 @@ fn trace_step() {
             if dot(r, ng) <= 0.0 {
                 r = reflect_dir(d, ng);
             }
-            state.stack[state.sp] = Pending(spawn_origin(s, r), RAY_REFLECT, r, job.depth + 1u, job.weight * weight, h.prim);
+            let flags = select(0u, RAY_SKIP_FROM, leave_skip(h.prim, r, s.ng) != NO_ID);
+            state.stack[state.sp] = Pending(spawn_origin(s, r), RAY_REFLECT | flags, r, job.depth + 1u, job.weight * weight,
+                h.prim);
             state.sp += 1u;
         }
     }

@@ -4,7 +4,11 @@
 // object id.
 #include "common.wgsl"
 #include "geometry.wgsl"
+#if CUBE
+#include "cube.wgsl"
+#else
 #include "brute.wgsl"
+#endif
 #include "sampling.wgsl"
 #if TEXTURES
 #include "texture.wgsl"
@@ -52,7 +56,7 @@ fn aov(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_
         let j = point / params.grid_w;
         let ray = camera_ray(vec2<f32>(f32(i) + 0.5, f32(j) + 0.5));
         count(RAY_EYE);
-        let h = closest(ray, FAR, RAY_EYE);
+        let h = closest(ray, FAR, RAY_EYE, NO_ID, NO_ID);
         var v = vec4<f32>(0.0);
         if h.found {
             count(C_EYE_HIT);

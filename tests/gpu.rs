@@ -9,7 +9,7 @@ use cuberay::compare::compare;
 use cuberay::gpu::{GpuContext, GpuRenderer};
 use cuberay::load;
 use cuberay::output::Aov;
-use cuberay::reference::{self, RenderOptions, Rendered, Sampling};
+use cuberay::reference::{self, AccelKind, RenderOptions, Rendered, Sampling};
 use cuberay::scene::{Primitive, Scene};
 use glam::DVec3;
 use indicatif::ProgressBar;
@@ -162,23 +162,26 @@ fn aovs_match_the_cpu() {
     assert_eq!(g.stats.rays.eye, 64 * 48);
 }
 
-/// SPD size-1 databases, 64×64, the SPD depth 5.
+const SPD_SIZE_1: [&str; 11] = [
+    "balls_s1",
+    "gears_s1",
+    "jacks_s1",
+    "lattice_s1",
+    "mount_s1",
+    "rings_s1",
+    "shells_s1",
+    "sombrero_s1",
+    "teapot_s1",
+    "tetra_s1",
+    "tree_s1",
+];
+
+/// SPD size-1 databases, 64×64, the SPD depth 5, on the tables (the GPU's default).
 #[test]
 fn spd_size_1_scenes_agree_with_the_cpu() {
-    for name in [
-        "balls_s1",
-        "gears_s1",
-        "jacks_s1",
-        "lattice_s1",
-        "mount_s1",
-        "rings_s1",
-        "shells_s1",
-        "sombrero_s1",
-        "teapot_s1",
-        "tetra_s1",
-        "tree_s1",
-    ] {
-        agree(name, &spd(name), &RenderOptions::new(64, 64), 0.01);
+    for name in SPD_SIZE_1 {
+        let (g, _) = agree(name, &spd(name), &RenderOptions::new(64, 64), 0.01);
+        assert_eq!(g.stats.settings.accel, "cube");
     }
 }
 
@@ -192,7 +195,8 @@ fn brute_force_beyond_lavapipes_loop_limit_is_an_error_not_a_wrong_image() {
         return;
     }
     let scene = spd("gears_s4");
-    let e = r.render(&scene, &RenderOptions::new(4, 4), &hidden()).err().expect("refused");
+    let opts = RenderOptions { accel: AccelKind::Brute, ..RenderOptions::new(4, 4) };
+    let e = r.render(&scene, &opts, &hidden()).err().expect("refused");
     assert!(e.to_string().contains("loop iterations"), "{e}");
 }
 
@@ -259,4 +263,143 @@ fn compare_reports_writes_images_and_applies_the_threshold() {
     let st = run(&format!("{}", flip / 2.0));
     assert!(!st.status.success());
     assert!(String::from_utf8_lossy(&st.stderr).contains("exceeds the threshold"));
+}
+
+/// A scene from NFF text (written to a temporary file and loaded as a user's would be).
+fn nff(src: &str) -> Scene {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("scene.nff");
+    std::fs::write(&p, src).unwrap();
+    load::load(&p, &Default::default()).unwrap_or_else(|e| panic!("{e}")).scene
+}
+
+const VIEW: &str =
+    "b 0.2 0.2 0.3\nv\nfrom 7 -9 5\nat 0 0 0.5\nup 0 0 1\nangle 45\nhither 0.01\nresolution 64 48\n\
+                    l 5 -3 8\nl -6 -4 7\n";
+
+/// Spheres of many sizes, some overlapping, a mirror finish, on a large sphere.
+fn spheres_scene() -> Scene {
+    let mut s = format!("{VIEW}f 0.8 0.5 0.3 0.6 0.3 20 0 1\ns 0 0 -100 99.5\n");
+    for i in -3i32..=3 {
+        for j in -3..=3 {
+            let r = 0.25 + 0.08 * ((i * 7 + j * 3).rem_euclid(5)) as f64;
+            s += &format!(
+                "s {} {} {} {r}\n",
+                i as f64 * 0.9,
+                j as f64 * 0.9,
+                0.2 * ((i + j).rem_euclid(3)) as f64
+            );
+        }
+    }
+    nff(&s)
+}
+
+/// A folded triangle mesh (shared edges, both sides seen) and loose triangles.
+fn triangles_scene() -> Scene {
+    let mut s = format!("{VIEW}f 0.4 0.8 0.4 0.7 0.2 10 0 1\n");
+    let z = |x: f64, y: f64| 0.6 * (x * 1.3).sin() * (y * 0.9).cos();
+    let n = 10;
+    let at = |i: i32, j: i32| {
+        let (x, y) = (-3.0 + 6.0 * i as f64 / n as f64, -3.0 + 6.0 * j as f64 / n as f64);
+        format!("{x} {y} {}", z(x, y))
+    };
+    for i in 0..n {
+        for j in 0..n {
+            s += &format!("p 3\n{}\n{}\n{}\n", at(i, j), at(i + 1, j), at(i + 1, j + 1));
+            s += &format!("p 3\n{}\n{}\n{}\n", at(i, j), at(i + 1, j + 1), at(i, j + 1));
+        }
+    }
+    s += "p 3\n-1 -1 1.5\n1 -1 1.7\n0 1 2.2\np 4\n-2 2 0.5\n2 2 0.5\n2 2 2.5\n-2 2 2.5\n";
+    nff(&s)
+}
+
+/// Cylinders and cones, upright, tilted, crossing each other.
+fn cylinders_scene() -> Scene {
+    let mut s = format!("{VIEW}f 0.9 0.9 0.5 0.7 0.2 10 0 1\nc 0 0 -0.5 4 0 0 -0.4 4\n");
+    for i in -2i32..=2 {
+        for j in -2..=2 {
+            let (x, y) = (i as f64 * 1.2, j as f64 * 1.2);
+            let top = 0.3 + 0.15 * ((i * 3 + j).rem_euclid(4)) as f64;
+            s += &format!("c {x} {y} 0 0.3 {} {} {} {}\n", x + 0.3 * j as f64, y, 1.0 + top, top * 0.4);
+        }
+    }
+    s += "c -3 0 0.8 0.2 3 0 0.8 0.2\nc 0 -3 1.1 0.15 0 3 0.6 0.15\n";
+    nff(&s)
+}
+
+/// Renders the id and depth AOVs with the tables and by brute force; they must be identical.
+fn tables_match_brute_force(name: &str, scene: &Scene, w: u32, h: u32) {
+    let r = renderer();
+    for aov in [Aov::Id, Aov::Depth] {
+        let render = |accel| {
+            let opts = RenderOptions { accel, ..RenderOptions::new(w, h) };
+            r.render_aov(scene, &opts, aov, &hidden()).unwrap_or_else(|e| panic!("{name}: {e}"))
+        };
+        let (cube, brute) = (render(AccelKind::Cube), render(AccelKind::Brute));
+        assert_eq!(
+            (cube.stats.settings.accel.as_str(), brute.stats.settings.accel.as_str()),
+            ("cube", "brute")
+        );
+        if let Some(i) = cube.image.pixels.iter().zip(&brute.image.pixels).position(|(a, b)| a != b) {
+            panic!(
+                "{name} {aov:?}: pixel ({}, {}) cube {:?} brute {:?}",
+                i as u32 % w,
+                i as u32 / w,
+                cube.image.pixels[i],
+                brute.image.pixels[i]
+            );
+        }
+        assert!(cube.stats.rays.eye_hit > 0, "{name}: nothing hit");
+        let (tc, tb) = (cube.stats.tests_per_ray.eye, brute.stats.tests_per_ray.eye);
+        eprintln!("{name} {aov:?}: eye tests per ray cube {tc:.2} brute {tb:.2}");
+        if scene.primitives.len() > 16 {
+            assert!(tc < tb, "{name}: the tables test {tc} per eye ray, brute force {tb}");
+        }
+    }
+}
+
+#[test]
+fn tables_match_brute_force_on_spheres_triangles_and_cylinders() {
+    tables_match_brute_force("spheres", &spheres_scene(), 64, 48);
+    tables_match_brute_force("triangles", &triangles_scene(), 64, 48);
+    tables_match_brute_force("cylinders", &cylinders_scene(), 64, 48);
+}
+
+#[test]
+fn tables_match_brute_force_on_spd_size_1() {
+    for name in SPD_SIZE_1 {
+        tables_match_brute_force(name, &spd(name), 48, 48);
+    }
+}
+
+/// The tables traced on the GPU agree with the CPU reference on the small test scenes
+/// (every ray kind; shadow rays traced from the lights).
+#[test]
+fn tables_agree_with_the_cpu_on_the_test_scenes() {
+    for (name, scene) in
+        [("spheres", spheres_scene()), ("triangles", triangles_scene()), ("cylinders", cylinders_scene())]
+    {
+        let (g, _) = agree(name, &scene, &RenderOptions::new(64, 48), 0.01);
+        assert_eq!(g.stats.settings.accel, "cube", "{name}: the GPU's default is the tables");
+        assert!(g.stats.rays.reflect > 0 && g.stats.rays.shadow_blocked > 0, "{name}");
+    }
+}
+
+/// SPD size-2 databases, 48×48 with SPD corner sampling, on the tables.
+#[test]
+fn spd_size_2_scenes_agree_with_the_cpu() {
+    for name in SPD_SIZE_1 {
+        let name = name.replace("_s1", "_s2");
+        let opts = RenderOptions { sampling: Sampling::Corners, ..RenderOptions::new(48, 48) };
+        let (g, _) = agree(&name, &spd(&name), &opts, 0.01);
+        assert_eq!(g.stats.settings.accel, "cube");
+    }
+}
+
+#[test]
+fn bvh_is_refused_on_the_gpu() {
+    let scene = spheres_scene();
+    let bvh = RenderOptions { accel: AccelKind::Bvh, ..RenderOptions::new(8, 8) };
+    let e = renderer().render(&scene, &bvh, &hidden()).err().expect("bvh refused on the GPU");
+    assert!(e.to_string().contains("no BVH"), "{e}");
 }

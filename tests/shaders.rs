@@ -49,18 +49,50 @@ fn scene(src: &str) -> cuberay::scene::Scene {
 
 const VIEW: &str = "v\nfrom 0 0 5\nat 0 0 0\nup 0 1 0\nangle 40\nhither 0.01\nresolution 8 8\n";
 
+fn binds(m: &naga::Module, binding: u32) -> bool {
+    m.global_variables.iter().any(|(_, v)| v.binding.as_ref().is_some_and(|b| b.binding == binding))
+}
+
+/// `--accel cube` kernels walk the tables and contain no brute-force loop; `--accel brute`
+/// kernels contain no table code and bind no table buffer.
+#[test]
+fn cube_and_brute_kernels_contain_only_their_own_queries() {
+    for v in Variant::all() {
+        let m = module(v);
+        let cube = ["cube_walk_nearest", "cube_cell_range", "cube_face_cell", "cube_origin"];
+        for f in cube {
+            assert_eq!(has_function(&m, f), v.cube, "{v:?}: {f}");
+        }
+        assert_eq!(has_function(&m, "cube_walk_any"), v.cube && v.shadows, "{v:?}");
+        assert!(!has_function(&m, "brute_nearest") || !v.cube, "{v:?}: brute loop in a cube kernel");
+        assert_eq!(has_function(&m, "brute_nearest"), !v.cube, "{v:?}");
+        assert_eq!(has_function(&m, "brute_any"), !v.cube && v.shadows, "{v:?}");
+        for binding in 11..=17 {
+            assert_eq!(binds(&m, binding), v.cube, "{v:?}: binding {binding}");
+        }
+        // No loop runs up to the primitive count in a cube kernel: the only loops over
+        // primitives are the candidate walks.
+        let src = compose(v).unwrap();
+        assert_eq!(src.contains("< params.prim_count; id++"), !v.cube, "{v:?}");
+    }
+}
+
 #[test]
 fn a_scene_without_mirrors_or_glass_has_no_such_code() {
     // Matte only: no reflection, no refraction.
     let matte = scene(&format!("{VIEW}l 3 3 3\nf 1 0 0 1 0 1 0 1\ns 0 0 0 1\n"));
-    let v = Variant::for_effects(matte.effects(), 5);
-    let m = module(v);
-    assert!(!has_function(&m, "reflect_dir") && !has_function(&m, "refract_dir"));
-    assert!(has_function(&m, "occluded"), "the light casts shadows");
+    for cube in [false, true] {
+        let v = Variant::for_effects(matte.effects(), 5).with_cube(cube);
+        let m = module(v);
+        assert!(!has_function(&m, "reflect_dir") && !has_function(&m, "refract_dir"), "{v:?}");
+        assert!(has_function(&m, "occluded"), "the light casts shadows");
+    }
     // A mirror but no glass: reflection without refraction.
     let mirror = scene(&format!("{VIEW}l 3 3 3\nf 1 1 1 0.2 0.8 10 0 1\ns 0 0 0 1\n"));
-    let m = module(Variant::for_effects(mirror.effects(), 5));
-    assert!(has_function(&m, "reflect_dir") && !has_function(&m, "refract_dir"));
+    for cube in [false, true] {
+        let m = module(Variant::for_effects(mirror.effects(), 5).with_cube(cube));
+        assert!(has_function(&m, "reflect_dir") && !has_function(&m, "refract_dir"));
+    }
     // Glass: both; depth 1 needs neither.
     let glass = scene(&format!("{VIEW}l 3 3 3\nf 1 1 1 0 0.1 10 0.9 1.5\ns 0 0 0 1\n"));
     let m = module(Variant::for_effects(glass.effects(), 5));
@@ -71,7 +103,7 @@ fn a_scene_without_mirrors_or_glass_has_no_such_code() {
 
 #[test]
 fn wgsl_structs_match_their_rust_twins() {
-    let m = module(Variant::all()[31]);
+    let m = module(Variant::all()[63]);
     let mut layouter = naga::proc::Layouter::default();
     layouter.update(m.to_ctx()).unwrap();
     let shared: Vec<String> = twins().iter().map(|t| t.name.to_string()).collect();

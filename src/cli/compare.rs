@@ -9,7 +9,7 @@ use clap::Args;
 use cuberay::compare::compare;
 use cuberay::gpu::GpuRenderer;
 use cuberay::output;
-use cuberay::reference;
+use cuberay::reference::{self, AccelKind, RenderOptions};
 
 use super::render::{progress_bar, TraceArgs};
 
@@ -58,7 +58,13 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
         .with_context(|| format!("cannot render {} on the GPU", scene_name.display()))?;
     progress.finish_and_clear();
     let progress = progress_bar("CPU");
-    let c = reference::render(scene, &opts, &progress)
+    // The yardstick stays independent of the tables: `--accel cube` compares the GPU's
+    // tables against the reference's automatic choice (brute force or its BVH).
+    let cpu_opts = RenderOptions {
+        accel: if opts.accel == AccelKind::Cube { AccelKind::Auto } else { opts.accel },
+        ..opts.clone()
+    };
+    let c = reference::render(scene, &cpu_opts, &progress)
         .with_context(|| format!("cannot render {}", scene_name.display()))?;
     progress.finish_and_clear();
 

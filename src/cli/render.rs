@@ -73,8 +73,9 @@ pub struct TraceArgs {
     /// Maximum ray-tree depth, the eye ray being depth 1.
     #[arg(long, default_value_t = 5)]
     pub max_depth: u32,
-    /// Acceleration structure (auto: brute force for tiny scenes, else a BVH on the CPU;
-    /// cube: the direction-cube candidate tables; the GPU traces by brute force).
+    /// Acceleration structure. auto: the candidate tables (cube) on the GPU; on the CPU brute
+    /// force for tiny scenes, else a BVH. cube: the direction-cube candidate tables (both
+    /// backends); bvh: CPU only.
     #[arg(long, value_enum, default_value_t = AccelKind::Auto)]
     pub accel: AccelKind,
     /// glTF: index of the camera to use.

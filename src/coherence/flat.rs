@@ -182,6 +182,14 @@ impl FlatTables {
             check_sorted(&self.entries[a..b])
                 .map_err(|e| format!("cell {c}: {e}: {:?}", &self.entries[a..b]))?;
         }
+        if self.prim_patches.len() != self.prim_origin.len() {
+            return Err("prim_patches and prim_origin differ in length".into());
+        }
+        for (id, (&o, &m)) in self.prim_origin.iter().zip(&self.prim_patches).enumerate() {
+            if m == 0 || (o != u32::MAX && o as u64 + (m as u64) * (m as u64) > self.origins.len() as u64) {
+                return Err(format!("primitive {id}: patches {m} from origin {o} out of range"));
+            }
+        }
         if let Some(e) = self.entries.iter().find(|e| e.id as usize >= primitives) {
             return Err(format!("entry id {} out of range", e.id));
         }

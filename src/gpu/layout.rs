@@ -4,11 +4,13 @@
 //! The scene is re-centred on the camera in f64 before the conversion to f32, so that
 //! scenes far from the origin keep their precision near the eye. [`TWINS`] lists every
 //! twin with its size and member offsets; a test compares it with naga's layout of the
-//! composed module.
+//! composed module. The table structs of `shaders/cube.wgsl` are twinned by
+//! [`crate::coherence::flat`]'s `GpuOrigin`, `GpuFace` and `GpuEntry`.
 
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 
+use crate::coherence::flat::{GpuEntry, GpuFace, GpuOrigin};
 use crate::scene::{LightKind, Primitive, Projection, Scene, Wrap};
 
 /// Kernel parameters (WGSL `Params`, a uniform).
@@ -40,9 +42,10 @@ pub struct Params {
     /// `render` starts samples `sample_first..sample_end` of the `spp`-sample lattice.
     pub sample_first: u32,
     pub sample_end: u32,
+    /// `--accel cube`: the eye's origin and the fallback origin (every primitive).
+    pub eye_origin: u32,
+    pub fallback_origin: u32,
     pub pad0: u32,
-    pub pad1: u32,
-    pub pad2: u32,
 }
 
 /// One primitive (WGSL `Prim`); see the WGSL comment for the fields per kind.
@@ -131,6 +134,20 @@ pub struct Pending {
 /// Pending rays per grid point (`STACK_SIZE` in common.wgsl).
 pub const STACK_SIZE: usize = 16;
 
+/// A table walk interrupted between steps (WGSL `WalkState`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct WalkState {
+    pub i: u32,
+    pub iend: u32,
+    pub j: u32,
+    pub jend: u32,
+    pub prim: u32,
+    pub t: f32,
+    pub b1: f32,
+    pub b2: f32,
+}
+
 /// A grid point's progress between kernel steps (WGSL `PointState`); all zero at the
 /// start.
 #[repr(C)]
@@ -139,9 +156,11 @@ pub struct PointState {
     pub color: [f32; 3],
     pub sp: u32,
     pub sample: u32,
-    pub pad0: u32,
+    /// 1 while the top ray's nearest-hit walk continues in the next step.
+    pub walking: u32,
     pub pad1: u32,
     pub pad2: u32,
+    pub walk: WalkState,
     pub stack: [Pending; STACK_SIZE],
 }
 
@@ -189,9 +208,9 @@ pub fn twins() -> Vec<Twin> {
             aov,
             sample_first,
             sample_end,
-            pad0,
-            pad1,
-            pad2
+            eye_origin,
+            fallback_origin,
+            pad0
         }),
         twin!(Prim { a, b, c, kind, material, flags, attr }),
         twin!(TriAttr { n0, n1, n2, uv01, uv2 }),
@@ -210,7 +229,11 @@ pub fn twins() -> Vec<Twin> {
         }),
         twin!(TextureInfo { offset, width, height, flags }),
         twin!(Pending { o, kind, d, depth, weight, from_prim }),
-        twin!(PointState { color, sp, sample, pad0, pad1, pad2, stack }),
+        twin!(WalkState { i, iend, j, jend, prim, t, b1, b2 }),
+        twin!(PointState { color, sp, sample, walking, pad1, pad2, walk, stack }),
+        twin!(GpuOrigin { n, always_start, always_count, kind }),
+        twin!(GpuFace { iu0, iv0, width, height, cell_base, _pad0, _pad1, _pad2 }),
+        twin!(GpuEntry { id, d_min }),
     ]
 }
 

@@ -1,5 +1,10 @@
-//! The GPU renderer: uploads a packed scene, runs the composed kernels tile by tile and
-//! reads back the image, the ray and test counters and the kernel times.
+//! The GPU renderer: uploads a packed scene (and, with `--accel cube`, the candidate tables
+//! of [`super::tables`]), runs the composed kernels tile by tile and reads back the image,
+//! the ray and test counters and the kernel times.
+//!
+//! `--accel auto` and `cube` trace the tables, `brute` tests every primitive, `bvh` is
+//! refused (the BVH is the CPU reference's). Both query sets have the same WGSL entry
+//! points, and a module contains only one of them ([`Variant::cube`]).
 //!
 //! Each grid point (pixel, or pixel corner with SPD sampling) keeps its ray tree as a
 //! stack of pending rays in a storage buffer; one dispatch traces one ray of every point
@@ -7,7 +12,11 @@
 //! point has work left. A single invocation looping over its whole ray tree was the first
 //! design, but lavapipe ends all loops of an invocation after 65535 iterations in total
 //! (a safety limit in Mesa's gallivm), which silently cut ray trees short on scenes of a
-//! few hundred primitives. Work is split into tiles of a bounded number of points (short
+//! few hundred primitives. For the same reason a long candidate-list walk (`--accel cube`)
+//! is spread over several steps, [`WALK_CHUNK`] entries each, its position kept in the
+//! point's state: on gears_s4 one 36610-entry reflection walk plus the shadow walks, well
+//! under 65535 iterations by our count, already made lavapipe cut the light loop short.
+//! Work is split into tiles of a bounded number of points (short
 //! dispatches for real GPUs' watchdogs, bounded state memory), which also drive the
 //! progress bar.
 
@@ -22,6 +31,7 @@ use wgpu::util::DeviceExt;
 
 use super::layout::{self, Packed, Params, PointState};
 use super::shader::{self, Variant};
+use super::tables::{self, GpuTables};
 use super::{GpuContext, GpuError};
 use crate::output::{Aov, Image};
 use crate::reference::{self, sampling, simulated_effects, AccelKind, RenderOptions, Rendered, Sampling};
@@ -37,11 +47,14 @@ pub const WORKGROUP: u32 = 64;
 /// Rough budget of primitive tests per eye sample and dispatch, which sets the tile size.
 const TESTS_PER_DISPATCH: u64 = 1 << 24;
 
-/// The most grid points per dispatch: bounds the point states' memory (800 bytes each).
+/// The most grid points per dispatch: bounds the point states' memory (832 bytes each).
 const MAX_TILE: u64 = 1 << 16;
 
 /// Mesa's llvmpipe limit on the loop iterations of one invocation (all loops together).
 const LAVAPIPE_LOOP_LIMIT: u64 = 65535;
+
+/// Candidate-list entries one `render` step walks at most (`WALK_CHUNK` in cube.wgsl).
+const WALK_CHUNK: u64 = 8192;
 
 /// Counter slots in the kernels (`COUNTER_COUNT` in common.wgsl), each 64-bit.
 pub const COUNTER_SLOTS: usize = 18;
@@ -133,6 +146,8 @@ impl GpuRenderer {
         }];
         entries.extend((1..=6).map(|b| storage_entry(b, true)));
         entries.extend((7..=10).map(|b| storage_entry(b, false)));
+        // The candidate tables (cube.wgsl); brute-force kernels leave them unused.
+        entries.extend((11..=17).map(|b| storage_entry(b, true)));
         let bind_layout = ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cuberay scene"),
             entries: &entries,
@@ -193,10 +208,13 @@ impl GpuRenderer {
     ) -> Result<Rendered, GpuRenderError> {
         check(scene, opts)?;
         let (w, h) = (opts.width, opts.height);
-        let start = Instant::now();
-        let variant = Variant::for_effects(scene.effects(), opts.max_depth);
+        let variant =
+            Variant::for_effects(scene.effects(), opts.max_depth).with_cube(uses_tables(opts.accel));
         let kernels = self.kernels(variant)?;
+        // Preprocessing: packing the scene and building the tables (not compiling kernels).
+        let start = Instant::now();
         let mut packed = layout::pack(scene, w, h);
+        let tables = self.tables(scene, w, h, variant, &mut packed.params)?;
         let corners = opts.sampling == Sampling::Corners;
         let (gw, gh) = if corners { (w + 1, h + 1) } else { (w, h) };
         let seed_hash = sampling::pcg(sampling::pcg((opts.seed >> 32) as u32) ^ opts.seed as u32);
@@ -214,7 +232,7 @@ impl GpuRenderer {
         };
         let preprocess_s = start.elapsed().as_secs_f64();
         let start = Instant::now();
-        let run = self.run(&kernels.render, true, scene, &packed, gw, gh, progress)?;
+        let run = self.run(&kernels.render, true, scene, &packed, tables.as_ref(), gw, gh, progress)?;
         let trace_s = start.elapsed().as_secs_f64();
 
         let mut image = Image::new(w, h, false);
@@ -234,7 +252,7 @@ impl GpuRenderer {
             }
         }
         let stats = Stats::new(
-            reference::settings(opts, "gpu", "brute"),
+            reference::settings(opts, "gpu", accel_name(variant)),
             simulated_effects(scene, opts.max_depth),
             &run.counters,
             stats::Times { preprocess_s, trace_s, gpu_s: run.gpu_s },
@@ -253,10 +271,13 @@ impl GpuRenderer {
     ) -> Result<Rendered, GpuRenderError> {
         check(scene, opts)?;
         let (w, h) = (opts.width, opts.height);
-        let start = Instant::now();
-        let variant = Variant::for_effects(scene.effects(), opts.max_depth);
+        let variant =
+            Variant::for_effects(scene.effects(), opts.max_depth).with_cube(uses_tables(opts.accel));
         let kernels = self.kernels(variant)?;
+        // Preprocessing: packing the scene and building the tables (not compiling kernels).
+        let start = Instant::now();
         let mut packed = layout::pack(scene, w, h);
+        let tables = self.tables(scene, w, h, variant, &mut packed.params)?;
         packed.params = Params {
             grid_w: w,
             grid_h: h,
@@ -272,11 +293,11 @@ impl GpuRenderer {
         };
         let preprocess_s = start.elapsed().as_secs_f64();
         let start = Instant::now();
-        let run = self.run(&kernels.aov, false, scene, &packed, w, h, progress)?;
+        let run = self.run(&kernels.aov, false, scene, &packed, tables.as_ref(), w, h, progress)?;
         let trace_s = start.elapsed().as_secs_f64();
         let mut image = Image::new(w, h, true);
         image.pixels = run.values;
-        let mut set = reference::settings(opts, "gpu", "brute");
+        let mut set = reference::settings(opts, "gpu", accel_name(variant));
         set.sampling = "center".into();
         set.spp = 1;
         set.max_depth = 1;
@@ -289,9 +310,44 @@ impl GpuRenderer {
         Ok(Rendered { image, stats })
     }
 
-    /// Uploads `packed` and creates the kernels' buffers for tiles of up to `tile` grid
-    /// points (`stepped`: with a point state each, for the `render` kernel).
-    pub fn upload(&self, packed: &Packed, tile: u64, stepped: bool) -> SceneBuffers {
+    /// Builds the candidate tables when `variant` traces them, and points `params` at the
+    /// eye and fallback origins.
+    pub fn tables(
+        &self,
+        scene: &Scene,
+        w: u32,
+        h: u32,
+        variant: Variant,
+        params: &mut Params,
+    ) -> Result<Option<GpuTables>, GpuRenderError> {
+        if !variant.cube {
+            return Ok(None);
+        }
+        let t = tables::build(scene, w, h, variant)
+            .map_err(|e| GpuRenderError::Scene(format!("cannot build the candidate tables: {e}")))?;
+        log::info!(
+            "tables: {} origins, {} entries, longest lists {} (nearest) {} (shadow), fallback reachable: {}",
+            t.flat.origins.len(),
+            t.flat.entries.len(),
+            t.worst_closest,
+            t.worst_shadow,
+            t.fallback_reachable
+        );
+        params.eye_origin = t.flat.eye_origin;
+        params.fallback_origin = t.fallback;
+        Ok(Some(t))
+    }
+
+    /// Uploads `packed` (and the candidate tables, when traced) and creates the kernels'
+    /// buffers for tiles of up to `tile` grid points (`stepped`: with a point state each, for
+    /// the `render` kernel).
+    pub fn upload(
+        &self,
+        packed: &Packed,
+        tables: Option<&GpuTables>,
+        tile: u64,
+        stepped: bool,
+    ) -> SceneBuffers {
         let device = &self.ctx.device;
         let storage = |label: &str, bytes: &[u8], extra: wgpu::BufferUsages| {
             // Storage bindings may not be empty.
@@ -309,6 +365,15 @@ impl GpuRenderer {
         let attrs = storage("tri_attrs", bytemuck::cast_slice(&packed.tri_attrs), none);
         let infos = storage("texture_infos", bytemuck::cast_slice(&packed.texture_infos), none);
         let texels = storage("texels", bytemuck::cast_slice(&packed.texels), none);
+        let flat = tables.map(|t| &t.flat);
+        let table = |label: &str, bytes: Option<&[u8]>| storage(label, bytes.unwrap_or(&[]), none);
+        let origins = table("origins", flat.map(|f| bytemuck::cast_slice(&f.origins)));
+        let faces = table("faces", flat.map(|f| bytemuck::cast_slice(&f.faces)));
+        let cell_start = table("cell_start", flat.map(|f| bytemuck::cast_slice(&f.cell_start)));
+        let entries = table("entries", flat.map(|f| bytemuck::cast_slice(&f.entries)));
+        let prim_origin = table("prim_origin", flat.map(|f| bytemuck::cast_slice(&f.prim_origin)));
+        let light_origin = table("light_origin", flat.map(|f| bytemuck::cast_slice(&f.light_origin)));
+        let prim_patches = table("prim_patches", flat.map(|f| bytemuck::cast_slice(&f.prim_patches)));
         let params = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("params"),
             size: std::mem::size_of::<Params>() as u64,
@@ -354,6 +419,13 @@ impl GpuRenderer {
                 (8, &counters),
                 (9, &states),
                 (10, &active),
+                (11, &origins),
+                (12, &faces),
+                (13, &cell_start),
+                (14, &entries),
+                (15, &prim_origin),
+                (16, &light_origin),
+                (17, &prim_patches),
             ]
             .map(|(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }),
         });
@@ -370,20 +442,21 @@ impl GpuRenderer {
         stepped: bool,
         scene: &Scene,
         packed: &Packed,
+        tables: Option<&GpuTables>,
         gw: u32,
         gh: u32,
         progress: &ProgressBar,
     ) -> Result<RunOutput, GpuRenderError> {
-        self.check_loop_budget(scene)?;
+        self.check_loop_budget(scene, tables, stepped)?;
         let device = &self.ctx.device;
         let queue = &self.ctx.queue;
         let total = gw as u64 * gh as u64;
-        let tile = tile_points(scene, TESTS_PER_DISPATCH);
+        let tile = tile_points(scene, tables, TESTS_PER_DISPATCH);
         let tiles = total.div_ceil(tile);
 
         // The bind group keeps the scene buffers that are not named here alive.
         let SceneBuffers { params, out, counters, states, active, bind, .. } =
-            self.upload(packed, tile, stepped);
+            self.upload(packed, tables, tile, stepped);
         let active_read = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("active readback"),
             size: 4,
@@ -490,20 +563,39 @@ impl GpuRenderer {
     }
 
     /// lavapipe (Mesa's llvmpipe) ends every loop of an invocation once all of its loops
-    /// have run 65535 iterations in total. One step traces one ray and its shadow rays by
-    /// brute force; when that could exceed the limit the result would be silently wrong,
-    /// so it is an error instead.
-    pub fn check_loop_budget(&self, scene: &Scene) -> Result<(), GpuRenderError> {
+    /// have run 65535 iterations in total. One step traces one ray and its shadow rays, by
+    /// brute force or through the candidate lists; when the longest lists it may walk could
+    /// exceed the limit the result would be silently wrong, so it is an error instead.
+    /// A `stepped` kernel walks at most [`WALK_CHUNK`] entries of a nearest-hit list per step
+    /// (the rest in later steps); the `aov` kernel walks the eye's lists in one go.
+    pub fn check_loop_budget(
+        &self,
+        scene: &Scene,
+        tables: Option<&GpuTables>,
+        stepped: bool,
+    ) -> Result<(), GpuRenderError> {
         if !self.ctx.info.name.to_lowercase().contains("llvmpipe") {
             return Ok(());
         }
         let c = scene.counts();
-        let per_ray = (c.spheres + c.triangles + 3 * c.cylinders) as u64;
         let lights = scene.lights.len() as u64;
-        let worst = per_ray * (1 + lights) + lights + COUNTER_SLOTS as u64 + 16;
+        // A cylinder test loops over its two roots.
+        let per_test = if c.cylinders > 0 { 3 } else { 1 };
+        let (closest, shadow, what) = match tables {
+            Some(t) if stepped => {
+                (t.worst_closest.min(WALK_CHUNK), t.worst_shadow, "the longest candidate lists")
+            }
+            Some(t) => (t.worst_eye, 0, "the eye's longest candidate lists"),
+            None => {
+                let per_ray = (c.spheres + c.triangles + 3 * c.cylinders) as u64;
+                (per_ray, per_ray, "brute force")
+            }
+        };
+        let per_test = if tables.is_some() { per_test } else { 1 };
+        let worst = per_test * (closest + lights * shadow) + lights + COUNTER_SLOTS as u64 + 16;
         if worst > LAVAPIPE_LOOP_LIMIT {
             return Err(GpuRenderError::Options(format!(
-                "brute force over {} primitives and {lights} lights needs up to {worst} loop iterations per \
+                "{what} over {} primitives and {lights} lights need up to {worst} loop iterations per \
                  ray on lavapipe, which stops at {LAVAPIPE_LOOP_LIMIT}; render this scene with --backend cpu",
                 scene.primitives.len()
             )));
@@ -531,10 +623,15 @@ impl GpuRenderer {
     }
 }
 
-/// Grid points per tile for about `tests` primitive tests per dispatch (brute force: one
-/// step of a point tests every primitive for its ray and for a shadow ray per light).
-pub fn tile_points(scene: &Scene, tests: u64) -> u64 {
-    let work = scene.primitives.len() as u64 * (1 + scene.lights.len() as u64);
+/// Grid points per tile for about `tests` primitive tests per dispatch: one step of a
+/// point tests the candidates of its ray and of a shadow ray per light (brute force: every
+/// primitive; with the tables, a rough mean).
+pub fn tile_points(scene: &Scene, tables: Option<&GpuTables>, tests: u64) -> u64 {
+    let per_ray = match tables {
+        Some(t) => t.mean_list.ceil() as u64 + 1,
+        None => scene.primitives.len() as u64,
+    };
+    let work = per_ray * (1 + scene.lights.len() as u64);
     let tile = (tests / work.max(1)).clamp(256, MAX_TILE);
     tile.div_ceil(WORKGROUP as u64) * WORKGROUP as u64
 }
@@ -555,6 +652,20 @@ pub fn decode_counters(raw: &[u8]) -> Counters {
     c
 }
 
+/// Whether the GPU traces the candidate tables for `accel`: `cube` and `auto` do, `brute`
+/// does not (`bvh` is refused).
+pub fn uses_tables(accel: AccelKind) -> bool {
+    matches!(accel, AccelKind::Auto | AccelKind::Cube)
+}
+
+fn accel_name(variant: Variant) -> &'static str {
+    if variant.cube {
+        "cube"
+    } else {
+        "brute"
+    }
+}
+
 struct RunOutput {
     values: Vec<[f32; 4]>,
     counters: Counters,
@@ -573,7 +684,7 @@ pub fn check(scene: &Scene, opts: &RenderOptions) -> Result<(), GpuRenderError> 
     }
     if opts.accel == AccelKind::Bvh {
         return Err(GpuRenderError::Options(
-            "the GPU backend has no BVH: use --accel brute (or auto) with --backend gpu".into(),
+            "the GPU backend has no BVH: use --accel cube (the default) or brute with --backend gpu".into(),
         ));
     }
     if scene.primitives.len() >= u32::MAX as usize {

@@ -4,8 +4,10 @@
 //! embedded in the binary. A tiny line-based preprocessor composes one module per
 //! [`Variant`]: `#include "file.wgsl"` pastes a file (once), and `#if NAME` / `#else` /
 //! `#endif` (nestable) keep or drop lines by the variant's flags `SHADOWS`, `REFLECTION`,
-//! `REFRACTION`, `TEXTURES` and `EMISSION`. A scene without mirrors thus gets a module with
-//! no reflection code at all, not a branch that is never taken.
+//! `REFRACTION`, `TEXTURES` and `EMISSION`, and `CUBE`, which picks the ray queries: the
+//! candidate-table walk of `cube.wgsl` or the brute force of `brute.wgsl` (never both). A
+//! scene without mirrors thus gets a module with no reflection code at all, not a branch
+//! that is never taken.
 
 use crate::scene::Effects;
 
@@ -15,6 +17,7 @@ const SOURCES: &[(&str, &str)] = &[
     ("common.wgsl", include_str!("../../shaders/common.wgsl")),
     ("geometry.wgsl", include_str!("../../shaders/geometry.wgsl")),
     ("brute.wgsl", include_str!("../../shaders/brute.wgsl")),
+    ("cube.wgsl", include_str!("../../shaders/cube.wgsl")),
     ("sampling.wgsl", include_str!("../../shaders/sampling.wgsl")),
     ("texture.wgsl", include_str!("../../shaders/texture.wgsl")),
     ("shade.wgsl", include_str!("../../shaders/shade.wgsl")),
@@ -31,6 +34,8 @@ pub struct Variant {
     pub refraction: bool,
     pub textures: bool,
     pub emission: bool,
+    /// Trace the direction-cube tables (`--accel cube`) rather than every primitive.
+    pub cube: bool,
 }
 
 impl Variant {
@@ -44,18 +49,25 @@ impl Variant {
             refraction: e.refraction && secondary,
             textures: e.textures,
             emission: e.emission,
+            cube: false,
         }
     }
 
-    /// Every one of the 32 variants.
+    /// The same effects traced with the tables (`true`) or by brute force.
+    pub fn with_cube(self, cube: bool) -> Variant {
+        Variant { cube, ..self }
+    }
+
+    /// Every one of the 64 variants; the last has every flag set.
     pub fn all() -> Vec<Variant> {
-        (0..32u32)
+        (0..64u32)
             .map(|b| Variant {
                 shadows: b & 1 != 0,
                 reflection: b & 2 != 0,
                 refraction: b & 4 != 0,
                 textures: b & 8 != 0,
                 emission: b & 16 != 0,
+                cube: b & 32 != 0,
             })
             .collect()
     }
@@ -67,6 +79,7 @@ impl Variant {
             "REFRACTION" => self.refraction,
             "TEXTURES" => self.textures,
             "EMISSION" => self.emission,
+            "CUBE" => self.cube,
             _ => return None,
         })
     }
@@ -154,7 +167,7 @@ mod tests {
 
     #[test]
     fn flags_select_lines() {
-        let all = compose(Variant::all()[31]).unwrap();
+        let all = compose(Variant::all()[63]).unwrap();
         let none = compose(Variant::default()).unwrap();
         assert!(all.contains("fn reflect_dir") && all.contains("fn refract_dir"));
         assert!(!none.contains("fn reflect_dir") && !none.contains("fn refract_dir"));

@@ -14,8 +14,13 @@
 //! | [`ray_triangle`] | `fn ray_triangle(o, d, p0, p1, p2) -> f32` |
 //! | [`ray_cylinder`] | `fn ray_cylinder(o, d, base, r0, apex, r1) -> f32` |
 //! | [`offset_ray_origin`] | `fn offset_ray_origin(p: vec3<f32>, ng: vec3<f32>, dir: vec3<f32>) -> vec3<f32>` |
-//! | [`cube_walk_nearest`] | `fn cube_walk_nearest(origin, o, d, t_max, skip) -> Hit` |
-//! | [`cube_walk_any`] | `fn cube_walk_any(origin, o, d, t_max, skip) -> bool` |
+//! | [`triangle_patch`] | `fn triangle_patch(p0, p1, p2, m: u32, at: vec3<f32>) -> u32` |
+//! | [`cube_walk_nearest`] | `fn cube_walk_nearest(origin: u32, ray: Ray, t_max: f32, skip: u32, ray_kind: u32) -> Closest` |
+//! | [`cube_walk_any`] | `fn cube_walk_any(origin: u32, ray: Ray, t_max: f32, skip: u32) -> bool` |
+//! | [`brute_nearest`] | `fn brute_nearest(ray: Ray, t_max: f32, skip: u32, ray_kind: u32) -> Closest` |
+//!
+//! (`shaders/cube.wgsl` and `shaders/brute.wgsl`; `ray_kind` selects the test counter, and
+//! the WGSL intersection routines take `t_max` themselves.)
 //!
 //! The table buffers the walkers read are described in [`crate::coherence::flat`].
 

@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 
 use crate::gpu::layout::{self, Params, PointState};
 use crate::gpu::shader::Variant;
-use crate::gpu::{self, GpuRenderError, GpuRenderer, Kernels, SceneBuffers, WORKGROUP};
+use crate::gpu::{self, GpuRenderError, GpuRenderer, GpuTables, Kernels, SceneBuffers, WORKGROUP};
 use crate::output::Image;
 use crate::reference::{sampling, RenderOptions, Sampling};
 use crate::scene::{Camera, Effects, Scene};
@@ -94,6 +94,8 @@ pub struct Session {
     /// Passes after which the session is complete (at most `opts.spp`).
     limit: u32,
     kernels: Arc<Kernels>,
+    /// The direction-cube tables (`--accel cube`, the default), or `None` for brute force.
+    tables: Option<GpuTables>,
     buffers: SceneBuffers,
     /// Params of the whole image (camera, sizes, sampling); tiles fill in the rest.
     base: Params,
@@ -130,11 +132,16 @@ impl Session {
         limit: u32,
     ) -> Result<Session, GpuRenderError> {
         gpu::check(&scene, &opts)?;
-        gpu.check_loop_budget(&scene)?;
-        let kernels = gpu.kernels(Variant::for_effects(toggles.apply(scene.effects()), opts.max_depth))?;
-        let tile = gpu::tile_points(&scene, TESTS_PER_DISPATCH);
-        let packed = layout::pack(&scene, opts.width, opts.height);
-        let buffers = gpu.upload(&packed, tile, true);
+        let cube = gpu::uses_tables(opts.accel);
+        let mut packed = layout::pack(&scene, opts.width, opts.height);
+        // Tables for every effect the scene has, so that toggling one back on needs none.
+        let all = Variant::for_effects(scene.effects(), opts.max_depth).with_cube(cube);
+        let tables = gpu.tables(&scene, opts.width, opts.height, all, &mut packed.params)?;
+        gpu.check_loop_budget(&scene, tables.as_ref(), true)?;
+        let variant = Variant::for_effects(toggles.apply(scene.effects()), opts.max_depth).with_cube(cube);
+        let kernels = gpu.kernels(variant)?;
+        let tile = gpu::tile_points(&scene, tables.as_ref(), TESTS_PER_DISPATCH);
+        let buffers = gpu.upload(&packed, tables.as_ref(), tile, true);
         let corners = opts.sampling == Sampling::Corners;
         let grid = if corners { (opts.width + 1, opts.height + 1) } else { (opts.width, opts.height) };
         let device = &gpu.ctx.device;
@@ -197,6 +204,7 @@ impl Session {
             opts,
             toggles,
             kernels,
+            tables,
             buffers,
             base,
             grid,
@@ -262,16 +270,49 @@ impl Session {
     pub fn set_camera(&mut self, camera: Camera) -> Duration {
         let start = Instant::now();
         self.scene.camera = camera;
-        // Textures do not depend on the eye: pack without them.
-        let textures = std::mem::take(&mut self.scene.textures);
-        let packed = layout::pack(&self.scene, self.opts.width, self.opts.height);
-        self.scene.textures = textures;
-        let queue = &self.gpu.ctx.queue;
-        if !packed.prims.is_empty() {
-            queue.write_buffer(&self.buffers.prims, 0, bytemuck::cast_slice(&packed.prims));
+        if let Err(e) = self.update_eye() {
+            log::error!("cannot update the view: {e}");
         }
-        if !packed.lights.is_empty() {
-            queue.write_buffer(&self.buffers.lights, 0, bytemuck::cast_slice(&packed.lights));
+        self.last_eye_update = start.elapsed();
+        self.restart();
+        self.last_eye_update
+    }
+
+    fn update_eye(&mut self) -> Result<(), GpuRenderError> {
+        let (w, h) = (self.opts.width, self.opts.height);
+        let queue = &self.gpu.ctx.queue;
+        let mut packed;
+        if let Some(old) = &self.tables {
+            // The tables are rebuilt for the new eye and uploaded with the re-centred scene.
+            packed = layout::pack(&self.scene, w, h);
+            let all = Variant::for_effects(self.scene.effects(), self.opts.max_depth).with_cube(true);
+            let tables = self.gpu.tables(&self.scene, w, h, all, &mut packed.params)?;
+            self.gpu.check_loop_budget(&self.scene, tables.as_ref(), true)?;
+            let tile = self.buffers.tile;
+            log::debug!(
+                "tables rebuilt in {:.3} s (were {:.3} s)",
+                tables.as_ref().map_or(0.0, |t| t.build_s),
+                old.build_s
+            );
+            self.buffers = self.gpu.upload(&packed, tables.as_ref(), tile, true);
+            self.tables = tables;
+            self.accumulate_bind = self.gpu.ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("accumulate"),
+                layout: &self.accumulate.get_bind_group_layout(0),
+                entries: &[(0, &self.tile_uniform), (1, &self.buffers.out), (2, &self.accum)]
+                    .map(|(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }),
+            });
+        } else {
+            // Brute force: only the geometry moves (textures do not depend on the eye).
+            let textures = std::mem::take(&mut self.scene.textures);
+            packed = layout::pack(&self.scene, w, h);
+            self.scene.textures = textures;
+            if !packed.prims.is_empty() {
+                queue.write_buffer(&self.buffers.prims, 0, bytemuck::cast_slice(&packed.prims));
+            }
+            if !packed.lights.is_empty() {
+                queue.write_buffer(&self.buffers.lights, 0, bytemuck::cast_slice(&packed.lights));
+            }
         }
         let p = &packed.params;
         self.base = Params {
@@ -282,11 +323,11 @@ impl Session {
             half_w: p.half_w,
             half_h: p.half_h,
             ortho: p.ortho,
+            eye_origin: p.eye_origin,
+            fallback_origin: p.fallback_origin,
             ..self.base
         };
-        self.last_eye_update = start.elapsed();
-        self.restart();
-        self.last_eye_update
+        Ok(())
     }
 
     /// Switches effects on or off and sets the maximum depth; restarts the
@@ -295,7 +336,8 @@ impl Session {
         let mut opts = self.opts.clone();
         opts.max_depth = max_depth;
         gpu::check(&self.scene, &opts)?;
-        let variant = Variant::for_effects(toggles.apply(self.scene.effects()), max_depth);
+        let variant = Variant::for_effects(toggles.apply(self.scene.effects()), max_depth)
+            .with_cube(self.tables.is_some());
         self.kernels = self.gpu.kernels(variant)?;
         self.toggles = toggles;
         self.opts = opts;
