@@ -34,6 +34,9 @@ pub struct TableStats {
     /// Surface origin clusters and their size limit.
     pub clusters: usize,
     pub cluster_size: usize,
+    /// Large triangles split into surface patches, and the patch origins they have.
+    pub patched_primitives: usize,
+    pub patches: usize,
     pub shadow_mode: super::ShadowMode,
     /// The spawn offset the origins are inflated by.
     pub spawn_offset: f64,
@@ -82,8 +85,10 @@ impl TableStats {
             origins: f.origins.len(),
             cells: f.cells(),
             entries: f.entries.len(),
-            clusters: t.defs.iter().filter(|d| d.kind == OriginKind::Surface).count(),
+            clusters: t.defs.iter().filter(|d| d.kind == OriginKind::Surface && d.patch.is_none()).count(),
             cluster_size: t.cluster_size,
+            patched_primitives: f.prim_patches.iter().filter(|&&m| m > 1).count(),
+            patches: t.defs.iter().filter(|d| d.patch.is_some()).count(),
             shadow_mode: t.shadow_mode,
             spawn_offset: t.eps,
             eye_image: [t.eye_image.0, t.eye_image.1],
@@ -113,6 +118,12 @@ impl TableStats {
         }
         if self.clusters > 0 {
             s += &format!("  clusters {} of at most {} primitives\n", self.clusters, self.cluster_size);
+        }
+        if self.patches > 0 {
+            s += &format!(
+                "  patches  {} on {} large triangles\n",
+                self.patches, self.patched_primitives
+            );
         }
         s
     }
