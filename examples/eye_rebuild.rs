@@ -1,13 +1,13 @@
 //! Measures what the preview redoes when the eye moves, on scene files:
-//! - `pack_ms`: packing the geometry relative to the new eye (what the brute-force GPU
-//!   renderer needs today; the preview then uploads it);
-//! - `eye_build_ms`: `coherence::build` of the scene without lights and without mirrors or
-//!   glass, i.e. only the eye's table (plus the per-build targets and BVH, which do not
-//!   depend on the eye: an upper bound for rebuilding the eye table alone), for the image
-//!   size given.
+//! - `pack_ms`: packing the geometry relative to the new eye (uploaded with the tables);
+//! - `rebuild_ms`: [`Tables::rebuild_eye`](cuberay::coherence::Tables::rebuild_eye) with the
+//!   GPU's parameters for the image size given: the eye's table rebuilt and the tables
+//!   flattened again, the light and surface tables kept (`eye_only` counts the moves where
+//!   that held; the others rebuilt everything);
+//! - `full_ms`: building all tables, for comparison.
 //!
-//! Each figure is the median of `--repeat` runs (default 5), the eye orbited by a few
-//! degrees between runs as the preview's mouse would.
+//! The eye is orbited by a few degrees before each of `--repeat` runs (default 5), as the
+//! preview's mouse would; the figures are medians.
 //!
 //! `cargo run --release --example eye_rebuild -- [--size WxH] [--repeat K] SCENE...` prints
 //! one JSON object per scene.
@@ -15,7 +15,7 @@
 use std::time::Instant;
 
 use cuberay::coherence::{self, BuildParams};
-use cuberay::gpu::layout;
+use cuberay::gpu::{layout, tables::spawn_offset_bound};
 use cuberay::load::{self, LoadOptions};
 use cuberay::preview::controls::Controller;
 
@@ -37,33 +37,30 @@ fn main() -> anyhow::Result<()> {
     let (w, h): (u32, u32) = (w.parse()?, h.parse()?);
     let repeat: usize = value("--repeat").map(|v| v.parse()).transpose()?.unwrap_or(5);
     for path in &args {
-        let scene = load::load(path.as_ref(), &LoadOptions::default())?.scene;
-        // The eye's table only: no light origins, no surface origins.
-        let mut eye_only = scene.clone();
-        eye_only.lights.clear();
-        for m in &mut eye_only.materials {
-            m.mirror = glam::DVec3::ZERO;
-            m.transmittance = 0.0;
-        }
-        let params = BuildParams { image: Some((w, h)), ..BuildParams::default() };
+        let mut scene = load::load(path.as_ref(), &LoadOptions::default())?.scene;
+        let params = |s: &cuberay::scene::Scene| BuildParams {
+            image: Some((w, h)),
+            spawn_offset: Some(spawn_offset_bound(s, w, h)),
+            ..BuildParams::default()
+        };
+        let start = Instant::now();
+        let mut tables = coherence::build(&scene, &params(&scene))?;
+        let full_ms = start.elapsed().as_secs_f64() * 1e3;
         let mut controller = Controller::new(&scene);
-        let (mut pack, mut build) = (Vec::new(), Vec::new());
-        let mut eye_n = 0;
+        let (mut pack, mut rebuild) = (Vec::new(), Vec::new());
+        let mut eye_only = 0;
         for _ in 0..repeat.max(1) {
             controller.orbit(20.0, 5.0);
-            let mut moved = scene.clone();
-            moved.camera = controller.camera().clone();
-            let textures = std::mem::take(&mut moved.textures);
+            scene.camera = controller.camera().clone();
+            let textures = std::mem::take(&mut scene.textures);
             let start = Instant::now();
-            let packed = layout::pack(&moved, w, h);
+            let packed = layout::pack(&scene, w, h);
             pack.push(start.elapsed().as_secs_f64() * 1e3);
             std::hint::black_box(packed);
-            moved.textures = textures;
-            eye_only.camera = controller.camera().clone();
+            scene.textures = textures;
             let start = Instant::now();
-            let tables = coherence::build(&eye_only, &params)?;
-            build.push(start.elapsed().as_secs_f64() * 1e3);
-            eye_n = tables.defs.first().map_or(0, |d| d.n);
+            eye_only += tables.rebuild_eye(&scene, &params(&scene))? as usize;
+            rebuild.push(start.elapsed().as_secs_f64() * 1e3);
         }
         println!(
             "{}",
@@ -71,9 +68,12 @@ fn main() -> anyhow::Result<()> {
                 "scene": path,
                 "primitives": scene.primitives.len(),
                 "image": [w, h],
-                "eye_n": eye_n,
+                "eye_n": tables.defs.first().map_or(0, |d| d.n),
                 "pack_ms": median(pack),
-                "eye_build_ms": median(build),
+                "rebuild_ms": median(rebuild),
+                "eye_only": eye_only,
+                "moves": repeat.max(1),
+                "full_ms": full_ms,
             })
         );
     }

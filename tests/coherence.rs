@@ -759,3 +759,68 @@ fn mirror_floor_patches_match_brute_force() {
         w.check_any(OriginKey::Surface(id as u32, o), o, dd, 3.0).unwrap();
     }
 }
+
+#[test]
+fn moving_the_eye_rebuilds_only_its_table() {
+    // The preview moves the camera: the eye's table is rebuilt, the light and surface tables
+    // are kept while they hold, and every ray still agrees with brute force. A move that
+    // takes the eye into a sphere or far away rebuilds everything.
+    let mut prims =
+        vec![tri(DVec3::new(-10.0, -10.0, 0.0), DVec3::new(10.0, -10.0, 0.0), DVec3::new(0.0, 10.0, 0.0), 1)];
+    for i in 0..5 {
+        prims.push(sphere(DVec3::new(-4.0 + 2.0 * i as f64, 0.5 * i as f64, 1.0), 0.6, i % 3));
+    }
+    prims.push(sphere(DVec3::new(0.0, 6.0, 2.0), 1.5, 2));
+    let mut s = scene(DVec3::new(0.0, -14.0, 6.0), DVec3::ZERO, &[DVec3::new(3.0, -2.0, 9.0)], prims);
+    let params = BuildParams { image: Some((64, 64)), ..small_params() };
+    let mut tables = coherence::build(&s, &params).unwrap();
+    let kept: Vec<_> = tables.built[1..].to_vec();
+    let check = |s: &Scene, tables: &coherence::Tables| {
+        tables.flat.check(s.primitives.len()).unwrap();
+        let w =
+            World { prims: Prim32::from_scene(s, s.camera.eye), tables: tables.clone(), shift: s.camera.eye };
+        for j in 0..16 {
+            for i in 0..16 {
+                let (o, d) = s.camera.ray(i as f64 * 4.0 + 0.5, j as f64 * 4.0 + 0.5, 64, 64);
+                w.check_nearest(OriginKey::Eye, w.p(o), d.as_vec3().normalize()).unwrap();
+            }
+        }
+        sweep(&w, s, OriginKey::Light(0), w.p(s.lights[0].position), 200);
+        let ids: Vec<usize> =
+            (0..s.primitives.len()).filter(|&i| w.tables.flat.has_surface(i as u32)).collect();
+        assert!(ids.len() >= 4);
+        for k in 0..200 {
+            let id = ids[k % ids.len()];
+            let (p, ng) = w.surface_point(id, (k as f32 * 0.618) % 1.0, (k as f32 * 0.377) % 1.0);
+            let d = legal(s, id, ng, dir((k as f32).sin(), (k as f32).cos(), 0.3));
+            let o = mirror::offset_ray_origin(p, ng, d);
+            w.check_nearest(OriginKey::Surface(id as u32, o), o, d).unwrap();
+        }
+    };
+    // A small orbit: only the eye's table changes.
+    s.camera = Camera::look_at(
+        DVec3::new(3.0, -13.0, 6.5),
+        DVec3::ZERO,
+        DVec3::Z,
+        Projection::Perspective { fov_y: 50f64.to_radians(), span: FovSpan::ImageEdges },
+    )
+    .unwrap();
+    let mut p = params.clone();
+    p.spawn_offset = Some(tables.eps);
+    assert!(tables.rebuild_eye(&s, &p).unwrap(), "a small move keeps the other tables");
+    assert_eq!(tables.built[1..].len(), kept.len());
+    for (a, b) in tables.built[1..].iter().zip(&kept) {
+        assert_eq!((&a.entries, &a.always, &a.starts), (&b.entries, &b.always, &b.starts));
+    }
+    check(&s, &tables);
+    // Into the glass sphere: it must now list itself, so everything is rebuilt.
+    s.camera = Camera::look_at(
+        DVec3::new(0.0, 6.0, 2.2),
+        DVec3::new(0.0, 0.0, 1.0),
+        DVec3::Z,
+        Projection::Perspective { fov_y: 50f64.to_radians(), span: FovSpan::ImageEdges },
+    )
+    .unwrap();
+    assert!(!tables.rebuild_eye(&s, &params).unwrap(), "the eye entered a sphere");
+    check(&s, &tables);
+}

@@ -1076,6 +1076,76 @@ pub struct Tables {
     pub shadow_mode: ShadowMode,
     /// The image size the eye table covers.
     pub eye_image: (u32, u32),
+    /// The per-origin tables `flat` was flattened from (kept so that the eye's table alone
+    /// can be replaced, [`Tables::rebuild_eye`]).
+    pub built: Vec<OriginTable>,
+    /// The spheres the eye is inside (they list themselves in their own tables).
+    pub eye_inside: Vec<u32>,
+}
+
+/// A full rebuild for a moved eye inflates the origins by this much more than needed.
+const EYE_SLACK: f64 = 1.5;
+
+/// The spheres whose inside holds `p` (as [`mark_enclosing`] decides it).
+fn spheres_around(p: DVec3, targets: &[Target]) -> Vec<u32> {
+    (0..targets.len() as u32)
+        .filter(|&i| match targets[i as usize].shape {
+            Shape::Sphere { c, r } => (p - c).length() < r * (1.0 - 1e-6),
+            _ => false,
+        })
+        .collect()
+}
+
+/// The f32 vertices, relative to the eye, of the triangles split into patches.
+fn patch_frames(flat: &mut FlatTables, targets: &[Target], eye: DVec3) {
+    flat.patch_tris.clear();
+    for (id, _) in flat.prim_patches.iter().enumerate().filter(|(_, m)| **m > 1) {
+        if let Shape::Triangle { v } = targets[id].shape {
+            flat.patch_tris.insert(id as u32, v.map(|p| (p - eye).as_vec3()));
+        }
+    }
+}
+
+impl Tables {
+    /// Replaces the eye's table after `scene.camera` moved, keeping the light and surface
+    /// tables (the interactive preview). Those depend on the eye only through the spawn
+    /// offset (which grows with the distance from the eye to the scene) and through the
+    /// spheres the eye is inside; when either changed, everything is rebuilt. Returns
+    /// whether the eye table alone was rebuilt.
+    pub fn rebuild_eye(&mut self, scene: &Scene, params: &BuildParams) -> Result<bool, BuildError> {
+        let start = Instant::now();
+        let eps = params.spawn_offset.unwrap_or_else(|| default_spawn_offset(scene));
+        let targets: Vec<Target> = scene.primitives.iter().map(|p| Target::of(p, scene)).collect();
+        let eye = scene.camera.eye;
+        let has_eye = self.defs.first().is_some_and(|d| d.kind == OriginKind::Eye);
+        if eps > self.eps || !has_eye || spheres_around(eye, &targets) != self.eye_inside {
+            // With room for the eye to move farther before the next full rebuild.
+            let p = BuildParams { spawn_offset: Some(eps * EYE_SLACK), ..params.clone() };
+            *self = build(scene, &p)?;
+            return Ok(false);
+        }
+        let mut targets = targets;
+        let bvh = Bvh::build(&targets);
+        let mut points = vec![eye];
+        points.extend(scene.lights.iter().filter(|l| l.kind != LightKind::Directional).map(|l| l.position));
+        mark_enclosing(&mut targets, &bvh, &points);
+        let ctx = Ctx::new(&targets, &bvh, self.eps, params.delta, params.always_fraction);
+        let def = eye_def(scene, params, self.eps);
+        self.built[0] = build_origin(&def, &ctx);
+        self.defs[0] = def;
+        let mut flat = flatten(&self.built, &self.defs, targets.len(), scene.lights.len());
+        patch_frames(&mut flat, &targets, eye);
+        if flat.largest_buffer_bytes() > MAX_BINDING_BYTES {
+            return Err(BuildError::TooLarge {
+                bytes: flat.largest_buffer_bytes(),
+                limit: MAX_BINDING_BYTES,
+            });
+        }
+        self.flat = flat;
+        self.eye_image = eye_image(scene, params);
+        self.build_s = start.elapsed().as_secs_f64();
+        Ok(true)
+    }
 }
 
 /// Builds the candidate tables a scene calls for.
@@ -1211,11 +1281,7 @@ pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables, BuildError> 
     defs.extend(surface_defs_built);
     fixed.extend(surface);
     let mut flat = flatten(&fixed, &defs, targets.len(), scene.lights.len());
-    for (id, _) in patches.iter().enumerate().filter(|(_, m)| **m > 1) {
-        if let Shape::Triangle { v } = targets[id].shape {
-            flat.patch_tris.insert(id as u32, v.map(|p| (p - scene.camera.eye).as_vec3()));
-        }
-    }
+    patch_frames(&mut flat, &targets, scene.camera.eye);
     if flat.largest_buffer_bytes() > MAX_BINDING_BYTES {
         return Err(BuildError::TooLarge { bytes: flat.largest_buffer_bytes(), limit: MAX_BINDING_BYTES });
     }
@@ -1228,5 +1294,7 @@ pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables, BuildError> 
         cluster_size,
         shadow_mode: params.shadow_mode,
         eye_image: eye_image(scene, params),
+        built: fixed,
+        eye_inside: spheres_around(scene.camera.eye, &targets),
     })
 }

@@ -120,10 +120,7 @@ impl TableStats {
             s += &format!("  clusters {} of at most {} primitives\n", self.clusters, self.cluster_size);
         }
         if self.patches > 0 {
-            s += &format!(
-                "  patches  {} on {} large triangles\n",
-                self.patches, self.patched_primitives
-            );
+            s += &format!("  patches  {} on {} large triangles\n", self.patches, self.patched_primitives);
         }
         s
     }

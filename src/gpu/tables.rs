@@ -30,6 +30,9 @@ pub struct GpuTables {
     pub mean_list: f64,
     /// Building the tables, seconds.
     pub build_s: f64,
+    /// What `flat` was flattened from (its own `flat` left empty), for
+    /// [`GpuTables::rebuild_eye`].
+    source: coherence::Tables,
 }
 
 /// The largest distance [`spawn_origin`](../../shaders/geometry.wgsl) moves a hit point in a
@@ -61,16 +64,42 @@ pub fn spawn_offset_bound(scene: &Scene, width: u32, height: u32) -> f64 {
     spawn + 8.0 * m * f32::EPSILON as f64
 }
 
-/// Builds the tables for a `width`×`height` render of `scene` with kernels `variant`.
-pub fn build(scene: &Scene, width: u32, height: u32, variant: Variant) -> Result<GpuTables, String> {
-    let params = BuildParams {
+fn params(scene: &Scene, width: u32, height: u32) -> BuildParams {
+    BuildParams {
         image: Some((width, height)),
         spawn_offset: Some(spawn_offset_bound(scene, width, height)),
         ..BuildParams::default()
-    };
-    let tables = coherence::build(scene, &params).map_err(|e| e.to_string())?;
+    }
+}
+
+/// Builds the tables for a `width`×`height` render of `scene` with kernels `variant`.
+pub fn build(scene: &Scene, width: u32, height: u32, variant: Variant) -> Result<GpuTables, String> {
+    let tables = coherence::build(scene, &params(scene, width, height)).map_err(|e| e.to_string())?;
+    finish(scene, tables, variant)
+}
+
+impl GpuTables {
+    /// The tables after `scene.camera` moved: the eye's table rebuilt, the others kept when
+    /// they still hold (see [`coherence::Tables::rebuild_eye`]). Also returns whether only
+    /// the eye's table was rebuilt.
+    pub fn rebuild_eye(
+        self,
+        scene: &Scene,
+        width: u32,
+        height: u32,
+        variant: Variant,
+    ) -> Result<(GpuTables, bool), String> {
+        let mut source = self.source;
+        let eye_only = source.rebuild_eye(scene, &params(scene, width, height)).map_err(|e| e.to_string())?;
+        Ok((finish(scene, source, variant)?, eye_only))
+    }
+}
+
+/// Checks the built tables against the scene, measures their longest lists and appends the
+/// fallback origin.
+fn finish(scene: &Scene, mut tables: coherence::Tables, variant: Variant) -> Result<GpuTables, String> {
     let build_s = tables.build_s;
-    let mut flat = tables.flat;
+    let mut flat = std::mem::take(&mut tables.flat);
     if flat.light_origin.len() != scene.lights.len() || flat.prim_origin.len() != scene.primitives.len() {
         return Err("the tables' light or primitive index does not match the scene".into());
     }
@@ -121,6 +150,7 @@ pub fn build(scene: &Scene, width: u32, height: u32, variant: Variant) -> Result
         worst_shadow,
         mean_list,
         build_s,
+        source: tables,
     })
 }
 

@@ -282,26 +282,30 @@ impl Session {
         let (w, h) = (self.opts.width, self.opts.height);
         let queue = &self.gpu.ctx.queue;
         let mut packed;
-        if let Some(old) = &self.tables {
-            // The tables are rebuilt for the new eye and uploaded with the re-centred scene.
+        if let Some(old) = self.tables.take() {
+            // The eye's table is rebuilt (the light and surface tables kept while they hold)
+            // and uploaded with the re-centred scene.
             packed = layout::pack(&self.scene, w, h);
             let all = Variant::for_effects(self.scene.effects(), self.opts.max_depth).with_cube(true);
-            let tables = self.gpu.tables(&self.scene, w, h, all, &mut packed.params)?;
-            self.gpu.check_loop_budget(&self.scene, tables.as_ref(), true)?;
-            let tile = self.buffers.tile;
-            log::debug!(
-                "tables rebuilt in {:.3} s (were {:.3} s)",
-                tables.as_ref().map_or(0.0, |t| t.build_s),
-                old.build_s
-            );
-            self.buffers = self.gpu.upload(&packed, tables.as_ref(), tile, true);
-            self.tables = tables;
-            self.accumulate_bind = self.gpu.ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("accumulate"),
-                layout: &self.accumulate.get_bind_group_layout(0),
-                entries: &[(0, &self.tile_uniform), (1, &self.buffers.out), (2, &self.accum)]
-                    .map(|(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }),
-            });
+            let (tables, eye_only) = match old.rebuild_eye(&self.scene, w, h, all) {
+                Ok(t) => t,
+                Err(e) => {
+                    // Without tables the session falls back to brute force.
+                    let variant =
+                        Variant::for_effects(self.toggles.apply(self.scene.effects()), self.opts.max_depth);
+                    self.kernels = self.gpu.kernels(variant)?;
+                    self.buffers = self.gpu.upload(&packed, None, self.buffers.tile, true);
+                    self.rebind();
+                    return Err(GpuRenderError::Scene(format!("cannot rebuild the candidate tables: {e}")));
+                }
+            };
+            packed.params.eye_origin = tables.flat.eye_origin;
+            packed.params.fallback_origin = tables.fallback;
+            self.gpu.check_loop_budget(&self.scene, Some(&tables), true)?;
+            log::debug!("tables for the new eye in {:.3} s (eye table only: {eye_only})", tables.build_s);
+            self.buffers = self.gpu.upload(&packed, Some(&tables), self.buffers.tile, true);
+            self.tables = Some(tables);
+            self.rebind();
         } else {
             // Brute force: only the geometry moves (textures do not depend on the eye).
             let textures = std::mem::take(&mut self.scene.textures);
@@ -328,6 +332,16 @@ impl Session {
             ..self.base
         };
         Ok(())
+    }
+
+    /// Points the accumulation pass at the current output buffer.
+    fn rebind(&mut self) {
+        self.accumulate_bind = self.gpu.ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("accumulate"),
+            layout: &self.accumulate.get_bind_group_layout(0),
+            entries: &[(0, &self.tile_uniform), (1, &self.buffers.out), (2, &self.accum)]
+                .map(|(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }),
+        });
     }
 
     /// Switches effects on or off and sets the maximum depth; restarts the
