@@ -45,8 +45,9 @@ pub enum ShadowMode {
 #[derive(Clone, Debug)]
 pub struct BuildParams {
     /// Total bytes the flattened tables should stay under; the builder picks the surface
-    /// resolution and cluster size to fit (default 64 MiB). Each buffer also stays under
-    /// wgpu's 128 MiB binding limit, or the build fails.
+    /// resolution and cluster size to fit (default 96 MiB: three quarters of the 128 MiB
+    /// target, leaving room for the error of the sampled estimate). Each buffer also stays
+    /// under wgpu's 128 MiB binding limit, or the build fails.
     pub budget_bytes: usize,
     /// Angular widening of every bound, radians (default 2e-5): covers the f32 cell lookup.
     pub delta: f64,
@@ -81,7 +82,7 @@ pub struct BuildParams {
 impl Default for BuildParams {
     fn default() -> Self {
         BuildParams {
-            budget_bytes: 64 << 20,
+            budget_bytes: 96 << 20,
             delta: 2e-5,
             spawn_offset: None,
             eye_n: None,
