@@ -177,8 +177,9 @@ impl<'a> Ctx<'a> {
     }
 }
 
-/// The largest spawn offset for a scene re-centred on the camera, plus f32 rounding.
-pub fn default_spawn_offset(scene: &Scene) -> f64 {
+/// The largest coordinate magnitude of the scene re-centred on the camera: its bounds and
+/// its positional lights.
+pub fn recentred_magnitude(scene: &Scene) -> f64 {
     let eye = scene.camera.eye;
     let b = scene.bounds();
     let mut m: f64 = 0.0;
@@ -190,6 +191,12 @@ pub fn default_spawn_offset(scene: &Scene) -> f64 {
             m = m.max((l.position - eye).abs().max_element());
         }
     }
+    m
+}
+
+/// The largest spawn offset for a scene re-centred on the camera, plus f32 rounding.
+pub fn default_spawn_offset(scene: &Scene) -> f64 {
+    let m = recentred_magnitude(scene);
     let off = crate::mirror::max_origin_offset(m as f32) as f64;
     // Plus a few ULPs of the largest coordinate for the geometry's own rounding to f32.
     off + 8.0 * m * f32::EPSILON as f64

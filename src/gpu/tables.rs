@@ -7,7 +7,7 @@
 //! force with the walker's own code, so the cube kernels need no second query loop.
 
 use crate::coherence::{self, BuildParams, FlatTables, GpuEntry, GpuFace, GpuOrigin, OriginKind};
-use crate::scene::{LightKind, Scene};
+use crate::scene::Scene;
 
 use super::shader::Variant;
 
@@ -46,16 +46,7 @@ pub struct GpuTables {
 /// `scale ≤ (1 + 2√3)·M`.
 pub fn spawn_offset_bound(scene: &Scene, width: u32, height: u32) -> f64 {
     let eye = scene.camera.eye;
-    let b = scene.bounds();
-    let mut m: f64 = 0.0;
-    if !b.is_empty() {
-        m = m.max((b.min - eye).abs().max_element()).max((b.max - eye).abs().max_element());
-    }
-    for l in &scene.lights {
-        if l.kind != LightKind::Directional {
-            m = m.max((l.position - eye).abs().max_element());
-        }
-    }
+    let mut m = coherence::build::recentred_magnitude(scene);
     let (w, h) = (width as f64, height as f64);
     for (x, y) in [(0.0, 0.0), (w, 0.0), (0.0, h), (w, h)] {
         m = m.max((scene.camera.ray(x, y, width, height).0 - eye).abs().max_element());

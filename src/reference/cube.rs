@@ -19,7 +19,7 @@ use crate::coherence::{self, BuildError, BuildParams, FlatTables, OriginKey, Tab
 use crate::scene::{Primitive, Scene};
 use crate::stats::TestCounts;
 
-use super::accel::{count, next_up, Accel, Hit, RayOrigin, ShadowQuery};
+use super::accel::{count, next_up, Accel, Brute, Hit, RayOrigin, ShadowQuery};
 use super::geometry::{intersect, Ray};
 
 /// The tables of one scene, built for one image size.
@@ -56,28 +56,6 @@ impl<'a> Cube<'a> {
             RayOrigin::Surface(id) => OriginKey::Surface(id, (at - self.eye).as_vec3()),
         }
     }
-
-    /// Brute force over every primitive, for rays whose origin has no table.
-    fn brute_closest(&self, ray: &Ray, t_max: f64, tests: &mut TestCounts) -> Option<Hit> {
-        let mut best: Option<Hit> = None;
-        for (id, prim) in self.prims.iter().enumerate() {
-            count(prim, tests);
-            let limit = best.map_or(t_max, |b| next_up(b.hit.t));
-            if let Some(h) = intersect(prim, ray, limit) {
-                if best.is_none_or(|b| h.t < b.hit.t) {
-                    best = Some(Hit { prim: id as u32, hit: h });
-                }
-            }
-        }
-        best
-    }
-
-    fn brute_any(&self, ray: &Ray, t_max: f64, tests: &mut TestCounts) -> bool {
-        self.prims.iter().any(|p| {
-            count(p, tests);
-            intersect(p, ray, t_max).is_some()
-        })
-    }
 }
 
 impl Accel for Cube<'_> {
@@ -88,7 +66,7 @@ impl Accel for Cube<'_> {
     fn closest(&self, ray: &Ray, origin: RayOrigin, t_max: f64, tests: &mut TestCounts) -> Option<Hit> {
         let flat = self.flat();
         let Some(o) = flat.origin(self.key(origin, ray.origin)) else {
-            return self.brute_closest(ray, t_max, tests);
+            return Brute::new(self.prims).closest(ray, origin, t_max, tests);
         };
         let prims = self.prims;
         // The walker picks the winner by (t, id); the same rule keeps its hit record here.
@@ -132,6 +110,6 @@ impl Accel for Cube<'_> {
                 .walk_any(o, q.ray.dir.as_vec3(), q.t_max, u32::MAX, |id, _| test(id, tests).then_some(0.0));
             return blocked;
         }
-        self.brute_any(&q.ray, q.t_max, tests)
+        Brute::new(self.prims).occluded(q, tests)
     }
 }
