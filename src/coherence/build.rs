@@ -327,13 +327,12 @@ impl Planes {
 
     /// The cones of blind cells for target `t` (see [`Planes`]).
     fn blind(&self, t: &Target, delta: f64) -> [Option<Cone>; 2] {
-        let (pts, pad): (&[DVec3], f64) = match &t.shape {
+        // The target's extreme points (repeated to fill three) and how far it reaches past them.
+        let (pts, pad) = match t.shape {
             Shape::Triangle { v } => (v, 0.0),
-            Shape::Sphere { c, r } => (std::slice::from_ref(c), *r),
-            Shape::Capsule { p0, p1, rad } => (&[*p0, *p1][..], *rad),
+            Shape::Sphere { c, r } => ([c; 3], r),
+            Shape::Capsule { p0, p1, rad } => ([p0, p1, p1], rad),
         };
-        // Owned copy for the capsule's temporary array.
-        let pts: Vec<DVec3> = pts.to_vec();
         let (mut behind, mut front) = (true, true);
         for (p, n) in &self.planes {
             // Rounding noise of the signed distances; far below the smallest spawn offset.

@@ -199,6 +199,19 @@ impl GpuRenderer {
         Ok(k)
     }
 
+    /// What both entry points do first: check the options, pick and compile the kernels,
+    /// then (timed as preprocessing) pack the scene and build the tables they trace.
+    fn prepare(&self, scene: &Scene, opts: &RenderOptions) -> Result<Prepared, GpuRenderError> {
+        check(scene, opts)?;
+        let variant =
+            Variant::for_effects(scene.effects(), opts.max_depth).with_cube(uses_tables(opts.accel));
+        let kernels = self.kernels(variant)?;
+        let start = Instant::now();
+        let mut packed = layout::pack(scene, opts.width, opts.height);
+        let tables = self.tables(scene, opts.width, opts.height, variant, &mut packed.params)?;
+        Ok(Prepared { variant, kernels, packed, tables, start })
+    }
+
     /// Renders `scene` to linear radiance on the GPU.
     pub fn render(
         &self,
@@ -206,15 +219,8 @@ impl GpuRenderer {
         opts: &RenderOptions,
         progress: &ProgressBar,
     ) -> Result<Rendered, GpuRenderError> {
-        check(scene, opts)?;
         let (w, h) = (opts.width, opts.height);
-        let variant =
-            Variant::for_effects(scene.effects(), opts.max_depth).with_cube(uses_tables(opts.accel));
-        let kernels = self.kernels(variant)?;
-        // Preprocessing: packing the scene and building the tables (not compiling kernels).
-        let start = Instant::now();
-        let mut packed = layout::pack(scene, w, h);
-        let tables = self.tables(scene, w, h, variant, &mut packed.params)?;
+        let Prepared { variant, kernels, mut packed, tables, start } = self.prepare(scene, opts)?;
         let corners = opts.sampling == Sampling::Corners;
         let (gw, gh) = if corners { (w + 1, h + 1) } else { (w, h) };
         let seed_hash = sampling::pcg(sampling::pcg((opts.seed >> 32) as u32) ^ opts.seed as u32);
@@ -269,15 +275,8 @@ impl GpuRenderer {
         aov: Aov,
         progress: &ProgressBar,
     ) -> Result<Rendered, GpuRenderError> {
-        check(scene, opts)?;
         let (w, h) = (opts.width, opts.height);
-        let variant =
-            Variant::for_effects(scene.effects(), opts.max_depth).with_cube(uses_tables(opts.accel));
-        let kernels = self.kernels(variant)?;
-        // Preprocessing: packing the scene and building the tables (not compiling kernels).
-        let start = Instant::now();
-        let mut packed = layout::pack(scene, w, h);
-        let tables = self.tables(scene, w, h, variant, &mut packed.params)?;
+        let Prepared { variant, kernels, mut packed, tables, start } = self.prepare(scene, opts)?;
         packed.params = Params {
             grid_w: w,
             grid_h: h,
@@ -664,6 +663,16 @@ fn accel_name(variant: Variant) -> &'static str {
     } else {
         "brute"
     }
+}
+
+/// The set-up shared by [`GpuRenderer::render`] and [`GpuRenderer::render_aov`]; `start` is
+/// when preprocessing began.
+struct Prepared {
+    variant: Variant,
+    kernels: Arc<Kernels>,
+    packed: Packed,
+    tables: Option<GpuTables>,
+    start: Instant,
 }
 
 struct RunOutput {
