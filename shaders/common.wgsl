@@ -160,8 +160,9 @@ const RAY_KIND_MASK: u32 = 3u;
 const RAY_SKIP_FROM: u32 = 4u;
 
 // Counter slots: rays by kind (0-3), tests by ray kind x primitive kind (4-15), eye
-// hits (16), blocked shadow rays (17). Each is 64-bit in `counters` (low, high word).
-const COUNTER_COUNT: u32 = 18u;
+// hits (16), blocked shadow rays (17), group sphere tests by ray kind (18-21). Each is
+// 64-bit in `counters` (low, high word).
+const COUNTER_COUNT: u32 = 22u;
 const C_EYE_HIT: u32 = 16u;
 const C_SHADOW_BLOCKED: u32 = 17u;
 
@@ -177,6 +178,10 @@ fn count(slot: u32) {
 
 fn count_test(ray_kind: u32, prim_kind: u32) {
     local_counts[4u + ray_kind * 3u + prim_kind] += 1u;
+}
+
+fn count_bound(ray_kind: u32) {
+    local_counts[18u + ray_kind] += 1u;
 }
 
 // Sums the invocations' counters per workgroup, then adds them to the 64-bit totals.

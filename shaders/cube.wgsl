@@ -35,6 +35,19 @@ struct GpuEntry {
     d_min: f32,
 }
 
+// A group of primitives (coherence::groups): its camera-relative bounding sphere, widened
+// for rounding, and its members group_prims[first .. first + count].
+struct GpuGroup {
+    cx: f32,
+    cy: f32,
+    cz: f32,
+    radius: f32,
+    first: u32,
+    count: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
 @group(0) @binding(11) var<storage, read> origins: array<GpuOrigin>;
 @group(0) @binding(12) var<storage, read> faces: array<GpuFace>;
 @group(0) @binding(13) var<storage, read> cell_start: array<u32>;
@@ -44,8 +57,27 @@ struct GpuEntry {
 @group(0) @binding(16) var<storage, read> light_origin: array<u32>;
 // Per primitive: m, its m×m surface patches (1: one origin for the whole primitive).
 @group(0) @binding(17) var<storage, read> prim_patches: array<u32>;
+// Primitive groups, named by entries whose id has GROUP_BIT set, and their members.
+@group(0) @binding(18) var<storage, read> groups: array<GpuGroup>;
+@group(0) @binding(19) var<storage, read> group_prims: array<u32>;
 
 const NO_ORIGIN: u32 = 0xffffffffu;
+const GROUP_BIT: u32 = 0x80000000u;
+// Relative widening of the group test (coherence::groups::GROUP_SLACK).
+const GROUP_SLACK: f32 = 1e-5;
+
+// Whether the ray may meet group `g`'s sphere at some 0 < t <= t_far: the twin of
+// `coherence::groups::group_hit`, conservative for f32 rounding.
+fn group_hit(g: GpuGroup, ray: Ray, t_far: f32) -> bool {
+    let oc = vec3<f32>(g.cx, g.cy, g.cz) - ray.o;
+    let tc = dot(oc, ray.d);
+    let rr = g.radius + GROUP_SLACK * (abs(tc) + g.radius + max3(abs(ray.o)));
+    if tc + rr < 0.0 || tc - rr > t_far {
+        return false;
+    }
+    let v = oc - tc * ray.d;
+    return dot(v, v) <= rr * rr;
+}
 
 // Origin keys (coherence::OriginKey).
 const KEY_EYE: u32 = 0u;
@@ -171,8 +203,24 @@ fn walk_done(w: Walk) -> bool {
     return w.i >= w.iend && w.j >= w.jend;
 }
 
-// Continues the nearest-hit walk `w` for at most `budget` entries, keeping the nearest hit
-// in `best` (ties to the lower id; `skip` never tested). True when the walk is over.
+// Tests primitive `id` for the nearest-hit walk, keeping the nearest hit in `best` (ties to
+// the lower id); returns the distance to beat.
+fn consider(id: u32, best: ptr<function, Closest>, ray: Ray, t_max: f32, ray_kind: u32, best_t: f32) -> f32 {
+    let p = prims[id];
+    count_test(ray_kind, p.kind);
+    let h = intersect_prim(p, ray, t_max);
+    if h.ok && (h.t < best_t || (h.t == best_t && (*best).found && id < (*best).prim)) {
+        (*best).found = true;
+        (*best).prim = id;
+        (*best).hit = h;
+        return h.t;
+    }
+    return best_t;
+}
+
+// Continues the nearest-hit walk `w` for at most about `budget` loop iterations (an entry,
+// or a group's members), keeping the nearest hit in `best` (ties to the lower id; `skip`
+// never tested). True when the walk is over.
 fn walk_nearest(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, t_max: f32, skip: u32, ray_kind: u32,
     budget: u32) -> bool {
     var left = budget;
@@ -189,18 +237,24 @@ fn walk_nearest(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, 
         if e.d_min > best_t {
             break;
         }
+        if (e.id & GROUP_BIT) != 0u {
+            let g = groups[e.id & ~GROUP_BIT];
+            count_bound(ray_kind);
+            if group_hit(g, ray, best_t) {
+                left -= min(left, g.count);
+                for (var k = g.first; k < g.first + g.count; k++) {
+                    let m = group_prims[k];
+                    if m != skip {
+                        best_t = consider(m, best, ray, t_max, ray_kind, best_t);
+                    }
+                }
+            }
+            continue;
+        }
         if e.id == skip {
             continue;
         }
-        let p = prims[e.id];
-        count_test(ray_kind, p.kind);
-        let h = intersect_prim(p, ray, t_max);
-        if h.ok && (h.t < best_t || (h.t == best_t && (*best).found && e.id < (*best).prim)) {
-            (*best).found = true;
-            (*best).prim = e.id;
-            (*best).hit = h;
-            best_t = h.t;
-        }
+        best_t = consider(e.id, best, ray, t_max, ray_kind, best_t);
     }
     return true;
 }
@@ -272,6 +326,23 @@ fn cube_walk_any(origin: u32, ray: Ray, t_max: f32, skip: u32) -> bool {
         let e = walk_next(&w);
         if e.d_min >= t_max {
             break;
+        }
+        if (e.id & GROUP_BIT) != 0u {
+            let g = groups[e.id & ~GROUP_BIT];
+            count_bound(RAY_SHADOW);
+            if group_hit(g, ray, t_max) {
+                for (var k = g.first; k < g.first + g.count; k++) {
+                    let m = group_prims[k];
+                    if m != skip {
+                        let p = prims[m];
+                        count_test(RAY_SHADOW, p.kind);
+                        if intersect_prim(p, ray, t_max).ok {
+                            return true;
+                        }
+                    }
+                }
+            }
+            continue;
         }
         if e.id == skip {
             continue;

@@ -11,7 +11,10 @@
 //!   `rays.shadow_blocked`: those that found an occluder;
 //! - `tests.*`: primitive intersection tests (bounding volume tests are not counted), by
 //!   primitive type, over all rays; `tests_per_ray.K` = tests made by rays of kind K
-//!   divided by the number of rays of kind K.
+//!   divided by the number of rays of kind K;
+//! - `tests.bound`, `bound_tests_per_ray.K`: the bounding-sphere tests of primitive groups
+//!   that long candidate lists name (`--accel cube`), reported apart because they are not
+//!   primitive tests (Haines' procedure counts none), but they are real work.
 //!
 //! `--stats` prints [`Stats::to_text`], `--stats json` prints [`Stats::to_json`]: one JSON
 //! object with nested objects (`{"rays":{"eye":...},...}`). The GPU backend fills the same
@@ -54,6 +57,10 @@ pub struct TestCounts {
     pub triangle: u64,
     /// Cylinders and cones.
     pub cylinder: u64,
+    /// Bounding-sphere tests of primitive groups named by long candidate lists (`--accel
+    /// cube`); not primitive tests, so not in [`TestCounts::total`]. Brute force tests no
+    /// bounds and the BVH's node visits are not counted.
+    pub bound: u64,
 }
 
 impl TestCounts {
@@ -67,6 +74,7 @@ impl AddAssign for TestCounts {
         self.sphere += o.sphere;
         self.triangle += o.triangle;
         self.cylinder += o.cylinder;
+        self.bound += o.bound;
     }
 }
 
@@ -167,6 +175,8 @@ pub struct Stats {
     pub rays: RayStats,
     pub tests: TestCounts,
     pub tests_per_ray: TestsPerRay,
+    /// Group bounding-sphere tests per ray, by kind (see [`TestCounts::bound`]).
+    pub bound_tests_per_ray: TestsPerRay,
     pub time: Times,
 }
 
@@ -176,6 +186,7 @@ impl Stats {
         let rays_of = |k: RayKind| c.rays[k.index()];
         let per = |tests: u64, rays: u64| if rays == 0 { 0.0 } else { tests as f64 / rays as f64 };
         let tpr = |k: RayKind| per(c.tests[k.index()].total(), rays_of(k));
+        let bpr = |k: RayKind| per(c.tests[k.index()].bound, rays_of(k));
         let mut tests = TestCounts::default();
         for t in c.tests {
             tests += t;
@@ -200,6 +211,13 @@ impl Stats {
                 reflect: tpr(RayKind::Reflect),
                 refract: tpr(RayKind::Refract),
                 all: per(tests.total(), total_rays),
+            },
+            bound_tests_per_ray: TestsPerRay {
+                eye: bpr(RayKind::Eye),
+                shadow: bpr(RayKind::Shadow),
+                reflect: bpr(RayKind::Reflect),
+                refract: bpr(RayKind::Refract),
+                all: per(tests.bound, total_rays),
             },
             time,
         }
@@ -238,6 +256,13 @@ impl Stats {
             "per ray:  {:.3} eye, {:.3} shadow, {:.3} reflect, {:.3} refract, {:.3} overall\n",
             p.eye, p.shadow, p.reflect, p.refract, p.all
         );
+        if t.bound > 0 {
+            let b = &self.bound_tests_per_ray;
+            o += &format!(
+                "bounds:   {} group sphere tests; per ray {:.3} eye, {:.3} shadow, {:.3} reflect, {:.3} refract\n",
+                t.bound, b.eye, b.shadow, b.reflect, b.refract
+            );
+        }
         o += &format!(
             "time:     preprocess {:.3} s, trace {:.3} s",
             self.time.preprocess_s, self.time.trace_s
@@ -257,8 +282,8 @@ mod tests {
     #[test]
     fn stats_add_up() {
         let mut tests = [TestCounts::default(); 4];
-        tests[0] = TestCounts { sphere: 30, triangle: 10, cylinder: 0 };
-        tests[1] = TestCounts { sphere: 4, triangle: 0, cylinder: 4 };
+        tests[0] = TestCounts { sphere: 30, triangle: 10, cylinder: 0, bound: 6 };
+        tests[1] = TestCounts { sphere: 4, triangle: 0, cylinder: 4, bound: 0 };
         let c = Counters { rays: [10, 4, 2, 0], tests, eye_hit: 7, shadow_blocked: 1 };
         let s = Stats::new(Settings::default(), vec!["shadows"], &c, Times::default());
         assert_eq!(s.rays.total, 16);
@@ -266,11 +291,12 @@ mod tests {
         assert_eq!(s.tests_per_ray.eye, 4.0);
         assert_eq!(s.tests_per_ray.shadow, 2.0);
         assert_eq!(s.tests_per_ray.refract, 0.0);
+        assert_eq!(s.bound_tests_per_ray.eye, 0.6);
         let v: serde_json::Value = serde_json::from_str(&s.to_json()).unwrap();
         for key in ["eye", "eye_hit", "reflect", "refract", "shadow", "shadow_blocked"] {
             assert!(v["rays"][key].is_u64(), "rays.{key} missing");
         }
-        for key in ["sphere", "triangle", "cylinder"] {
+        for key in ["sphere", "triangle", "cylinder", "bound"] {
             assert!(v["tests"][key].is_u64(), "tests.{key} missing");
         }
         for key in ["eye", "shadow", "reflect", "refract"] {

@@ -109,17 +109,9 @@ impl World {
     fn check_nearest(&self, key: OriginKey, o: Vec3, d: Vec3) -> Result<(), String> {
         let f = &self.tables.flat;
         let org = f.origin(key).ok_or(format!("no table for {key:?}"))?;
-        let (h, _) = mirror::cube_walk_nearest(
-            &f.origins,
-            &f.faces,
-            &f.cell_start,
-            &f.entries,
-            org,
-            d,
-            F32_MAX,
-            NO_ID,
-            |id| self.prims[id as usize].intersect(o, d),
-        );
+        let (h, _) = mirror::cube_walk_nearest(f, org, o, d, F32_MAX, NO_ID, |id| {
+            self.prims[id as usize].intersect(o, d)
+        });
         let want = self.brute(o, d, F32_MAX);
         if (h.id, h.t) != want {
             return Err(format!(
@@ -129,7 +121,7 @@ impl World {
                 f.candidates(org, d)
             ));
         }
-        let (g, _) = f.walk_nearest(org, d, f32::MAX, u32::MAX, |id, _| {
+        let (g, _) = f.walk_nearest(org, o, d, f32::MAX, u32::MAX, |id, _| {
             let t = self.prims[id as usize].intersect(o, d);
             (t < F32_MAX).then_some(t)
         });
@@ -137,7 +129,7 @@ impl World {
         if g != want {
             return Err(format!("{key:?}: generic f32 walker {g:?} brute {want:?}"));
         }
-        let (g64, _) = f.walk_nearest(org, d, f64::MAX, u32::MAX, |id, _| {
+        let (g64, _) = f.walk_nearest(org, o, d, f64::MAX, u32::MAX, |id, _| {
             let t = self.prims[id as usize].intersect(o, d);
             (t < F32_MAX).then_some(t as f64)
         });
@@ -150,22 +142,13 @@ impl World {
     fn check_any(&self, key: OriginKey, o: Vec3, d: Vec3, t_max: f32) -> Result<(), String> {
         let f = &self.tables.flat;
         let org = f.origin(key).ok_or(format!("no table for {key:?}"))?;
-        let (b, _) = mirror::cube_walk_any(
-            &f.origins,
-            &f.faces,
-            &f.cell_start,
-            &f.entries,
-            org,
-            d,
-            t_max,
-            NO_ID,
-            |id| self.prims[id as usize].intersect(o, d),
-        );
+        let (b, _) =
+            mirror::cube_walk_any(f, org, o, d, t_max, NO_ID, |id| self.prims[id as usize].intersect(o, d));
         let want = self.brute(o, d, t_max).0 != NO_ID;
         if b != want {
             return Err(format!("{key:?} any o={o} d={d} t_max={t_max}: walker {b} brute {want}"));
         }
-        let (g, _) = f.walk_any(org, d, t_max as f64, u32::MAX, |id, _| {
+        let (g, _) = f.walk_any(org, o, d, t_max as f64, u32::MAX, |id, _| {
             let t = self.prims[id as usize].intersect(o, d);
             (t < F32_MAX).then_some(t as f64)
         });
@@ -323,9 +306,12 @@ proptest! {
     fn surface_rays_match_brute_force(
         s in arb_scene(),
         k in 1usize..4,
+        grouped in proptest::bool::ANY,
         rays in proptest::collection::vec((0.0f32..1.0, 0.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0, 0.05f32..2.0), 40),
     ) {
-        let params = BuildParams { cluster_size: Some(k), ..small_params() };
+        // `grouped`: every list of two or more entries names primitive groups.
+        let group_min_list = if grouped { 2 } else { usize::MAX };
+        let params = BuildParams { cluster_size: Some(k), group_min_list, ..small_params() };
         let w = World::new(&s, &params);
         let origins: Vec<usize> = (0..s.primitives.len())
             .filter(|&i| w.tables.flat.has_surface(i as u32))
@@ -474,19 +460,9 @@ fn zero_direction_is_rejected() {
     let w = World::new(&s, &small_params());
     let f = &w.tables.flat;
     let eye = f.origin(OriginKey::Eye).unwrap();
-    let (h, tests) = mirror::cube_walk_nearest(
-        &f.origins,
-        &f.faces,
-        &f.cell_start,
-        &f.entries,
-        eye,
-        Vec3::ZERO,
-        F32_MAX,
-        NO_ID,
-        |_| 0.0,
-    );
-    assert_eq!((h.id, tests), (NO_ID, 0));
-    let (hit, count) = f.walk_nearest(eye, Vec3::ZERO, f64::MAX, u32::MAX, |_, _| Some(0.0));
+    let (h, tests) = mirror::cube_walk_nearest(f, eye, Vec3::ZERO, Vec3::ZERO, F32_MAX, NO_ID, |_| 0.0);
+    assert_eq!((h.id, tests.tests, tests.bounds), (NO_ID, 0, 0));
+    let (hit, count) = f.walk_nearest(eye, Vec3::ZERO, Vec3::ZERO, f64::MAX, u32::MAX, |_, _| Some(0.0));
     assert!(hit.is_none() && count.tests == 0);
 }
 
@@ -691,11 +667,23 @@ fn memory_budget_is_respected() {
 fn spd_scenes_every_ray_agrees_with_brute_force() {
     // Small SPD databases at 24×24 corners, depth 5, every eye, shadow, reflection and
     // refraction ray checked against brute force.
-    for name in ["balls_s1", "gears_s1", "mount_s1", "rings_s1", "teapot_s1", "tetra_s1", "tree_s1"] {
+    // Surface lists name primitive groups from their default length, and again from two
+    // entries.
+    let cases = ["balls_s1", "gears_s1", "mount_s1", "rings_s1", "teapot_s1", "tetra_s1", "tree_s1"]
+        .into_iter()
+        .map(|n| (n, coherence::groups::GROUP_MIN_LIST))
+        .chain([("gears_s1", 2), ("teapot_s1", 2), ("balls_s1", 2)]);
+    for (name, group_min_list) in cases {
         let path = common::shared(&format!("spd/nff/{name}.nff"));
         let scene = cuberay::load::load(&path, &Default::default()).unwrap().scene;
-        let params = BuildParams { eye_n: Some(64), light_cells: 1 << 12, ..BuildParams::default() };
+        let params =
+            BuildParams { eye_n: Some(64), light_cells: 1 << 12, group_min_list, ..BuildParams::default() };
         let tables = coherence::build(&scene, &params).unwrap();
+        if group_min_list == 2 {
+            let named =
+                tables.flat.entries.iter().filter(|e| e.id & coherence::groups::GROUP_BIT != 0).count();
+            assert!(named > 0 && !tables.flat.groups.is_empty(), "{name}: no list names a group");
+        }
         tables.flat.check(scene.primitives.len()).unwrap();
         let r = bench::trace_counts(
             &scene,
@@ -704,6 +692,9 @@ fn spd_scenes_every_ray_agrees_with_brute_force() {
         );
         assert_eq!(r.mismatches, 0, "{name}: {r:?}");
         assert!(r.verified >= 625, "{name}: {r:?}");
+        if group_min_list == 2 {
+            assert!(r.reflect.bounds + r.refract.bounds > 0, "{name}: no group was tested");
+        }
         assert_eq!(r.eye.rays, 625);
         assert_eq!(
             r.eye.untabled + r.reflect.untabled + r.refract.untabled,

@@ -12,7 +12,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::build::{ShadowMode, Tables};
-use super::walk::OriginKey;
+use super::walk::{OriginKey, WalkCount};
 use crate::mirror::{self, Prim32, F32_MAX, NO_ID};
 use crate::scene::{LightKind, Primitive, Scene};
 
@@ -33,9 +33,12 @@ pub struct BenchParams {
 pub struct KindCount {
     pub rays: u64,
     pub tests: u64,
+    /// Group bounding-sphere tests.
+    pub bounds: u64,
     /// Rays whose origin had no table (traced by brute force, tests counted here too).
     pub untabled: u64,
     pub tests_per_ray: f64,
+    pub bounds_per_ray: f64,
 }
 
 /// The measurement.
@@ -61,6 +64,7 @@ impl std::ops::AddAssign for KindCount {
     fn add_assign(&mut self, o: Self) {
         self.rays += o.rays;
         self.tests += o.tests;
+        self.bounds += o.bounds;
         self.untabled += o.untabled;
     }
 }
@@ -119,25 +123,22 @@ impl Tracer<'_> {
         let f = &self.tables.flat;
         let (hit, tests, untabled) = match f.origin(key) {
             Some(org) => {
-                let (h, tests) = mirror::cube_walk_nearest(
-                    &f.origins,
-                    &f.faces,
-                    &f.cell_start,
-                    &f.entries,
-                    org,
-                    d,
-                    F32_MAX,
-                    skip,
-                    |id| self.prims[id as usize].intersect(o, d),
-                );
-                ((h.id, h.t), tests as u64, 0)
+                let (h, tests) = mirror::cube_walk_nearest(f, org, o, d, F32_MAX, skip, |id| {
+                    self.prims[id as usize].intersect(o, d)
+                });
+                ((h.id, h.t), tests, 0)
             }
-            None => (mirror::brute_nearest(&self.prims, o, d, F32_MAX, skip), self.prims.len() as u64, 1),
+            None => (
+                mirror::brute_nearest(&self.prims, o, d, F32_MAX, skip),
+                WalkCount { tests: self.prims.len() as u32, bounds: 0 },
+                1,
+            ),
         };
         let c = kind_mut(r, kind);
         c.rays += 1;
         c.untabled += untabled;
-        c.tests += tests;
+        c.tests += tests.tests as u64;
+        c.bounds += tests.bounds as u64;
         if self.params.verify_every > 0 && n % self.params.verify_every as u64 == 0 {
             r.verified += 1;
             let want = mirror::brute_nearest(&self.prims, o, d, F32_MAX, skip);
@@ -167,26 +168,22 @@ impl Tracer<'_> {
         let f = &self.tables.flat;
         let (blocked, tests) = match f.origin(key) {
             Some(org) => {
-                let (b, tests) = mirror::cube_walk_any(
-                    &f.origins,
-                    &f.faces,
-                    &f.cell_start,
-                    &f.entries,
-                    org,
-                    d,
-                    t_max,
-                    skip,
-                    |id| self.prims[id as usize].intersect(o, d),
-                );
-                (b, tests as u64)
+                let (b, tests) = mirror::cube_walk_any(f, org, o, d, t_max, skip, |id| {
+                    self.prims[id as usize].intersect(o, d)
+                });
+                (b, tests)
             }
             None => {
                 r.shadow.untabled += 1;
-                (mirror::brute_nearest(&self.prims, o, d, t_max, skip).0 != NO_ID, self.prims.len() as u64)
+                (
+                    mirror::brute_nearest(&self.prims, o, d, t_max, skip).0 != NO_ID,
+                    WalkCount { tests: self.prims.len() as u32, bounds: 0 },
+                )
             }
         };
         r.shadow.rays += 1;
-        r.shadow.tests += tests;
+        r.shadow.tests += tests.tests as u64;
+        r.shadow.bounds += tests.bounds as u64;
         r.shadow_blocked += blocked as u64;
         if self.params.verify_every > 0 && n % self.params.verify_every as u64 == 0 {
             r.verified += 1;
@@ -345,6 +342,7 @@ pub fn trace_counts(scene: &Scene, tables: &Tables, params: BenchParams) -> Benc
         });
     for k in [&mut total.eye, &mut total.shadow, &mut total.reflect, &mut total.refract] {
         k.tests_per_ray = if k.rays > 0 { k.tests as f64 / k.rays as f64 } else { 0.0 };
+        k.bounds_per_ray = if k.rays > 0 { k.bounds as f64 / k.rays as f64 } else { 0.0 };
     }
     total.trace_s = start.elapsed().as_secs_f64();
     total

@@ -15,7 +15,13 @@
 //! prim_patches: array<u32>          per primitive: m (1: one origin for the whole primitive);
 //!                                   a ray origin's patch is `mirror::triangle_patch`
 //! light_origin: array<u32>          per light: the origin of its shadow rays, or 0xffffffff
+//! groups:       array<GpuGroup>     primitive groups (see [`super::groups`]): a camera-relative
+//!                                   bounding sphere and group_prims[first .. first + count]
+//! group_prims:  array<u32>          the primitives of every group, group after group
 //! ```
+//!
+//! An entry whose id has bit 31 ([`super::groups::GROUP_BIT`]) set names group `id & 0x7fffffff`:
+//! the walker tests the group's sphere and, if the ray meets it in time, every member.
 //!
 //! WGSL twins (field for field; every field is a 4-byte scalar, so WGSL's and C's layouts agree
 //! and no implicit padding exists):
@@ -25,6 +31,8 @@
 //! struct GpuFace   { iu0: u32, iv0: u32, width: u32, height: u32,
 //!                    cell_base: u32, _pad0: u32, _pad1: u32, _pad2: u32 }       // 32 bytes
 //! struct GpuEntry  { id: u32, d_min: f32 }                                       // 8 bytes
+//! struct GpuGroup  { cx: f32, cy: f32, cz: f32, radius: f32, first: u32, count: u32,
+//!                    _pad0: u32, _pad1: u32 }                                    // 32 bytes
 //! ```
 //!
 //! An origin's direction cube has `n`×`n` cells per face, but only a window of each face is
@@ -73,6 +81,21 @@ pub struct GpuEntry {
     pub d_min: f32,
 }
 
+/// A group of primitives: its bounding sphere relative to the camera's eye (f32, widened
+/// for rounding) and its members `group_prims[first..first + count]`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuGroup {
+    pub cx: f32,
+    pub cy: f32,
+    pub cz: f32,
+    pub radius: f32,
+    pub first: u32,
+    pub count: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+}
+
 /// wgpu's default (and lavapipe's) limit on one storage buffer binding.
 pub const MAX_BINDING_BYTES: usize = 128 << 20;
 
@@ -105,6 +128,9 @@ pub struct FlatTables {
     pub light_origin: Vec<u32>,
     /// The eye origin, or `u32::MAX` for an empty scene.
     pub eye_origin: u32,
+    /// The groups that entries name (empty when no list is grouped).
+    pub groups: Vec<GpuGroup>,
+    pub group_prims: Vec<u32>,
 }
 
 impl FlatTables {
@@ -117,6 +143,8 @@ impl FlatTables {
             + std::mem::size_of_val(self.prim_origin.as_slice())
             + std::mem::size_of_val(self.prim_patches.as_slice())
             + std::mem::size_of_val(self.light_origin.as_slice())
+            + std::mem::size_of_val(self.groups.as_slice())
+            + std::mem::size_of_val(self.group_prims.as_slice())
     }
 
     /// The largest single buffer, which must not exceed [`MAX_BINDING_BYTES`].
@@ -190,8 +218,27 @@ impl FlatTables {
                 return Err(format!("primitive {id}: patches {m} from origin {o} out of range"));
             }
         }
-        if let Some(e) = self.entries.iter().find(|e| e.id as usize >= primitives) {
-            return Err(format!("entry id {} out of range", e.id));
+        let bit = super::groups::GROUP_BIT;
+        if let Some(e) = self.entries.iter().find(|e| {
+            if e.id & bit != 0 {
+                (e.id & !bit) as usize >= self.groups.len()
+            } else {
+                e.id as usize >= primitives
+            }
+        }) {
+            return Err(format!("entry id {:#x} out of range", e.id));
+        }
+        for (g, grp) in self.groups.iter().enumerate() {
+            let end = grp.first as u64 + grp.count as u64;
+            if grp.count == 0 || end > self.group_prims.len() as u64 {
+                return Err(format!("group {g}: members out of range"));
+            }
+            if ![grp.cx, grp.cy, grp.cz, grp.radius].iter().all(|x| x.is_finite()) {
+                return Err(format!("group {g}: sphere not finite"));
+            }
+        }
+        if let Some(p) = self.group_prims.iter().find(|&&p| p as usize >= primitives) {
+            return Err(format!("group member {p} out of range"));
         }
         if self.largest_buffer_bytes() > MAX_BINDING_BYTES {
             return Err(format!(
@@ -225,5 +272,6 @@ mod tests {
         assert_eq!(std::mem::size_of::<GpuFace>(), 32);
         assert_eq!(std::mem::size_of::<GpuEntry>(), 8);
         assert_eq!(std::mem::align_of::<GpuEntry>(), 4);
+        assert_eq!(std::mem::size_of::<GpuGroup>(), 32);
     }
 }

@@ -8,6 +8,7 @@
 //! - [`origins`]: targets, origin clusters and the bounding-sphere hierarchy;
 //! - [`build`]: the per-origin build (rayon-parallel), resolution and clustering under a
 //!   memory budget, and flattening;
+//! - [`groups`]: primitive groups, which long candidate lists name instead of their members;
 //! - [`flat`]: the `#[repr(C)]` GPU buffers and their documented layout;
 //! - [`walk`]: the CPU walker (the WGSL's algorithm, generic over the intersection routine);
 //! - [`stats`]: what `cuberay info --tables` prints;
@@ -44,11 +45,12 @@ pub mod bench;
 pub mod build;
 pub mod flat;
 pub mod geom;
+pub mod groups;
 pub mod origins;
 pub mod stats;
 pub mod walk;
 
 pub use build::{build, default_spawn_offset, BuildError, BuildParams, ShadowMode, Tables};
-pub use flat::{FlatTables, GpuEntry, GpuFace, GpuOrigin, OriginKind};
+pub use flat::{FlatTables, GpuEntry, GpuFace, GpuGroup, GpuOrigin, OriginKind};
 pub use stats::TableStats;
 pub use walk::{Dist, OriginKey, WalkCount};

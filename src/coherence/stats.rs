@@ -37,6 +37,9 @@ pub struct TableStats {
     /// Large triangles split into surface patches, and the patch origins they have.
     pub patched_primitives: usize,
     pub patches: usize,
+    /// Entries naming primitive groups, and the groups uploaded.
+    pub group_entries: usize,
+    pub groups: usize,
     pub shadow_mode: super::ShadowMode,
     /// The spawn offset the origins are inflated by.
     pub spawn_offset: f64,
@@ -89,6 +92,8 @@ impl TableStats {
             cluster_size: t.cluster_size,
             patched_primitives: f.prim_patches.iter().filter(|&&m| m > 1).count(),
             patches: t.defs.iter().filter(|d| d.patch.is_some()).count(),
+            group_entries: f.entries.iter().filter(|e| e.id & super::groups::GROUP_BIT != 0).count(),
+            groups: f.groups.len(),
             shadow_mode: t.shadow_mode,
             spawn_offset: t.eps,
             eye_image: [t.eye_image.0, t.eye_image.1],
@@ -121,6 +126,14 @@ impl TableStats {
         }
         if self.patches > 0 {
             s += &format!("  patches  {} on {} large triangles\n", self.patches, self.patched_primitives);
+        }
+        if self.group_entries > 0 {
+            s += &format!(
+                "  groups   {} entries name groups ({} groups of at most {} primitives)\n",
+                self.group_entries,
+                self.groups,
+                super::groups::GROUP_SIZE
+            );
         }
         s
     }

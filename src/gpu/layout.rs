@@ -5,12 +5,12 @@
 //! scenes far from the origin keep their precision near the eye. [`TWINS`] lists every
 //! twin with its size and member offsets; a test compares it with naga's layout of the
 //! composed module. The table structs of `shaders/cube.wgsl` are twinned by
-//! [`crate::coherence::flat`]'s `GpuOrigin`, `GpuFace` and `GpuEntry`.
+//! [`crate::coherence::flat`]'s `GpuOrigin`, `GpuFace`, `GpuEntry` and `GpuGroup`.
 
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 
-use crate::coherence::flat::{GpuEntry, GpuFace, GpuOrigin};
+use crate::coherence::flat::{GpuEntry, GpuFace, GpuGroup, GpuOrigin};
 use crate::scene::{LightKind, Primitive, Projection, Scene, Wrap};
 
 /// Kernel parameters (WGSL `Params`, a uniform).
@@ -234,6 +234,7 @@ pub fn twins() -> Vec<Twin> {
         twin!(GpuOrigin { n, always_start, always_count, kind }),
         twin!(GpuFace { iu0, iv0, width, height, cell_base, _pad0, _pad1, _pad2 }),
         twin!(GpuEntry { id, d_min }),
+        twin!(GpuGroup { cx, cy, cz, radius, first, count, _pad0, _pad1 }),
     ]
 }
 

@@ -53,11 +53,12 @@ const MAX_TILE: u64 = 1 << 16;
 /// Mesa's llvmpipe limit on the loop iterations of one invocation (all loops together).
 const LAVAPIPE_LOOP_LIMIT: u64 = 65535;
 
-/// Candidate-list entries one `render` step walks at most (`WALK_CHUNK` in cube.wgsl).
+/// Loop iterations (candidate-list entries and the members of group entries) one `render`
+/// step spends on a walk, at most, before the last entry's group (`WALK_CHUNK` in cube.wgsl).
 const WALK_CHUNK: u64 = 8192;
 
 /// Counter slots in the kernels (`COUNTER_COUNT` in common.wgsl), each 64-bit.
-pub const COUNTER_SLOTS: usize = 18;
+pub const COUNTER_SLOTS: usize = 22;
 
 #[derive(Debug, thiserror::Error)]
 pub enum GpuRenderError {
@@ -147,7 +148,7 @@ impl GpuRenderer {
         entries.extend((1..=6).map(|b| storage_entry(b, true)));
         entries.extend((7..=10).map(|b| storage_entry(b, false)));
         // The candidate tables (cube.wgsl); brute-force kernels leave them unused.
-        entries.extend((11..=17).map(|b| storage_entry(b, true)));
+        entries.extend((11..=19).map(|b| storage_entry(b, true)));
         let bind_layout = ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cuberay scene"),
             entries: &entries,
@@ -373,6 +374,8 @@ impl GpuRenderer {
         let prim_origin = table("prim_origin", flat.map(|f| bytemuck::cast_slice(&f.prim_origin)));
         let light_origin = table("light_origin", flat.map(|f| bytemuck::cast_slice(&f.light_origin)));
         let prim_patches = table("prim_patches", flat.map(|f| bytemuck::cast_slice(&f.prim_patches)));
+        let groups = table("groups", flat.map(|f| bytemuck::cast_slice(&f.groups)));
+        let group_prims = table("group_prims", flat.map(|f| bytemuck::cast_slice(&f.group_prims)));
         let params = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("params"),
             size: std::mem::size_of::<Params>() as u64,
@@ -425,6 +428,8 @@ impl GpuRenderer {
                 (15, &prim_origin),
                 (16, &light_origin),
                 (17, &prim_patches),
+                (18, &groups),
+                (19, &group_prims),
             ]
             .map(|(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }),
         });
@@ -582,7 +587,8 @@ impl GpuRenderer {
         let per_test = if c.cylinders > 0 { 3 } else { 1 };
         let (closest, shadow, what) = match tables {
             Some(t) if stepped => {
-                (t.worst_closest.min(WALK_CHUNK), t.worst_shadow, "the longest candidate lists")
+                let chunk = WALK_CHUNK + crate::coherence::groups::GROUP_SIZE as u64;
+                (t.worst_closest.min(chunk), t.worst_shadow, "the longest candidate lists")
             }
             Some(t) => (t.worst_eye, 0, "the eye's longest candidate lists"),
             None => {
@@ -648,6 +654,9 @@ pub fn decode_counters(raw: &[u8]) -> Counters {
     }
     c.eye_hit = slot(16);
     c.shadow_blocked = slot(17);
+    for k in 0..4 {
+        c.tests[k].bound = slot(18 + k);
+    }
     c
 }
 

@@ -6,6 +6,7 @@
 //! ids) and has empty faces: a ray whose origin entity has no table walks it, which is brute
 //! force with the walker's own code, so the cube kernels need no second query loop.
 
+use crate::coherence::groups::GROUP_BIT;
 use crate::coherence::{self, BuildParams, FlatTables, GpuEntry, GpuFace, GpuOrigin, OriginKind};
 use crate::scene::Scene;
 
@@ -22,7 +23,7 @@ pub struct GpuTables {
     /// Whether some ray of the render may use the fallback origin.
     pub fallback_reachable: bool,
     /// The longest merged list (cell + always) a nearest-hit walk may meet, an eye ray's
-    /// walk, and a shadow walk.
+    /// walk, and a shadow walk, in loop iterations (a group entry counts its members too).
     pub worst_closest: u64,
     pub worst_eye: u64,
     pub worst_shadow: u64,
@@ -100,11 +101,11 @@ fn finish(scene: &Scene, mut tables: coherence::Tables, variant: Variant) -> Res
         let mut longest = 0u64;
         for f in &flat.faces[o * 6..o * 6 + 6] {
             for c in f.cell_base..f.cell_base + f.width * f.height {
-                let len = flat.cell_start[c as usize + 1] - flat.cell_start[c as usize];
-                longest = longest.max(len as u64);
+                let len = walk_cost(&flat, flat.cell_start[c as usize], flat.cell_start[c as usize + 1]);
+                longest = longest.max(len);
             }
         }
-        let list = longest + org.always_count as u64;
+        let list = longest + walk_cost(&flat, org.always_start, org.always_start + org.always_count);
         if org.kind == OriginKind::Eye as u32 {
             worst_eye = worst_eye.max(list);
         }
@@ -143,6 +144,18 @@ fn finish(scene: &Scene, mut tables: coherence::Tables, variant: Variant) -> Res
         build_s,
         source: tables,
     })
+}
+
+/// Loop iterations a walk over `entries[a..b]` may take: one per entry, plus the members of
+/// each group entry.
+fn walk_cost(flat: &FlatTables, a: u32, b: u32) -> u64 {
+    flat.entries[a as usize..b as usize]
+        .iter()
+        .map(|e| match e.id & GROUP_BIT {
+            0 => 1,
+            _ => 1 + flat.groups[(e.id & !GROUP_BIT) as usize].count as u64,
+        })
+        .sum()
 }
 
 /// Whether a ray of a render with `variant` can come from an entity without a table: the eye
@@ -203,20 +216,12 @@ mod tests {
             let a = k as f32 * 0.37;
             let d = Vec3::new(a.cos(), a.sin(), (a * 1.7).sin() * 0.6).normalize();
             let o = Vec3::new(0.1, 0.3, 0.2) * (k % 7) as f32;
-            let (hit, tests) = mirror::cube_walk_nearest(
-                &f.origins,
-                &f.faces,
-                &f.cell_start,
-                &f.entries,
-                t.fallback,
-                d,
-                F32_MAX,
-                mirror::NO_ID,
-                |id| prims[id as usize].intersect(o, d),
-            );
+            let (hit, tests) = mirror::cube_walk_nearest(f, t.fallback, o, d, F32_MAX, mirror::NO_ID, |id| {
+                prims[id as usize].intersect(o, d)
+            });
             let want = mirror::brute_nearest(&prims, o, d, F32_MAX, mirror::NO_ID);
             assert_eq!((hit.id, hit.t), want, "ray {k}");
-            assert_eq!(tests as usize, sc.primitives.len(), "the fallback never stops early");
+            assert_eq!(tests.tests as usize, sc.primitives.len(), "the fallback never stops early");
         }
     }
 

@@ -26,7 +26,9 @@
 
 use glam::Vec3;
 
-use crate::coherence::flat::{GpuEntry, GpuFace, GpuOrigin};
+use crate::coherence::flat::{FlatTables, GpuEntry, GpuFace, GpuOrigin};
+use crate::coherence::groups::{group_hit, GROUP_BIT};
+use crate::coherence::WalkCount;
 
 /// The largest finite f32, `0x1.fffffep+127`: the "no hit" distance.
 pub const F32_MAX: f32 = f32::MAX;
@@ -288,31 +290,41 @@ pub struct Hit {
 /// optimization). `intersect(id)` returns the hit distance of primitive `id` or [`F32_MAX`];
 /// hits at t ≥ `t_max` are ignored. Equal distances go to the lowest id, so the result does
 /// not depend on the order of the lists. `skip` is a primitive never tested (the convex
-/// primitive a reflected ray leaves from), or [`NO_ID`]. Returns the hit and the number of
-/// intersection tests made.
+/// primitive a reflected ray leaves from), or [`NO_ID`]. A group entry
+/// ([`crate::coherence::groups`]) tests its sphere against the ray from `o` along the unit
+/// `d`, then every member. Returns the hit and the tests made.
 #[allow(clippy::too_many_arguments)]
 pub fn cube_walk_nearest(
-    origins: &[GpuOrigin],
-    faces: &[GpuFace],
-    cell_start: &[u32],
-    entries: &[GpuEntry],
+    tables: &FlatTables,
     origin: u32,
+    o: Vec3,
     d: Vec3,
     t_max: f32,
     skip: u32,
     mut intersect: impl FnMut(u32) -> f32,
-) -> (Hit, u32) {
+) -> (Hit, WalkCount) {
     let mut best = Hit { id: NO_ID, t: t_max };
-    let mut tests = 0u32;
+    let mut count = WalkCount::default();
     if d.abs().max_element() == 0.0 {
-        return (best, tests);
+        return (best, count);
     }
-    let org = origins[origin as usize];
-    let range = cube_cell_range(origins, faces, cell_start, origin, d);
+    let entries = &tables.entries;
+    let org = tables.origins[origin as usize];
+    let range = cube_cell_range(&tables.origins, &tables.faces, &tables.cell_start, origin, d);
     let mut i = range[0];
     let iend = range[1];
     let mut j = org.always_start;
     let jend = org.always_start + org.always_count;
+    let mut consider = |id: u32, best: &mut Hit, count: &mut WalkCount| {
+        if id == skip {
+            return;
+        }
+        count.tests += 1;
+        let t = intersect(id);
+        if t < best.t || (t == best.t && best.id != NO_ID && id < best.id) {
+            *best = Hit { id, t };
+        }
+    };
     loop {
         let e: GpuEntry;
         if i < iend && (j >= jend || entries[i as usize].d_min <= entries[j as usize].d_min) {
@@ -327,46 +339,55 @@ pub fn cube_walk_nearest(
         if e.d_min > best.t {
             break;
         }
-        if e.id == skip {
+        if e.id & GROUP_BIT != 0 {
+            let g = &tables.groups[(e.id & !GROUP_BIT) as usize];
+            count.bounds += 1;
+            if group_hit(g, o, d, best.t) {
+                for k in g.first..g.first + g.count {
+                    consider(tables.group_prims[k as usize], &mut best, &mut count);
+                }
+            }
             continue;
         }
-        tests += 1;
-        let t = intersect(e.id);
-        if t < best.t || (t == best.t && best.id != NO_ID && e.id < best.id) {
-            best = Hit { id: e.id, t };
-        }
+        consider(e.id, &mut best, &mut count);
     }
     if best.id == NO_ID {
         best.t = F32_MAX;
     }
-    (best, tests)
+    (best, count)
 }
 
 /// The candidate-table walk for an any-hit (shadow) query (the WGSL `cube_walk_any`): true
-/// when some primitive other than `skip` is hit at 0 < t < `t_max`. Returns the answer and the
-/// number of intersection tests made.
+/// when some primitive other than `skip` is hit at 0 < t < `t_max` by the ray from `o` along
+/// the unit `d`. Returns the answer and the tests made.
 #[allow(clippy::too_many_arguments)]
 pub fn cube_walk_any(
-    origins: &[GpuOrigin],
-    faces: &[GpuFace],
-    cell_start: &[u32],
-    entries: &[GpuEntry],
+    tables: &FlatTables,
     origin: u32,
+    o: Vec3,
     d: Vec3,
     t_max: f32,
     skip: u32,
     mut intersect: impl FnMut(u32) -> f32,
-) -> (bool, u32) {
-    let mut tests = 0u32;
+) -> (bool, WalkCount) {
+    let mut count = WalkCount::default();
     if d.abs().max_element() == 0.0 {
-        return (false, tests);
+        return (false, count);
     }
-    let org = origins[origin as usize];
-    let range = cube_cell_range(origins, faces, cell_start, origin, d);
+    let entries = &tables.entries;
+    let org = tables.origins[origin as usize];
+    let range = cube_cell_range(&tables.origins, &tables.faces, &tables.cell_start, origin, d);
     let mut i = range[0];
     let iend = range[1];
     let mut j = org.always_start;
     let jend = org.always_start + org.always_count;
+    let mut hits = |id: u32, count: &mut WalkCount| {
+        if id == skip {
+            return false;
+        }
+        count.tests += 1;
+        intersect(id) < t_max
+    };
     loop {
         let e: GpuEntry;
         if i < iend && (j >= jend || entries[i as usize].d_min <= entries[j as usize].d_min) {
@@ -381,15 +402,23 @@ pub fn cube_walk_any(
         if e.d_min >= t_max {
             break;
         }
-        if e.id == skip {
+        if e.id & GROUP_BIT != 0 {
+            let g = &tables.groups[(e.id & !GROUP_BIT) as usize];
+            count.bounds += 1;
+            if group_hit(g, o, d, t_max) {
+                for k in g.first..g.first + g.count {
+                    if hits(tables.group_prims[k as usize], &mut count) {
+                        return (true, count);
+                    }
+                }
+            }
             continue;
         }
-        tests += 1;
-        if intersect(e.id) < t_max {
-            return (true, tests);
+        if hits(e.id, &mut count) {
+            return (true, count);
         }
     }
-    (false, tests)
+    (false, count)
 }
 
 /// A primitive in f32, as the GPU stores it (after re-centring on the camera). Used by the

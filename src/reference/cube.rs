@@ -71,16 +71,19 @@ impl Accel for Cube<'_> {
         let prims = self.prims;
         // The walker picks the winner by (t, id); the same rule keeps its hit record here.
         let mut kept: Option<Hit> = None;
-        let (best, _) = flat.walk_nearest(o, ray.dir.as_vec3(), t_max, u32::MAX, |id, t_best: f64| {
-            let prim = &prims[id as usize];
-            count(prim, tests);
-            // Up to and including t_best, so that a tie can go to the lower id.
-            let h = intersect(prim, ray, next_up(t_best))?;
-            if h.t < t_max && kept.is_none_or(|k| h.t < k.hit.t || (h.t == k.hit.t && id < k.prim)) {
-                kept = Some(Hit { prim: id, hit: h });
-            }
-            Some(h.t)
-        });
+        let at = (ray.origin - self.eye).as_vec3();
+        let (best, walked) =
+            flat.walk_nearest(o, at, ray.dir.as_vec3(), t_max, u32::MAX, |id, t_best: f64| {
+                let prim = &prims[id as usize];
+                count(prim, tests);
+                // Up to and including t_best, so that a tie can go to the lower id.
+                let h = intersect(prim, ray, next_up(t_best))?;
+                if h.t < t_max && kept.is_none_or(|k| h.t < k.hit.t || (h.t == k.hit.t && id < k.prim)) {
+                    kept = Some(Hit { prim: id, hit: h });
+                }
+                Some(h.t)
+            });
+        tests.bound += walked.bounds as u64;
         debug_assert_eq!(best.map(|b| b.0), kept.map(|k| k.prim));
         best.and(kept)
     }
@@ -100,14 +103,23 @@ impl Accel for Cube<'_> {
             let reach = to_point.length();
             if reach > 0.0 {
                 let dir = (to_point / reach).as_vec3();
-                let (blocked, _) =
-                    flat.walk_any(l, dir, reach, u32::MAX, |id, _| test(id, tests).then_some(0.0));
+                let at = (lp - self.eye).as_vec3();
+                let mut counted = TestCounts::default();
+                let (blocked, walked) =
+                    flat.walk_any(l, at, dir, reach, u32::MAX, |id, _| test(id, &mut counted).then_some(0.0));
+                counted.bound = walked.bounds as u64;
+                *tests += counted;
                 return blocked;
             }
         }
         if let Some(o) = flat.origin(self.key(RayOrigin::Surface(q.object), q.ray.origin)) {
-            let (blocked, _) = flat
-                .walk_any(o, q.ray.dir.as_vec3(), q.t_max, u32::MAX, |id, _| test(id, tests).then_some(0.0));
+            let at = (q.ray.origin - self.eye).as_vec3();
+            let mut counted = TestCounts::default();
+            let (blocked, walked) = flat.walk_any(o, at, q.ray.dir.as_vec3(), q.t_max, u32::MAX, |id, _| {
+                test(id, &mut counted).then_some(0.0)
+            });
+            counted.bound = walked.bounds as u64;
+            *tests += counted;
             return blocked;
         }
         Brute::new(self.prims).occluded(q, tests)
