@@ -1,16 +1,13 @@
 // Brute force: every primitive for every ray (`--accel brute`); twin of
-// `crate::mirror::brute_nearest`. Same entry points as cube.wgsl (`closest`, `occluded`),
-// which take the ray's origin entity although testing everything needs none.
+// `crate::mirror::brute_nearest`. Same entry points as cube.wgsl (`closest`, `occluded`
+// and their stepped forms), which take the ray's origin entity although testing
+// everything needs none. The stepped forms test WALK_CHUNK primitives per step.
 
-// The nearest hit with 0 < t < t_max (FAR: unbounded), ties to the lower id; `skip` is
-// never tested (NO_ID: none).
-fn brute_nearest(ray: Ray, t_max: f32, skip: u32, ray_kind: u32) -> Closest {
-    var best: Closest;
-    best.found = false;
-    best.prim = NO_ID;
-    best.hit = no_hit();
-    var best_t = t_max;
-    for (var id = 0u; id < params.prim_count; id++) {
+// Tests primitives first..end for the nearest hit with 0 < t < t_max (FAR: unbounded),
+// keeping it in `best`, ties to the lower id; `skip` is never tested (NO_ID: none).
+fn brute_range(ray: Ray, t_max: f32, skip: u32, ray_kind: u32, first: u32, end: u32, best: ptr<function, Closest>) {
+    var best_t = select(t_max, (*best).hit.t, (*best).found);
+    for (var id = first; id < end; id++) {
         if id == skip {
             continue;
         }
@@ -19,13 +16,22 @@ fn brute_nearest(ray: Ray, t_max: f32, skip: u32, ray_kind: u32) -> Closest {
         // Every test against t_max and the same rule as the table walk, so that the answer
         // does not depend on the order of the tests.
         let h = intersect_prim(p, ray, t_max);
-        if h.ok && (h.t < best_t || (h.t == best_t && best.found && id < best.prim)) {
-            best.found = true;
-            best.prim = id;
-            best.hit = h;
+        if h.ok && (h.t < best_t || (h.t == best_t && (*best).found && id < (*best).prim)) {
+            (*best).found = true;
+            (*best).prim = id;
+            (*best).hit = h;
             best_t = h.t;
         }
     }
+}
+
+fn no_closest() -> Closest {
+    return Closest(false, NO_ID, no_hit());
+}
+
+fn brute_nearest(ray: Ray, t_max: f32, skip: u32, ray_kind: u32) -> Closest {
+    var best = no_closest();
+    brute_range(ray, t_max, skip, ray_kind, 0u, params.prim_count, &best);
     return best;
 }
 
@@ -33,15 +39,33 @@ fn closest(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) -> Cl
     return brute_nearest(ray, t_max, skip, ray_kind);
 }
 
-// `closest` for the ray on top of the point's stack: brute force ends in one step.
+// `closest` for the ray on top of the point's stack, WALK_CHUNK primitives per step:
+// `done` false when the test goes on in the next step.
 fn closest_step(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) -> Stepped {
-    return Stepped(true, closest(ray, t_max, ray_kind, from_prim, skip));
+    var best = no_closest();
+    var first = 0u;
+    if state.walking != 0u {
+        let s = state.walk;
+        first = s.i;
+        if s.prim != NO_ID {
+            best = Closest(true, s.prim, PrimHit(true, s.t, s.b1, s.b2));
+        }
+    }
+    let end = min(first + WALK_CHUNK, params.prim_count);
+    brute_range(ray, t_max, skip, ray_kind, first, end, &best);
+    if end >= params.prim_count {
+        state.walking = 0u;
+        return Stepped(true, best);
+    }
+    state.walking = 1u;
+    state.walk = WalkState(end, 0u, 0u, 0u, best.prim, best.hit.t, best.hit.b1, best.hit.b2);
+    return Stepped(false, best);
 }
 
 #if SHADOWS
-// True when some primitive other than `skip` blocks the ray before t_max.
-fn brute_any(ray: Ray, t_max: f32, skip: u32) -> bool {
-    for (var id = 0u; id < params.prim_count; id++) {
+// Tests primitives first..end for a hit before t_max.
+fn brute_any_range(ray: Ray, t_max: f32, skip: u32, first: u32, end: u32) -> bool {
+    for (var id = first; id < end; id++) {
         if id == skip {
             continue;
         }
@@ -54,9 +78,32 @@ fn brute_any(ray: Ray, t_max: f32, skip: u32) -> bool {
     return false;
 }
 
+// True when some primitive other than `skip` blocks the ray before t_max.
+fn brute_any(ray: Ray, t_max: f32, skip: u32) -> bool {
+    return brute_any_range(ray, t_max, skip, 0u, params.prim_count);
+}
+
 // Whether light `light` is blocked from `q`, the spawn origin on primitive `from_prim`:
 // the ray from `q` towards the light, up to `t_max`.
 fn occluded(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim: u32, skip: u32) -> bool {
     return brute_any(make_ray(q, to_light), t_max, skip);
+}
+
+// `occluded` for the shadow job on top of the point's stack, WALK_CHUNK primitives per
+// step: ANY_UNFINISHED when it goes on in the next step.
+fn occluded_step(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim: u32, skip: u32) -> u32 {
+    let first = select(0u, state.walk.i, state.walking != 0u);
+    let end = min(first + WALK_CHUNK, params.prim_count);
+    if brute_any_range(make_ray(q, to_light), t_max, skip, first, end) {
+        state.walking = 0u;
+        return ANY_BLOCKED;
+    }
+    if end >= params.prim_count {
+        state.walking = 0u;
+        return ANY_CLEAR;
+    }
+    state.walking = 1u;
+    state.walk = WalkState(end, 0u, 0u, 0u, NO_ID, 0.0, 0.0, 0.0);
+    return ANY_UNFINISHED;
 }
 #endif

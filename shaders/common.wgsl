@@ -109,8 +109,20 @@ struct Pending {
 // Deep enough for the largest --max-depth the GPU backend accepts (checked on the CPU).
 const STACK_SIZE: u32 = 16u;
 
-// A nearest-hit table walk interrupted at the end of a step (`--accel cube`): the merged
-// lists' positions and the nearest hit so far (prim NO_ID: none yet).
+// Loop iterations a step spends on one walk, at most (plus the members of the last group
+// entry): lavapipe ends an invocation's loops after 65535 iterations in all, so a long
+// candidate list (or brute force's every primitive) is walked over several steps, its
+// position kept in `state.walk`.
+const WALK_CHUNK: u32 = 8192u;
+
+// Answers of a bounded any-hit walk.
+const ANY_CLEAR: u32 = 0u;
+const ANY_BLOCKED: u32 = 1u;
+const ANY_UNFINISHED: u32 = 2u;
+
+// A walk interrupted at the end of a step: the merged lists' positions (`--accel cube`; brute
+// force: `i` the next primitive) and, for a nearest-hit walk, the nearest hit so far (prim
+// NO_ID: none yet).
 struct WalkState {
     i: u32,
     iend: u32,

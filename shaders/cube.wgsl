@@ -281,10 +281,6 @@ fn closest(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) -> Cl
     return cube_walk_nearest(cube_origin(key, from_prim, ray.o), ray, t_max, skip, ray_kind);
 }
 
-// Entries a step walks at most: lavapipe ends an invocation's loops after 65535 iterations,
-// so a long candidate list is walked over several steps, its position kept in `state.walk`.
-const WALK_CHUNK: u32 = 8192u;
-
 // `closest` for the ray on top of the point's stack, in bounded steps: `done` false when
 // the walk goes on in the next step.
 fn closest_step(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) -> Stepped {
@@ -313,17 +309,20 @@ fn closest_step(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) 
 }
 
 #if SHADOWS
-// True when some primitive other than `skip` is hit at 0 < t < t_max.
-fn cube_walk_any(origin: u32, ray: Ray, t_max: f32, skip: u32) -> bool {
-    if max3(abs(ray.d)) == 0.0 {
-        return false;
-    }
-    var w = walk_start(origin, ray.d);
+// Continues the any-hit walk `w` for at most about `budget` loop iterations: ANY_BLOCKED
+// when some primitive other than `skip` is hit at 0 < t < t_max, ANY_CLEAR when the walk
+// ended without one, ANY_UNFINISHED when the budget ran out first.
+fn walk_any(w: ptr<function, Walk>, ray: Ray, t_max: f32, skip: u32, budget: u32) -> u32 {
+    var left = budget;
     loop {
-        if walk_done(w) {
+        if walk_done(*w) {
             break;
         }
-        let e = walk_next(&w);
+        if left == 0u {
+            return ANY_UNFINISHED;
+        }
+        left -= 1u;
+        let e = walk_next(w);
         if e.d_min >= t_max {
             break;
         }
@@ -331,13 +330,14 @@ fn cube_walk_any(origin: u32, ray: Ray, t_max: f32, skip: u32) -> bool {
             let g = groups[e.id & ~GROUP_BIT];
             count_bound(RAY_SHADOW);
             if group_hit(g, ray, t_max) {
+                left -= min(left, g.count);
                 for (var k = g.first; k < g.first + g.count; k++) {
                     let m = group_prims[k];
                     if m != skip {
                         let p = prims[m];
                         count_test(RAY_SHADOW, p.kind);
                         if intersect_prim(p, ray, t_max).ok {
-                            return true;
+                            return ANY_BLOCKED;
                         }
                     }
                 }
@@ -350,27 +350,74 @@ fn cube_walk_any(origin: u32, ray: Ray, t_max: f32, skip: u32) -> bool {
         let p = prims[e.id];
         count_test(RAY_SHADOW, p.kind);
         if intersect_prim(p, ray, t_max).ok {
-            return true;
+            return ANY_BLOCKED;
         }
     }
-    return false;
+    return ANY_CLEAR;
 }
 
-// Whether light `light` is blocked from `q`, the spawn origin on primitive `from_prim`
-// (direction `to_light`, `t_max` before a positional light). A light with a table traces
-// the ray light-buffer style, from the light towards `q`; otherwise the ray leaves `q`
-// with the table of `from_prim`.
-fn occluded(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim: u32, skip: u32) -> bool {
+// True when some primitive other than `skip` is hit at 0 < t < t_max.
+fn cube_walk_any(origin: u32, ray: Ray, t_max: f32, skip: u32) -> bool {
+    if max3(abs(ray.d)) == 0.0 {
+        return false;
+    }
+    var w = walk_start(origin, ray.d);
+    return walk_any(&w, ray, t_max, skip, 0xffffffffu) == ANY_BLOCKED;
+}
+
+// The walk that answers whether light `light` is blocked from `q`, the spawn origin on
+// primitive `from_prim` (direction `to_light`, `t_max` before a positional light). A light
+// with a table traces the ray light-buffer style, from the light towards `q`; otherwise
+// the ray leaves `q` with the table of `from_prim`. `empty`: nothing to walk.
+struct ShadowWalk {
+    origin: u32,
+    ray: Ray,
+    t_max: f32,
+    empty: bool,
+}
+
+fn shadow_walk(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim: u32) -> ShadowWalk {
     let lo = cube_origin(KEY_LIGHT, light, q);
     if lo != params.fallback_origin {
         let l = lights[light].position;
         let v = q - l;
         let dist = length(v);
         if !(dist > 0.0) {
-            return false;
+            return ShadowWalk(lo, make_ray(l, to_light), 0.0, true);
         }
-        return cube_walk_any(lo, make_ray(l, v), dist * (1.0 - SHADOW_END_REL), skip);
+        let ray = make_ray(l, v);
+        return ShadowWalk(lo, ray, dist * (1.0 - SHADOW_END_REL), max3(abs(ray.d)) == 0.0);
     }
-    return cube_walk_any(cube_origin(KEY_SURFACE, from_prim, q), make_ray(q, to_light), t_max, skip);
+    let ray = make_ray(q, to_light);
+    return ShadowWalk(cube_origin(KEY_SURFACE, from_prim, q), ray, t_max, max3(abs(ray.d)) == 0.0);
+}
+
+// Whether light `light` is blocked from `q` (see `shadow_walk`), in one go.
+fn occluded(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim: u32, skip: u32) -> bool {
+    let sw = shadow_walk(q, to_light, t_max, light, from_prim);
+    if sw.empty {
+        return false;
+    }
+    return cube_walk_any(sw.origin, sw.ray, sw.t_max, skip);
+}
+
+// `occluded` for the shadow job on top of the point's stack, in bounded steps (the walk's
+// position kept in `state.walk`): ANY_UNFINISHED when it goes on in the next step.
+fn occluded_step(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim: u32, skip: u32) -> u32 {
+    let sw = shadow_walk(q, to_light, t_max, light, from_prim);
+    if sw.empty {
+        return ANY_CLEAR;
+    }
+    var w: Walk;
+    if state.walking == 0u {
+        w = walk_start(sw.origin, sw.ray.d);
+    } else {
+        let s = state.walk;
+        w = Walk(s.i, s.iend, s.j, s.jend);
+    }
+    let r = walk_any(&w, sw.ray, sw.t_max, skip, WALK_CHUNK);
+    state.walking = select(0u, 1u, r == ANY_UNFINISHED);
+    state.walk = WalkState(w.i, w.iend, w.j, w.jend, NO_ID, 0.0, 0.0, 0.0);
+    return r;
 }
 #endif

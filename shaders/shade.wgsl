@@ -66,30 +66,21 @@ fn leave_skip(id: u32, dir: vec3<f32>, ng: vec3<f32>) -> u32 {
     return NO_ID;
 }
 
-// What light `li` adds at a hit on primitive `id` (zero when it faces away, is blocked or
-// too far).
-fn light_contribution(li: u32, id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>, diffuse: vec3<f32>) -> vec3<f32> {
+// What light `li` adds at a hit on primitive `id` if nothing blocks it, along `dir`; `ok`
+// false when no shadow ray is traced (the light is off or behind the surface).
+struct Lit {
+    ok: bool,
+    dir: vec3<f32>,
+    c: vec3<f32>,
+}
+
+fn light_term(li: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>, diffuse: vec3<f32>) -> Lit {
     let light = lights[li];
     let inc = incidence(light, s.p);
-    if !inc.ok {
-        return vec3<f32>(0.0);
-    }
     let n_dot_l = dot(n, inc.dir);
-    if n_dot_l <= 0.0 {
-        return vec3<f32>(0.0);
+    if !inc.ok || n_dot_l <= 0.0 {
+        return Lit(false, vec3<f32>(0.0), vec3<f32>(0.0));
     }
-#if SHADOWS
-    let o = spawn_origin(s, inc.dir);
-    var t_max = FAR;
-    if inc.positional {
-        t_max = length(light.position - o) * (1.0 - SHADOW_END_REL);
-    }
-    count(RAY_SHADOW);
-    if occluded(o, inc.dir, t_max, li, id, leave_skip(id, inc.dir, s.ng)) {
-        count(C_SHADOW_BLOCKED);
-        return vec3<f32>(0.0);
-    }
-#endif
     var local = diffuse * n_dot_l;
     if m.ks > 0.0 {
         let r = n * (2.0 * n_dot_l) - inc.dir;
@@ -98,22 +89,83 @@ fn light_contribution(li: u32, id: u32, m: Material, s: Surface, n: vec3<f32>, v
             local += vec3<f32>(m.ks * pow(r_dot_v, m.shine));
         }
     }
-    return inc.radiance * local;
+    return Lit(true, inc.dir, inc.radiance * local);
 }
 
-// Local illumination at a hit on primitive `id`: emission, ambient and the lights (with
-// shadow rays).
+// Local illumination at a hit on primitive `id` without the lights that cast shadows:
+// emission, ambient, and (without shadows) every light.
 fn shade_local(id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>) -> vec3<f32> {
     let diffuse = base_color(m, s) * m.kd;
     var l = params.ambient * diffuse;
 #if EMISSION
     l += m.emission;
 #endif
+#if SHADOWS
+#else
     for (var i = 0u; i < params.light_count; i++) {
-        l += light_contribution(i, id, m, s, n, v, diffuse);
+        l += light_term(i, m, s, n, v, diffuse).c;
     }
+#endif
     return l;
 }
+
+#if SHADOWS
+// Where a shadow ray from `o` towards light `li` ends: just before a positional light.
+fn shadow_t_max(li: u32, o: vec3<f32>) -> f32 {
+    let light = lights[li];
+    if light.kind != 2u {
+        return length(light.position - o) * (1.0 - SHADOW_END_REL);
+    }
+    return FAR;
+}
+
+// The shadow rays of a hit on primitive `id` (reached with `weight`): each light that
+// would light it becomes a shadow job on the stack (kind RAY_SHADOW, `depth` the light,
+// `weight` what it adds unless blocked), traced over the next steps like any other ray, so
+// that no step walks more than one list. Pushed after the hit's secondary rays, so they
+// are traced first and the stack holds at most max depth + 1 + lights jobs; should it be
+// full, the shadow ray is traced at once.
+fn push_shadow_rays(id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>, weight: vec3<f32>) {
+    let diffuse = base_color(m, s) * m.kd;
+    for (var i = 0u; i < params.light_count; i++) {
+        let lit = light_term(i, m, s, n, v, diffuse);
+        if !lit.ok {
+            continue;
+        }
+        let o = spawn_origin(s, lit.dir);
+        let skip = leave_skip(id, lit.dir, s.ng);
+        if state.sp < STACK_SIZE {
+            let flags = select(0u, RAY_SKIP_FROM, skip != NO_ID);
+            state.stack[state.sp] = Pending(o, RAY_SHADOW | flags, lit.dir, i, weight * lit.c, id);
+            state.sp += 1u;
+        } else {
+            count(RAY_SHADOW);
+            if occluded(o, lit.dir, shadow_t_max(i, o), i, id, skip) {
+                count(C_SHADOW_BLOCKED);
+            } else {
+                state.color += weight * lit.c;
+            }
+        }
+    }
+}
+
+// Traces the shadow job on top of the stack (over several calls when its walk is long)
+// and, once answered, pops it and adds its light unless blocked.
+fn shadow_step(job: Pending) {
+    let skip = select(NO_ID, job.from_prim, (job.kind & RAY_SKIP_FROM) != 0u);
+    let r = occluded_step(job.o, job.d, shadow_t_max(job.depth, job.o), job.depth, job.from_prim, skip);
+    if r == ANY_UNFINISHED {
+        return;
+    }
+    state.sp -= 1u;
+    count(RAY_SHADOW);
+    if r == ANY_BLOCKED {
+        count(C_SHADOW_BLOCKED);
+    } else {
+        state.color += job.weight;
+    }
+}
+#endif
 
 #if REFLECTION
 // Mirror reflection of unit `d` about unit `n`, renormalised.
@@ -159,8 +211,14 @@ var<private> state: PointState;
 // nearest hit is known, pops it and pushes the rays its hit spawns.
 fn trace_step() {
     let job = state.stack[state.sp - 1u];
-    let ray = make_ray(job.o, job.d);
     let kind = job.kind & RAY_KIND_MASK;
+#if SHADOWS
+    if kind == RAY_SHADOW {
+        shadow_step(job);
+        return;
+    }
+#endif
+    let ray = make_ray(job.o, job.d);
     let skip = select(NO_ID, job.from_prim, (job.kind & RAY_SKIP_FROM) != 0u);
     let stepped = closest_step(ray, FAR, kind, job.from_prim, skip);
     if !stepped.done {
@@ -216,5 +274,8 @@ fn trace_step() {
             state.sp += 1u;
         }
     }
+#endif
+#if SHADOWS
+    push_shadow_rays(h.prim, m, s, n, -d, job.weight);
 #endif
 }

@@ -146,6 +146,16 @@ pub struct Times {
     /// GPU kernel time from timestamp queries; `null` on the CPU backend or when the
     /// adapter has no timestamp queries.
     pub gpu_s: Option<f64>,
+    /// The same time per kernel (`render`: the ray-tree steps, `aov`: the AOV pass; `null`
+    /// for a kernel that did not run); all `null` where `gpu_s` is.
+    pub gpu_kernel_s: KernelTimes,
+}
+
+/// GPU time per kernel, seconds.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct KernelTimes {
+    pub render: Option<f64>,
+    pub aov: Option<f64>,
 }
 
 /// The settings a render ran with.
@@ -269,6 +279,12 @@ impl Stats {
         );
         if let Some(g) = self.time.gpu_s {
             o += &format!(", GPU kernels {g:.3} s");
+            let k = &self.time.gpu_kernel_s;
+            for (name, t) in [("render", k.render), ("aov", k.aov)] {
+                if let Some(t) = t {
+                    o += &format!(" ({name} {t:.3} s)");
+                }
+            }
         }
         o += "\n";
         o

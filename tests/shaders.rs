@@ -67,13 +67,15 @@ fn cube_and_brute_kernels_contain_only_their_own_queries() {
         assert!(!has_function(&m, "brute_nearest") || !v.cube, "{v:?}: brute loop in a cube kernel");
         assert_eq!(has_function(&m, "brute_nearest"), !v.cube, "{v:?}");
         assert_eq!(has_function(&m, "brute_any"), !v.cube && v.shadows, "{v:?}");
-        for binding in 11..=17 {
+        assert_eq!(has_function(&m, "brute_range"), !v.cube, "{v:?}");
+        for binding in 11..=19 {
             assert_eq!(binds(&m, binding), v.cube, "{v:?}: binding {binding}");
         }
-        // No loop runs up to the primitive count in a cube kernel: the only loops over
-        // primitives are the candidate walks.
+        // No loop runs over primitive ids in a cube kernel: the only loops over primitives
+        // are the candidate walks and group members.
         let src = compose(v).unwrap();
-        assert_eq!(src.contains("< params.prim_count; id++"), !v.cube, "{v:?}");
+        assert_eq!(src.contains("; id < end; id++"), !v.cube, "{v:?}");
+        assert!(!src.contains("< params.prim_count; id++"), "{v:?}: an unbounded loop");
     }
 }
 

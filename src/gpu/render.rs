@@ -29,7 +29,7 @@ use glam::DVec3;
 use indicatif::ProgressBar;
 use wgpu::util::DeviceExt;
 
-use super::layout::{self, Packed, Params, PointState};
+use super::layout::{self, Packed, Params, PointState, STACK_SIZE};
 use super::shader::{self, Variant};
 use super::tables::{self, GpuTables};
 use super::{GpuContext, GpuError};
@@ -239,7 +239,16 @@ impl GpuRenderer {
         };
         let preprocess_s = start.elapsed().as_secs_f64();
         let start = Instant::now();
-        let run = self.run(&kernels.render, true, scene, &packed, tables.as_ref(), gw, gh, progress)?;
+        let run = self.run(
+            &kernels.render,
+            Some(opts.max_depth),
+            scene,
+            &packed,
+            tables.as_ref(),
+            gw,
+            gh,
+            progress,
+        )?;
         let trace_s = start.elapsed().as_secs_f64();
 
         let mut image = Image::new(w, h, false);
@@ -262,7 +271,12 @@ impl GpuRenderer {
             reference::settings(opts, "gpu", accel_name(variant)),
             simulated_effects(scene, opts.max_depth),
             &run.counters,
-            stats::Times { preprocess_s, trace_s, gpu_s: run.gpu_s },
+            stats::Times {
+                preprocess_s,
+                trace_s,
+                gpu_s: run.gpu_s,
+                gpu_kernel_s: stats::KernelTimes { render: run.gpu_s, aov: None },
+            },
         );
         Ok(Rendered { image, stats })
     }
@@ -293,7 +307,7 @@ impl GpuRenderer {
         };
         let preprocess_s = start.elapsed().as_secs_f64();
         let start = Instant::now();
-        let run = self.run(&kernels.aov, false, scene, &packed, tables.as_ref(), w, h, progress)?;
+        let run = self.run(&kernels.aov, None, scene, &packed, tables.as_ref(), w, h, progress)?;
         let trace_s = start.elapsed().as_secs_f64();
         let mut image = Image::new(w, h, true);
         image.pixels = run.values;
@@ -305,7 +319,12 @@ impl GpuRenderer {
             set,
             Vec::new(),
             &run.counters,
-            stats::Times { preprocess_s, trace_s, gpu_s: run.gpu_s },
+            stats::Times {
+                preprocess_s,
+                trace_s,
+                gpu_s: run.gpu_s,
+                gpu_kernel_s: stats::KernelTimes { render: None, aov: run.gpu_s },
+            },
         );
         Ok(Rendered { image, stats })
     }
@@ -443,7 +462,7 @@ impl GpuRenderer {
     fn run(
         &self,
         pipeline: &wgpu::ComputePipeline,
-        stepped: bool,
+        max_depth: Option<u32>,
         scene: &Scene,
         packed: &Packed,
         tables: Option<&GpuTables>,
@@ -451,7 +470,8 @@ impl GpuRenderer {
         gh: u32,
         progress: &ProgressBar,
     ) -> Result<RunOutput, GpuRenderError> {
-        self.check_loop_budget(scene, tables, stepped)?;
+        self.check_loop_budget(scene, tables, max_depth)?;
+        let stepped = max_depth.is_some();
         let device = &self.ctx.device;
         let queue = &self.ctx.queue;
         let total = gw as u64 * gh as u64;
@@ -567,16 +587,20 @@ impl GpuRenderer {
     }
 
     /// lavapipe (Mesa's llvmpipe) ends every loop of an invocation once all of its loops
-    /// have run 65535 iterations in total. One step traces one ray and its shadow rays, by
-    /// brute force or through the candidate lists; when the longest lists it may walk could
-    /// exceed the limit the result would be silently wrong, so it is an error instead.
-    /// A `stepped` kernel walks at most [`WALK_CHUNK`] entries of a nearest-hit list per step
-    /// (the rest in later steps); the `aov` kernel walks the eye's lists in one go.
+    /// have run 65535 iterations in total; were a step to need more, the result would be
+    /// silently wrong, so it is an error instead.
+    ///
+    /// `max_depth`: `Some(d)` for the stepped `render` kernel with ray trees up to depth `d`.
+    /// Each of its steps walks one list (a ray's, or a shadow job's) for at most
+    /// [`WALK_CHUNK`] iterations, brute force included, leaving the rest to later steps;
+    /// only when the ray stack can fill up (`d + 1 +` lights over `STACK_SIZE`) may a hit
+    /// trace its shadow rays at once, each walking its whole list. `None`: the `aov`
+    /// kernel, which walks an eye ray's whole list in one go.
     pub fn check_loop_budget(
         &self,
         scene: &Scene,
         tables: Option<&GpuTables>,
-        stepped: bool,
+        max_depth: Option<u32>,
     ) -> Result<(), GpuRenderError> {
         if !self.ctx.info.name.to_lowercase().contains("llvmpipe") {
             return Ok(());
@@ -585,19 +609,21 @@ impl GpuRenderer {
         let lights = scene.lights.len() as u64;
         // A cylinder test loops over its two roots.
         let per_test = if c.cylinders > 0 { 3 } else { 1 };
-        let (closest, shadow, what) = match tables {
-            Some(t) if stepped => {
-                let chunk = WALK_CHUNK + crate::coherence::groups::GROUP_SIZE as u64;
-                (t.worst_closest.min(chunk), t.worst_shadow, "the longest candidate lists")
-            }
-            Some(t) => (t.worst_eye, 0, "the eye's longest candidate lists"),
-            None => {
-                let per_ray = (c.spheres + c.triangles + 3 * c.cylinders) as u64;
-                (per_ray, per_ray, "brute force")
-            }
+        let brute = (c.spheres + c.triangles + 3 * c.cylinders) as u64;
+        let (closest, shadow, eye) = match tables {
+            Some(t) => (per_test * t.worst_closest, per_test * t.worst_shadow, per_test * t.worst_eye),
+            None => (brute, brute, brute),
         };
-        let per_test = if tables.is_some() { per_test } else { 1 };
-        let worst = per_test * (closest + lights * shadow) + lights + COUNTER_SLOTS as u64 + 16;
+        let what = if tables.is_some() { "the longest candidate lists" } else { "brute force" };
+        let walks = match max_depth {
+            Some(d) => {
+                let chunk = per_test * (WALK_CHUNK + crate::coherence::groups::GROUP_SIZE as u64);
+                let inline = if d as u64 + 1 + lights > STACK_SIZE as u64 { lights * shadow } else { 0 };
+                closest.max(shadow).min(chunk) + inline
+            }
+            None => eye,
+        };
+        let worst = walks + lights + COUNTER_SLOTS as u64 + 16;
         if worst > LAVAPIPE_LOOP_LIMIT {
             return Err(GpuRenderError::Options(format!(
                 "{what} over {} primitives and {lights} lights need up to {worst} loop iterations per \

@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 
 use crate::gpu::layout::{self, Params, PointState};
 use crate::gpu::shader::Variant;
-use crate::gpu::{self, GpuRenderError, GpuRenderer, GpuTables, Kernels, SceneBuffers, WORKGROUP};
+use crate::gpu::{self, GpuRenderError, GpuRenderer, GpuTables, Kernels, SceneBuffers, MAX_DEPTH, WORKGROUP};
 use crate::output::Image;
 use crate::reference::{sampling, RenderOptions, Sampling};
 use crate::scene::{Camera, Effects, Scene};
@@ -137,7 +137,7 @@ impl Session {
         // Tables for every effect the scene has, so that toggling one back on needs none.
         let all = Variant::for_effects(scene.effects(), opts.max_depth).with_cube(cube);
         let tables = gpu.tables(&scene, opts.width, opts.height, all, &mut packed.params)?;
-        gpu.check_loop_budget(&scene, tables.as_ref(), true)?;
+        gpu.check_loop_budget(&scene, tables.as_ref(), Some(MAX_DEPTH))?;
         let variant = Variant::for_effects(toggles.apply(scene.effects()), opts.max_depth).with_cube(cube);
         let kernels = gpu.kernels(variant)?;
         let tile = gpu::tile_points(&scene, tables.as_ref(), TESTS_PER_DISPATCH);
@@ -301,7 +301,7 @@ impl Session {
             };
             packed.params.eye_origin = tables.flat.eye_origin;
             packed.params.fallback_origin = tables.fallback;
-            self.gpu.check_loop_budget(&self.scene, Some(&tables), true)?;
+            self.gpu.check_loop_budget(&self.scene, Some(&tables), Some(MAX_DEPTH))?;
             log::debug!("tables for the new eye in {:.3} s (eye table only: {eye_only})", tables.build_s);
             self.buffers = self.gpu.upload(&packed, Some(&tables), self.buffers.tile, true);
             self.tables = Some(tables);

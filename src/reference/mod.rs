@@ -216,7 +216,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions, progress: &ProgressBar) -> Re
         settings(opts, "cpu", accel.name()),
         simulated_effects(scene, opts.max_depth),
         &counters,
-        stats::Times { preprocess_s, trace_s, gpu_s: None },
+        stats::Times { preprocess_s, trace_s, ..Default::default() },
     );
     Ok(Rendered { image, stats })
 }
@@ -272,6 +272,7 @@ pub fn render_aov(
     set.sampling = "center".into();
     set.spp = 1;
     set.max_depth = 1;
-    let stats = Stats::new(set, Vec::new(), &counters, stats::Times { preprocess_s, trace_s, gpu_s: None });
+    let stats =
+        Stats::new(set, Vec::new(), &counters, stats::Times { preprocess_s, trace_s, ..Default::default() });
     Ok(Rendered { image, stats })
 }
