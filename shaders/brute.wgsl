@@ -89,6 +89,11 @@ fn occluded(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim
     return brute_any(make_ray(q, to_light), t_max, skip);
 }
 
+// Primitives `occluded` tests: all of them.
+fn shadow_walk_len(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim: u32) -> u32 {
+    return params.prim_count;
+}
+
 // `occluded` for the shadow job on top of the point's stack, WALK_CHUNK primitives per
 // step: ANY_UNFINISHED when it goes on in the next step.
 fn occluded_step(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim: u32, skip: u32) -> u32 {

@@ -31,7 +31,9 @@ struct Params {
     // from an entity without a table use.
     eye_origin: u32,
     fallback_origin: u32,
-    pad0: u32,
+    // Shadow walks of at most this many entries are traced within the step that found the
+    // hit; longer ones become jobs (shade.wgsl).
+    shadow_inline: u32,
 }
 
 // One primitive. Sphere: a = (centre, radius). Triangle: a, b, c = vertices. Cylinder:

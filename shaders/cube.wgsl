@@ -392,6 +392,16 @@ fn shadow_walk(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_p
     return ShadowWalk(cube_origin(KEY_SURFACE, from_prim, q), ray, t_max, max3(abs(ray.d)) == 0.0);
 }
 
+// Entries of the lists `occluded` would walk (groups counted once).
+fn shadow_walk_len(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim: u32) -> u32 {
+    let sw = shadow_walk(q, to_light, t_max, light, from_prim);
+    if sw.empty {
+        return 0u;
+    }
+    let w = walk_start(sw.origin, sw.ray.d);
+    return (w.iend - w.i) + (w.jend - w.j);
+}
+
 // Whether light `light` is blocked from `q` (see `shadow_walk`), in one go.
 fn occluded(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim: u32, skip: u32) -> bool {
     let sw = shadow_walk(q, to_light, t_max, light, from_prim);

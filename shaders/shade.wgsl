@@ -119,12 +119,14 @@ fn shadow_t_max(li: u32, o: vec3<f32>) -> f32 {
     return FAR;
 }
 
-// The shadow rays of a hit on primitive `id` (reached with `weight`): each light that
-// would light it becomes a shadow job on the stack (kind RAY_SHADOW, `depth` the light,
-// `weight` what it adds unless blocked), traced over the next steps like any other ray, so
-// that no step walks more than one list. Pushed after the hit's secondary rays, so they
-// are traced first and the stack holds at most max depth + 1 + lights jobs; should it be
-// full, the shadow ray is traced at once.
+// The shadow rays of a hit on primitive `id` (reached with `weight`). A light whose walk
+// is long becomes a shadow job on the stack (kind RAY_SHADOW, `depth` the light, `weight`
+// what it adds unless blocked), traced over the next steps like any other ray, so that no
+// step walks more than one long list. Jobs are pushed after the hit's secondary rays, so
+// they are traced first and the stack holds at most max depth + 1 + lights jobs; should it
+// be full, the shadow ray is traced at once, as are walks of at most
+// `params.shadow_inline` entries (a job costs a whole step, which loads and stores the
+// point's state: on gears_s4, jobs for every walk over 64 entries took 52 s instead of 38).
 fn push_shadow_rays(id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>, weight: vec3<f32>) {
     let diffuse = base_color(m, s) * m.kd;
     for (var i = 0u; i < params.light_count; i++) {
@@ -134,7 +136,7 @@ fn push_shadow_rays(id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>
         }
         let o = spawn_origin(s, lit.dir);
         let skip = leave_skip(id, lit.dir, s.ng);
-        if state.sp < STACK_SIZE {
+        if state.sp < STACK_SIZE && shadow_walk_len(o, lit.dir, shadow_t_max(i, o), i, id) > params.shadow_inline {
             let flags = select(0u, RAY_SKIP_FROM, skip != NO_ID);
             state.stack[state.sp] = Pending(o, RAY_SHADOW | flags, lit.dir, i, weight * lit.c, id);
             state.sp += 1u;

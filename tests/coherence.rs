@@ -632,6 +632,17 @@ fn only_the_effects_the_scene_calls_for() {
     let t = coherence::build(&dark, &small_params()).unwrap();
     assert_eq!(t.flat.origins.len(), 1, "eye only");
     assert!(t.flat.light_origin.is_empty());
+    // A mirror and a light, but tables for eye rays only (the AOV pass, depth 1 renders).
+    let mirror = vec![sphere(DVec3::new(3.0, 0.0, 0.0), 1.0, 1), tri(DVec3::ZERO, DVec3::X, DVec3::Y, 0)];
+    let s = scene(DVec3::new(-3.0, 0.0, 0.5), DVec3::new(3.0, 0.0, 0.0), &[DVec3::Z], mirror);
+    assert!(s.effects().reflection && s.effects().shadows);
+    let t = coherence::build(&s, &small_params()).unwrap();
+    assert!(t.flat.prim_origin[0] != u32::MAX && t.flat.light_origin[0] != u32::MAX);
+    let eye_only = BuildParams { effects: Some(cuberay::scene::Effects::default()), ..small_params() };
+    let t = coherence::build(&s, &eye_only).unwrap();
+    assert_eq!(t.flat.origins.len(), 1, "eye only");
+    assert!(t.flat.prim_origin.iter().all(|&o| o == u32::MAX));
+    assert!(t.flat.light_origin.iter().all(|&o| o == u32::MAX));
 }
 
 #[test]

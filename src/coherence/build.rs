@@ -28,7 +28,7 @@ use super::groups::{Groups, GROUP_BIT, GROUP_MIN_LIST, GROUP_SIZE};
 use super::origins::{
     bounding_sphere, cluster, mark_enclosing, patch_counts, patch_rounding, patch_sphere, Bvh, Shape, Target,
 };
-use crate::scene::{LightKind, Projection, Scene};
+use crate::scene::{Effects, LightKind, Projection, Scene};
 
 /// Where shadow rays are looked up.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -81,6 +81,9 @@ pub struct BuildParams {
     /// Candidate lists at least this long name primitive groups instead of their members
     /// (default [`GROUP_MIN_LIST`]; `usize::MAX`: never).
     pub group_min_list: usize,
+    /// The effects the tables serve (`None`: the scene's): light tables only with shadows,
+    /// tables for reflecting and transmitting surfaces only with reflection.
+    pub effects: Option<Effects>,
 }
 
 impl Default for BuildParams {
@@ -100,6 +103,7 @@ impl Default for BuildParams {
             light_cells: 1 << 18,
             pair_budget: 3_000_000,
             group_min_list: GROUP_MIN_LIST,
+            effects: None,
         }
     }
 }
@@ -1221,7 +1225,7 @@ pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables, BuildError> 
     points.extend(scene.lights.iter().filter(|l| l.kind != LightKind::Directional).map(|l| l.position));
     mark_enclosing(&mut targets, &bvh, &points);
     let ctx = Ctx::new(&targets, &bvh, eps, params);
-    let effects = scene.effects();
+    let effects = params.effects.unwrap_or_else(|| scene.effects());
 
     let mut defs: Vec<OriginDef> = Vec::new();
     if !targets.is_empty() {
@@ -1247,7 +1251,7 @@ pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables, BuildError> 
         .enumerate()
         .filter(|(_, p)| {
             let m = &scene.materials[p.material() as usize];
-            all_surfaces || m.reflects() || m.transmits()
+            all_surfaces || (effects.reflection && (m.reflects() || m.transmits()))
         })
         .map(|(i, _)| i as u32)
         .collect();

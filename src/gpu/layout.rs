@@ -45,7 +45,9 @@ pub struct Params {
     /// `--accel cube`: the eye's origin and the fallback origin (every primitive).
     pub eye_origin: u32,
     pub fallback_origin: u32,
-    pub pad0: u32,
+    /// Shadow walks of at most this many entries are traced within the step that found the
+    /// hit; longer ones become jobs on the ray stack ([`crate::gpu::render::shadow_inline`]).
+    pub shadow_inline: u32,
 }
 
 /// One primitive (WGSL `Prim`); see the WGSL comment for the fields per kind.
@@ -210,7 +212,7 @@ pub fn twins() -> Vec<Twin> {
             sample_end,
             eye_origin,
             fallback_origin,
-            pad0
+            shadow_inline
         }),
         twin!(Prim { a, b, c, kind, material, flags, attr }),
         twin!(TriAttr { n0, n1, n2, uv01, uv2 }),
@@ -392,6 +394,7 @@ pub fn pack(scene: &Scene, width: u32, height: u32) -> Packed {
         ambient: v3(scene.ambient),
         prim_count: scene.primitives.len() as u32,
         light_count: scene.lights.len() as u32,
+        shadow_inline: super::render::shadow_inline(scene),
         ..Params::default()
     };
     Packed { prims, tri_attrs, materials, lights, texture_infos, texels, params }

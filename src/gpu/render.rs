@@ -12,11 +12,12 @@
 //! point has work left. A single invocation looping over its whole ray tree was the first
 //! design, but lavapipe ends all loops of an invocation after 65535 iterations in total
 //! (a safety limit in Mesa's gallivm), which silently cut ray trees short on scenes of a
-//! few hundred primitives. For the same reason a long candidate-list walk (`--accel cube`)
-//! is spread over several steps, [`WALK_CHUNK`] entries each, its position kept in the
-//! point's state: on gears_s4 one 36610-entry reflection walk plus the shadow walks, well
-//! under 65535 iterations by our count, already made lavapipe cut the light loop short.
-//! Work is split into tiles of a bounded number of points (short
+//! few hundred primitives. For the same reason a long walk (a candidate list, or brute
+//! force's every primitive) is spread over several steps, [`WALK_CHUNK`] entries each, its
+//! position kept in the point's state: on gears_s4 one 36610-entry reflection walk plus the
+//! shadow walks, well under 65535 iterations by our count, already made lavapipe cut the
+//! light loop short. Shadow rays are jobs on the same stack (pushed after a hit's secondary
+//! rays, so traced first), so a step walks one list at most. Work is split into tiles of a bounded number of points (short
 //! dispatches for real GPUs' watchdogs, bounded state memory), which also drive the
 //! progress bar.
 
@@ -35,7 +36,7 @@ use super::tables::{self, GpuTables};
 use super::{GpuContext, GpuError};
 use crate::output::{Aov, Image};
 use crate::reference::{self, sampling, simulated_effects, AccelKind, RenderOptions, Rendered, Sampling};
-use crate::scene::Scene;
+use crate::scene::{Effects, Scene};
 use crate::stats::{self, Counters, Stats};
 
 /// The deepest ray tree the kernels' stack holds (`STACK_SIZE` in shade.wgsl).
@@ -56,6 +57,19 @@ const LAVAPIPE_LOOP_LIMIT: u64 = 65535;
 /// Loop iterations (candidate-list entries and the members of group entries) one `render`
 /// step spends on a walk, at most, before the last entry's group (`WALK_CHUNK` in cube.wgsl).
 const WALK_CHUNK: u64 = 8192;
+
+/// Shadow walks of at most this many entries are traced within the step that found the hit
+/// (`params.shadow_inline`): as many as keep a step, with one whole walk and every light's
+/// inline walk (each entry possibly a group of `GROUP_SIZE`), within lavapipe's loop limit.
+/// Longer walks become jobs on the ray stack, one step each at least.
+pub fn shadow_inline(scene: &Scene) -> u32 {
+    let c = scene.counts();
+    let per_test: u64 = if c.cylinders > 0 { 3 } else { 1 };
+    let lights = scene.lights.len() as u64;
+    let group = crate::coherence::groups::GROUP_SIZE as u64;
+    let step = per_test * (WALK_CHUNK + group) + lights + COUNTER_SLOTS as u64 + 16;
+    (LAVAPIPE_LOOP_LIMIT.saturating_sub(step) / (lights.max(1) * per_test * (1 + group))) as u32
+}
 
 /// Counter slots in the kernels (`COUNTER_COUNT` in common.wgsl), each 64-bit.
 pub const COUNTER_SLOTS: usize = 22;
@@ -202,10 +216,13 @@ impl GpuRenderer {
 
     /// What both entry points do first: check the options, pick and compile the kernels,
     /// then (timed as preprocessing) pack the scene and build the tables they trace.
-    fn prepare(&self, scene: &Scene, opts: &RenderOptions) -> Result<Prepared, GpuRenderError> {
+    /// Checks, compiles and packs for a render (`aov`: the AOV pass, which traces eye rays
+    /// only, so its kernels and tables have no effects).
+    fn prepare(&self, scene: &Scene, opts: &RenderOptions, aov: bool) -> Result<Prepared, GpuRenderError> {
         check(scene, opts)?;
-        let variant =
-            Variant::for_effects(scene.effects(), opts.max_depth).with_cube(uses_tables(opts.accel));
+        let effects = if aov { Effects::default() } else { scene.effects() };
+        let depth = if aov { 1 } else { opts.max_depth };
+        let variant = Variant::for_effects(effects, depth).with_cube(uses_tables(opts.accel));
         let kernels = self.kernels(variant)?;
         let start = Instant::now();
         let mut packed = layout::pack(scene, opts.width, opts.height);
@@ -221,7 +238,7 @@ impl GpuRenderer {
         progress: &ProgressBar,
     ) -> Result<Rendered, GpuRenderError> {
         let (w, h) = (opts.width, opts.height);
-        let Prepared { variant, kernels, mut packed, tables, start } = self.prepare(scene, opts)?;
+        let Prepared { variant, kernels, mut packed, tables, start } = self.prepare(scene, opts, false)?;
         let corners = opts.sampling == Sampling::Corners;
         let (gw, gh) = if corners { (w + 1, h + 1) } else { (w, h) };
         let seed_hash = sampling::pcg(sampling::pcg((opts.seed >> 32) as u32) ^ opts.seed as u32);
@@ -291,7 +308,7 @@ impl GpuRenderer {
         progress: &ProgressBar,
     ) -> Result<Rendered, GpuRenderError> {
         let (w, h) = (opts.width, opts.height);
-        let Prepared { variant, kernels, mut packed, tables, start } = self.prepare(scene, opts)?;
+        let Prepared { variant, kernels, mut packed, tables, start } = self.prepare(scene, opts, true)?;
         packed.params = Params {
             grid_w: w,
             grid_h: h,
@@ -592,9 +609,10 @@ impl GpuRenderer {
     ///
     /// `max_depth`: `Some(d)` for the stepped `render` kernel with ray trees up to depth `d`.
     /// Each of its steps walks one list (a ray's, or a shadow job's) for at most
-    /// [`WALK_CHUNK`] iterations, brute force included, leaving the rest to later steps;
+    /// [`WALK_CHUNK`] iterations, brute force included, leaving the rest to later steps,
+    /// plus the shadow walks of at most [`shadow_inline`] entries that a hit traces at once;
     /// only when the ray stack can fill up (`d + 1 +` lights over `STACK_SIZE`) may a hit
-    /// trace its shadow rays at once, each walking its whole list. `None`: the `aov`
+    /// trace all its shadow rays at once, each walking its whole list. `None`: the `aov`
     /// kernel, which walks an eye ray's whole list in one go.
     pub fn check_loop_budget(
         &self,
@@ -617,8 +635,13 @@ impl GpuRenderer {
         let what = if tables.is_some() { "the longest candidate lists" } else { "brute force" };
         let walks = match max_depth {
             Some(d) => {
-                let chunk = per_test * (WALK_CHUNK + crate::coherence::groups::GROUP_SIZE as u64);
-                let inline = if d as u64 + 1 + lights > STACK_SIZE as u64 { lights * shadow } else { 0 };
+                let group = crate::coherence::groups::GROUP_SIZE as u64;
+                let chunk = per_test * (WALK_CHUNK + group);
+                let inline = if d as u64 + 1 + lights > STACK_SIZE as u64 {
+                    lights * shadow
+                } else {
+                    lights * shadow.min(per_test * shadow_inline(scene) as u64 * (1 + group))
+                };
                 closest.max(shadow).min(chunk) + inline
             }
             None => eye,

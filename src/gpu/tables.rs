@@ -8,7 +8,7 @@
 
 use crate::coherence::groups::GROUP_BIT;
 use crate::coherence::{self, BuildParams, FlatTables, GpuEntry, GpuFace, GpuOrigin, OriginKind};
-use crate::scene::Scene;
+use crate::scene::{Effects, Scene};
 
 use super::shader::Variant;
 
@@ -56,17 +56,26 @@ pub fn spawn_offset_bound(scene: &Scene, width: u32, height: u32) -> f64 {
     spawn + 8.0 * m * f32::EPSILON as f64
 }
 
-fn params(scene: &Scene, width: u32, height: u32) -> BuildParams {
+/// The build for kernels `variant`: tables only for the rays they trace.
+fn params(scene: &Scene, width: u32, height: u32, variant: Variant) -> BuildParams {
+    let effects = Effects {
+        shadows: variant.shadows,
+        reflection: variant.reflection,
+        refraction: variant.refraction,
+        ..scene.effects()
+    };
     BuildParams {
         image: Some((width, height)),
         spawn_offset: Some(spawn_offset_bound(scene, width, height)),
+        effects: Some(effects),
         ..BuildParams::default()
     }
 }
 
 /// Builds the tables for a `width`×`height` render of `scene` with kernels `variant`.
 pub fn build(scene: &Scene, width: u32, height: u32, variant: Variant) -> Result<GpuTables, String> {
-    let tables = coherence::build(scene, &params(scene, width, height)).map_err(|e| e.to_string())?;
+    let tables =
+        coherence::build(scene, &params(scene, width, height, variant)).map_err(|e| e.to_string())?;
     finish(scene, tables, variant)
 }
 
@@ -82,7 +91,8 @@ impl GpuTables {
         variant: Variant,
     ) -> Result<(GpuTables, bool), String> {
         let mut source = self.source;
-        let eye_only = source.rebuild_eye(scene, &params(scene, width, height)).map_err(|e| e.to_string())?;
+        let eye_only =
+            source.rebuild_eye(scene, &params(scene, width, height, variant)).map_err(|e| e.to_string())?;
         Ok((finish(scene, source, variant)?, eye_only))
     }
 }

@@ -134,8 +134,9 @@ impl Session {
         gpu::check(&scene, &opts)?;
         let cube = gpu::uses_tables(opts.accel);
         let mut packed = layout::pack(&scene, opts.width, opts.height);
-        // Tables for every effect the scene has, so that toggling one back on needs none.
-        let all = Variant::for_effects(scene.effects(), opts.max_depth).with_cube(cube);
+        // Tables for every effect the scene has at any depth, so that toggling one back on
+        // or deepening the trees needs none.
+        let all = Variant::for_effects(scene.effects(), MAX_DEPTH).with_cube(cube);
         let tables = gpu.tables(&scene, opts.width, opts.height, all, &mut packed.params)?;
         gpu.check_loop_budget(&scene, tables.as_ref(), Some(MAX_DEPTH))?;
         let variant = Variant::for_effects(toggles.apply(scene.effects()), opts.max_depth).with_cube(cube);
@@ -286,7 +287,7 @@ impl Session {
             // The eye's table is rebuilt (the light and surface tables kept while they hold)
             // and uploaded with the re-centred scene.
             packed = layout::pack(&self.scene, w, h);
-            let all = Variant::for_effects(self.scene.effects(), self.opts.max_depth).with_cube(true);
+            let all = Variant::for_effects(self.scene.effects(), MAX_DEPTH).with_cube(true);
             let (tables, eye_only) = match old.rebuild_eye(&self.scene, w, h, all) {
                 Ok(t) => t,
                 Err(e) => {

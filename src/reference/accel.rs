@@ -56,7 +56,8 @@ pub struct ShadowQuery {
 /// Which acceleration structure to use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum AccelKind {
-    /// Brute force up to [`AUTO_BRUTE_MAX`] primitives, a BVH above.
+    /// GPU: the candidate tables; CPU: brute force up to 16 primitives
+    /// ([`AUTO_BRUTE_MAX`]), a BVH above.
     Auto,
     /// Test every primitive for every ray.
     Brute,
