@@ -21,6 +21,7 @@ pub struct CompareArgs {
     pub trace: TraceArgs,
     /// Folder for the images: NAME.gpu.png, NAME.cpu.png and NAME.flip.png (the FLIP
     /// heat map), NAME being the scene file's stem.
+    /// Created when missing.
     #[arg(long, default_value = ".")]
     pub out_dir: PathBuf,
     /// Print one JSON object (rmse, psnr, flip_mean, max_abs, over_tolerance...).
@@ -43,6 +44,10 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
     }
     if !(args.tolerance.is_finite() && args.tolerance >= 0.0) {
         bail!("--tolerance {} is not a non-negative number", args.tolerance);
+    }
+    if !args.out_dir.exists() {
+        std::fs::create_dir_all(&args.out_dir)
+            .with_context(|| format!("cannot create --out-dir {}", args.out_dir.display()))?;
     }
     if !args.out_dir.is_dir() {
         bail!("--out-dir {} is not a folder", args.out_dir.display());
