@@ -34,7 +34,9 @@
 //! let tables = build(scene, &BuildParams::default()).unwrap();
 //! let eye = tables.flat.origin(OriginKey::Eye).unwrap();
 //! let dir = glam::Vec3::new(0.0, 0.0, -1.0);
-//! let (hit, _count) = tables.flat.walk_nearest(eye, dir, f64::MAX, u32::MAX, |id, _t_best| {
+//! // A primary ray starts at the eye: the origin of the walkers' camera-relative frame.
+//! let at = glam::Vec3::ZERO;
+//! let (hit, _count) = tables.flat.walk_nearest(eye, at, dir, f64::MAX, u32::MAX, |id, _t_best| {
 //!     let _ = id; // intersect primitive `id` here
 //!     None::<f64>
 //! });
