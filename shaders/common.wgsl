@@ -95,7 +95,9 @@ struct TextureInfo {
     flags: u32,
 }
 
-// A ray waiting in a grid point's ray tree, with the weight its radiance counts with.
+// A ray waiting in a grid point's ray tree, with the weight its radiance counts with. A
+// shadow job (kind RAY_SHADOW) keeps its light's index in `depth` and, in `weight`, what the
+// light adds unless blocked.
 struct Pending {
     o: vec3<f32>,
     // Ray kind (bits 0-1, RAY_KIND_MASK); RAY_SKIP_FROM: `from_prim` need not be tested
@@ -108,7 +110,8 @@ struct Pending {
     from_prim: u32,
 }
 
-// Deep enough for the largest --max-depth the GPU backend accepts (checked on the CPU).
+// Deep enough for the largest --max-depth the GPU backend accepts (checked on the CPU);
+// shadow jobs go on top only while there is room (shade.wgsl).
 const STACK_SIZE: u32 = 16u;
 
 // Loop iterations a step spends on one walk, at most (plus the members of the last group

@@ -1,6 +1,7 @@
 // Whitted shading and the ray tree of one eye ray; twin of src/reference/shade.rs.
-// The ray tree is walked with an explicit stack of pending secondary rays, each carrying
-// the weight its radiance contributes with.
+// The ray tree is walked with an explicit stack of pending rays (secondary rays, and
+// shadow rays whose walks are long), each carrying the weight its radiance contributes
+// with.
 
 // Shadow rays towards a positional light end this relative distance before it (f32).
 const SHADOW_END_REL: f32 = 9.5367431640625e-7;
@@ -123,7 +124,7 @@ fn shadow_t_max(li: u32, o: vec3<f32>) -> f32 {
 // is long becomes a shadow job on the stack (kind RAY_SHADOW, `depth` the light, `weight`
 // what it adds unless blocked), traced over the next steps like any other ray, so that no
 // step walks more than one long list. Jobs are pushed after the hit's secondary rays, so
-// they are traced first and the stack holds at most max depth + 1 + lights jobs; should it
+// they are traced first and the stack holds at most max depth + lights jobs; should it
 // be full, the shadow ray is traced at once, as are walks of at most
 // `params.shadow_inline` entries (a job costs a whole step, which loads and stores the
 // point's state: on gears_s4, jobs for every walk over 64 entries took 52 s instead of 38).

@@ -309,7 +309,7 @@ proptest! {
         grouped in proptest::bool::ANY,
         rays in proptest::collection::vec((0.0f32..1.0, 0.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0, 0.05f32..2.0), 40),
     ) {
-        // `grouped`: every list of two or more entries names primitive groups.
+        // `grouped`: every surface list of two or more entries names primitive groups.
         let group_min_list = if grouped { 2 } else { usize::MAX };
         let params = BuildParams { cluster_size: Some(k), group_min_list, ..small_params() };
         let w = World::new(&s, &params);

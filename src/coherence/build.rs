@@ -78,8 +78,8 @@ pub struct BuildParams {
     /// Limit on surface origins × primitives, which bounds the build time: the cluster size
     /// grows until the product fits (default 3·10^6).
     pub pair_budget: usize,
-    /// Candidate lists at least this long name primitive groups instead of their members
-    /// (default [`GROUP_MIN_LIST`]; `usize::MAX`: never).
+    /// Surface-origin candidate lists at least this long name primitive groups instead of
+    /// their members (default [`GROUP_MIN_LIST`]; `usize::MAX`: never).
     pub group_min_list: usize,
     /// The effects the tables serve (`None`: the scene's): light tables only with shadows,
     /// tables for reflecting and transmitting surfaces only with reflection.

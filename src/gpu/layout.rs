@@ -121,7 +121,8 @@ pub struct TextureInfo {
     pub flags: u32,
 }
 
-/// A pending ray of a grid point's ray tree (WGSL `Pending`).
+/// A pending ray of a grid point's ray tree (WGSL `Pending`); a shadow job keeps its light
+/// in `depth` and what the light adds unless blocked in `weight`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct Pending {

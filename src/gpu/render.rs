@@ -16,9 +16,10 @@
 //! force's every primitive) is spread over several steps, [`WALK_CHUNK`] entries each, its
 //! position kept in the point's state: on gears_s4 one 36610-entry reflection walk plus the
 //! shadow walks, well under 65535 iterations by our count, already made lavapipe cut the
-//! light loop short. Shadow rays are jobs on the same stack (pushed after a hit's secondary
-//! rays, so traced first), so a step walks one list at most. Work is split into tiles of a bounded number of points (short
-//! dispatches for real GPUs' watchdogs, bounded state memory), which also drive the
+//! light loop short. A shadow ray with a long walk is a job on the same stack (pushed after
+//! the hit's secondary rays, so traced first); short shadow walks are traced within the
+//! step that found the hit ([`shadow_inline`]). Work is split into tiles of a bounded
+//! number of points (short dispatches for real GPUs' watchdogs, bounded state memory), which also drive the
 //! progress bar.
 
 use std::collections::HashMap;
@@ -611,7 +612,7 @@ impl GpuRenderer {
     /// Each of its steps walks one list (a ray's, or a shadow job's) for at most
     /// [`WALK_CHUNK`] iterations, brute force included, leaving the rest to later steps,
     /// plus the shadow walks of at most [`shadow_inline`] entries that a hit traces at once;
-    /// only when the ray stack can fill up (`d + 1 +` lights over `STACK_SIZE`) may a hit
+    /// only when the ray stack can fill up (`d +` lights over `STACK_SIZE`) may a hit
     /// trace all its shadow rays at once, each walking its whole list. `None`: the `aov`
     /// kernel, which walks an eye ray's whole list in one go.
     pub fn check_loop_budget(
@@ -637,7 +638,8 @@ impl GpuRenderer {
             Some(d) => {
                 let group = crate::coherence::groups::GROUP_SIZE as u64;
                 let chunk = per_test * (WALK_CHUNK + group);
-                let inline = if d as u64 + 1 + lights > STACK_SIZE as u64 {
+                // The eye ray is depth 1, so secondary rays take at most `d` slots.
+                let inline = if d as u64 + lights > STACK_SIZE as u64 {
                     lights * shadow
                 } else {
                     lights * shadow.min(per_test * shadow_inline(scene) as u64 * (1 + group))
