@@ -4,29 +4,15 @@
 // everything needs none. The stepped forms test WALK_CHUNK primitives per step.
 
 // Tests primitives first..end for the nearest hit with 0 < t < t_max (FAR: unbounded),
-// keeping it in `best`, ties to the lower id; `skip` is never tested (NO_ID: none).
+// keeping it in `best` by the table walk's rule (`consider`), so that the answer does not
+// depend on the order of the tests; `skip` is never tested (NO_ID: none).
 fn brute_range(ray: Ray, t_max: f32, skip: u32, ray_kind: u32, first: u32, end: u32, best: ptr<function, Closest>) {
     var best_t = select(t_max, (*best).hit.t, (*best).found);
     for (var id = first; id < end; id++) {
-        if id == skip {
-            continue;
-        }
-        let p = prims[id];
-        count_test(ray_kind, p.kind);
-        // Every test against t_max and the same rule as the table walk, so that the answer
-        // does not depend on the order of the tests.
-        let h = intersect_prim(p, ray, t_max);
-        if h.ok && (h.t < best_t || (h.t == best_t && (*best).found && id < (*best).prim)) {
-            (*best).found = true;
-            (*best).prim = id;
-            (*best).hit = h;
-            best_t = h.t;
+        if id != skip {
+            best_t = consider(id, best, ray, t_max, ray_kind, best_t);
         }
     }
-}
-
-fn no_closest() -> Closest {
-    return Closest(false, NO_ID, no_hit());
 }
 
 fn brute_nearest(ray: Ray, t_max: f32, skip: u32, ray_kind: u32) -> Closest {
@@ -89,9 +75,13 @@ fn occluded(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim
     return brute_any(make_ray(q, to_light), t_max, skip);
 }
 
-// Primitives `occluded` tests: all of them.
-fn shadow_walk_len(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim: u32) -> u32 {
-    return params.prim_count;
+// `occluded` when it tests at most `params.shadow_inline` primitives; ANY_UNFINISHED,
+// without testing, when there are more.
+fn occluded_short(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim: u32, skip: u32) -> u32 {
+    if params.prim_count > params.shadow_inline {
+        return ANY_UNFINISHED;
+    }
+    return select(ANY_CLEAR, ANY_BLOCKED, occluded(q, to_light, t_max, light, from_prim, skip));
 }
 
 // `occluded` for the shadow job on top of the point's stack, WALK_CHUNK primitives per

@@ -203,21 +203,6 @@ fn walk_done(w: Walk) -> bool {
     return w.i >= w.iend && w.j >= w.jend;
 }
 
-// Tests primitive `id` for the nearest-hit walk, keeping the nearest hit in `best` (ties to
-// the lower id); returns the distance to beat.
-fn consider(id: u32, best: ptr<function, Closest>, ray: Ray, t_max: f32, ray_kind: u32, best_t: f32) -> f32 {
-    let p = prims[id];
-    count_test(ray_kind, p.kind);
-    let h = intersect_prim(p, ray, t_max);
-    if h.ok && (h.t < best_t || (h.t == best_t && (*best).found && id < (*best).prim)) {
-        (*best).found = true;
-        (*best).prim = id;
-        (*best).hit = h;
-        return h.t;
-    }
-    return best_t;
-}
-
 // Continues the nearest-hit walk `w` for at most about `budget` loop iterations (an entry,
 // or a group's members), keeping the nearest hit in `best` (ties to the lower id; `skip`
 // never tested). True when the walk is over.
@@ -257,10 +242,6 @@ fn walk_nearest(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, 
         best_t = consider(e.id, best, ray, t_max, ray_kind, best_t);
     }
     return true;
-}
-
-fn no_closest() -> Closest {
-    return Closest(false, NO_ID, no_hit());
 }
 
 // The nearest hit with 0 < t < t_max from the table of `origin`, ties to the lower id;
@@ -392,14 +373,18 @@ fn shadow_walk(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_p
     return ShadowWalk(cube_origin(KEY_SURFACE, from_prim, q), ray, t_max, max3(abs(ray.d)) == 0.0);
 }
 
-// Entries of the lists `occluded` would walk (groups counted once).
-fn shadow_walk_len(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim: u32) -> u32 {
+// `occluded` when its walk has at most `params.shadow_inline` entries (groups counted
+// once): ANY_CLEAR or ANY_BLOCKED; ANY_UNFINISHED, without walking, when it is longer.
+fn occluded_short(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim: u32, skip: u32) -> u32 {
     let sw = shadow_walk(q, to_light, t_max, light, from_prim);
     if sw.empty {
-        return 0u;
+        return ANY_CLEAR;
     }
-    let w = walk_start(sw.origin, sw.ray.d);
-    return (w.iend - w.i) + (w.jend - w.j);
+    var w = walk_start(sw.origin, sw.ray.d);
+    if (w.iend - w.i) + (w.jend - w.j) > params.shadow_inline {
+        return ANY_UNFINISHED;
+    }
+    return walk_any(&w, sw.ray, sw.t_max, skip, 0xffffffffu);
 }
 
 // Whether light `light` is blocked from `q` (see `shadow_walk`), in one go.

@@ -56,6 +56,26 @@ struct Closest {
     hit: PrimHit,
 }
 
+fn no_closest() -> Closest {
+    return Closest(false, NO_ID, no_hit());
+}
+
+// Tests primitive `id` for a nearest-hit query (table walk or brute force), keeping the
+// nearest hit in `best`, ties to the lower id; every test is against t_max, so the answer
+// does not depend on the order of the tests. Returns the distance to beat.
+fn consider(id: u32, best: ptr<function, Closest>, ray: Ray, t_max: f32, ray_kind: u32, best_t: f32) -> f32 {
+    let p = prims[id];
+    count_test(ray_kind, p.kind);
+    let h = intersect_prim(p, ray, t_max);
+    if h.ok && (h.t < best_t || (h.t == best_t && (*best).found && id < (*best).prim)) {
+        (*best).found = true;
+        (*best).prim = id;
+        (*best).hit = h;
+        return h.t;
+    }
+    return best_t;
+}
+
 // `closest_step`'s answer: `done` false when the query continues in the next step.
 struct Stepped {
     done: bool,

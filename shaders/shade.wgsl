@@ -137,17 +137,25 @@ fn push_shadow_rays(id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>
         }
         let o = spawn_origin(s, lit.dir);
         let skip = leave_skip(id, lit.dir, s.ng);
-        if state.sp < STACK_SIZE && shadow_walk_len(o, lit.dir, shadow_t_max(i, o), i, id) > params.shadow_inline {
+        let t_max = shadow_t_max(i, o);
+        // A full stack takes no job: the walk is traced at once, however long.
+        var r = ANY_UNFINISHED;
+        if state.sp < STACK_SIZE {
+            r = occluded_short(o, lit.dir, t_max, i, id, skip);
+        } else {
+            r = select(ANY_CLEAR, ANY_BLOCKED, occluded(o, lit.dir, t_max, i, id, skip));
+        }
+        if r == ANY_UNFINISHED {
             let flags = select(0u, RAY_SKIP_FROM, skip != NO_ID);
             state.stack[state.sp] = Pending(o, RAY_SHADOW | flags, lit.dir, i, weight * lit.c, id);
             state.sp += 1u;
+            continue;
+        }
+        count(RAY_SHADOW);
+        if r == ANY_BLOCKED {
+            count(C_SHADOW_BLOCKED);
         } else {
-            count(RAY_SHADOW);
-            if occluded(o, lit.dir, shadow_t_max(i, o), i, id, skip) {
-                count(C_SHADOW_BLOCKED);
-            } else {
-                state.color += weight * lit.c;
-            }
+            state.color += weight * lit.c;
         }
     }
 }
