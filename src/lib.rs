@@ -17,12 +17,17 @@
 
 pub mod coherence;
 pub mod compare;
+pub mod error;
 pub mod gpu;
 pub mod info;
+pub mod job;
 pub mod load;
 pub mod mirror;
 pub mod output;
 pub mod preview;
 pub mod reference;
+pub mod sampling;
 pub mod scene;
 pub mod stats;
+
+pub use error::{Error, Result};

@@ -15,9 +15,11 @@
 //! interrupted write never leaves a half-written image.
 
 use std::io::{BufWriter, Write};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use image::{ImageBuffer, ImageFormat, Rgb, Rgba};
+
+use crate::error::Error;
 
 /// An image of linear f32 values, row-major from the top-left pixel.
 #[derive(Clone, Debug, PartialEq)]
@@ -66,34 +68,14 @@ pub enum OutputFormat {
     Exr,
 }
 
-#[derive(Debug, thiserror::Error)]
-pub enum OutputError {
-    #[error("{}: unknown image format (expected a .png or .exr file name)", path.display())]
-    UnknownFormat { path: PathBuf },
-    #[error("{}: auxiliary outputs (--aov) hold linear values and need an .exr file", path.display())]
-    AovNeedsExr { path: PathBuf },
-    #[error("{}: {source}", path.display())]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
-    #[error("{}: cannot encode the image: {source}", path.display())]
-    Encode {
-        path: PathBuf,
-        #[source]
-        source: image::ImageError,
-    },
-}
-
 impl OutputFormat {
     /// The format named by `path`'s extension.
-    pub fn from_path(path: &Path) -> Result<OutputFormat, OutputError> {
+    pub fn from_path(path: &Path) -> Result<OutputFormat, Error> {
         let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
         match ext.as_deref() {
             Some("png") => Ok(OutputFormat::Png),
             Some("exr") => Ok(OutputFormat::Exr),
-            _ => Err(OutputError::UnknownFormat { path: path.to_owned() }),
+            _ => Err(Error::UnknownImageFormat { path: path.to_owned() }),
         }
     }
 }
@@ -122,10 +104,10 @@ pub fn to_srgb8(img: &Image) -> ImageBuffer<Rgb<u8>, Vec<u8>> {
 }
 
 /// Writes `img` to `path` in the format its extension names, atomically.
-pub fn write(img: &Image, path: &Path) -> Result<(), OutputError> {
+pub fn write(img: &Image, path: &Path) -> Result<(), Error> {
     let format = OutputFormat::from_path(path)?;
     if img.has_alpha && format == OutputFormat::Png {
-        return Err(OutputError::AovNeedsExr { path: path.to_owned() });
+        return Err(Error::AovNeedsExr { path: path.to_owned() });
     }
     write_atomically(path, |w| match format {
         OutputFormat::Png => to_srgb8(img).write_to(w, ImageFormat::Png),
@@ -146,7 +128,7 @@ pub fn write(img: &Image, path: &Path) -> Result<(), OutputError> {
 
 /// Writes an 8-bit RGB image (row-major, 3 bytes a pixel, e.g. a heat map) as a PNG,
 /// atomically.
-pub fn write_rgb8(width: u32, height: u32, rgb: Vec<u8>, path: &Path) -> Result<(), OutputError> {
+pub fn write_rgb8(width: u32, height: u32, rgb: Vec<u8>, path: &Path) -> Result<(), Error> {
     let buf: ImageBuffer<Rgb<u8>, Vec<u8>> =
         ImageBuffer::from_raw(width, height, rgb).expect("3 bytes per pixel of a width x height image");
     write_atomically(path, |w| buf.write_to(w, ImageFormat::Png))
@@ -156,8 +138,8 @@ pub fn write_rgb8(width: u32, height: u32, rgb: Vec<u8>, path: &Path) -> Result<
 fn write_atomically(
     path: &Path,
     encode: impl FnOnce(&mut BufWriter<&std::fs::File>) -> Result<(), image::ImageError>,
-) -> Result<(), OutputError> {
-    let io = |source| OutputError::Io { path: path.to_owned(), source };
+) -> Result<(), Error> {
+    let io = |source| Error::Io { path: path.to_owned(), source };
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
@@ -165,7 +147,7 @@ fn write_atomically(
     let tmp = tempfile::Builder::new().prefix(".cuberay-").suffix(".tmp").tempfile_in(dir).map_err(io)?;
     {
         let mut w = BufWriter::new(tmp.as_file());
-        encode(&mut w).map_err(|source| OutputError::Encode { path: path.to_owned(), source })?;
+        encode(&mut w).map_err(|source| Error::Encode { path: path.to_owned(), source })?;
         w.flush().map_err(io)?;
     }
     tmp.as_file().sync_all().map_err(io)?;

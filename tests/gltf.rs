@@ -8,8 +8,9 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use glam::{DMat3, DMat4, DQuat, DVec3};
 use serde_json::{json, Value};
 
-use cuberay::load::{self, LoadError, LoadOptions, Loaded};
+use cuberay::load::{self, LoadOptions, Loaded};
 use cuberay::scene::{LightKind, LightSource, Primitive, Projection, Scene, Triangle};
+use cuberay::Error;
 
 // ---------------------------------------------------------------------------------------
 // Helpers
@@ -53,7 +54,7 @@ fn load(path: &Path) -> Loaded {
     load_with(path, None)
 }
 
-fn load_err(path: &Path) -> LoadError {
+fn load_err(path: &Path) -> Error {
     match load::load(path, &LoadOptions::default()) {
         Ok(_) => panic!("{} loaded, but it should have been rejected", path.display()),
         Err(e) => e,
@@ -733,7 +734,7 @@ fn valid_doc() -> (Doc, Value) {
 }
 
 /// Asserts that the error names the file and contains every fragment.
-fn assert_error(err: &LoadError, file: &Path, fragments: &[&str]) {
+fn assert_error(err: &Error, file: &Path, fragments: &[&str]) {
     let text = err.to_string();
     eprintln!("{text}");
     let name = file.file_name().unwrap().to_str().unwrap();
@@ -907,7 +908,7 @@ fn bad_scene_without_meshes() {
     let dir = TempDir::new();
     let path = doc.write(&dir, "t.gltf", json!({"nodes": [{"name": "empty"}], "scenes": [{"nodes": [0]}]}));
     let err = load_err(&path);
-    assert!(matches!(err, LoadError::Invalid { .. }), "{err:?}");
+    assert!(matches!(err, Error::Invalid { .. }), "{err:?}");
     assert_error(&err, &path, &["no triangles"]);
     // Only points: still nothing to render.
     let (mut doc, _) = valid_doc();
@@ -917,7 +918,7 @@ fn bad_scene_without_meshes() {
         "t.gltf",
         json!({"meshes": [{"primitives": [{"attributes": {"POSITION": p}, "mode": 0}]}], "nodes": [{"mesh": 0}]}),
     );
-    assert!(matches!(load_err(&path), LoadError::Invalid { .. }));
+    assert!(matches!(load_err(&path), Error::Invalid { .. }));
 }
 
 #[test]
@@ -951,7 +952,7 @@ fn bad_huge_counts_are_refused_before_allocating() {
         json!({"meshes": [mesh], "nodes": nodes, "scenes": [{"nodes": roots}]}),
     );
     let err = load_err(&path);
-    assert!(matches!(err, LoadError::Invalid { .. }), "{err:?}");
+    assert!(matches!(err, Error::Invalid { .. }), "{err:?}");
     assert_error(&err, &path, &["70000000 triangles", "at most"]);
 }
 

@@ -7,9 +7,11 @@ use std::sync::OnceLock;
 
 use cuberay::compare::compare;
 use cuberay::gpu::{GpuContext, GpuRenderer};
+use cuberay::job::{AccelKind, RenderOptions, Rendered};
 use cuberay::load;
 use cuberay::output::Aov;
-use cuberay::reference::{self, AccelKind, RenderOptions, Rendered, Sampling};
+use cuberay::reference;
+use cuberay::sampling::Sampling;
 use cuberay::scene::{Primitive, Scene};
 use glam::DVec3;
 use indicatif::ProgressBar;

@@ -9,8 +9,9 @@ mod common;
 
 use common::shared_scenes;
 use cuberay::load::nff::parse;
-use cuberay::load::{LoadError, Loaded};
+use cuberay::load::Loaded;
 use cuberay::scene::{FovSpan, LightSource, Material, Primitive, Projection, Triangle};
+use cuberay::Error;
 use glam::{DVec2, DVec3};
 use proptest::prelude::*;
 
@@ -33,9 +34,9 @@ fn parse_ok(text: &str) -> Loaded {
 #[track_caller]
 fn nff_error(text: &str, line: usize, words: &[&str]) -> Option<String> {
     match parse(text, Path::new("bad.nff")) {
-        Err(e @ LoadError::Nff { .. }) => {
+        Err(e @ Error::Nff { .. }) => {
             let shown = e.to_string();
-            let LoadError::Nff { line: got, token, message, path } = e else { unreachable!() };
+            let Error::Nff { line: got, token, message, path } = e else { unreachable!() };
             assert_eq!(got, line, "wrong line in: {shown}");
             assert_eq!(path, Path::new("bad.nff"));
             assert!(
@@ -55,7 +56,7 @@ fn nff_error(text: &str, line: usize, words: &[&str]) -> Option<String> {
 #[track_caller]
 fn invalid_error(text: &str, words: &[&str]) {
     match parse(text, Path::new("bad.nff")) {
-        Err(e @ LoadError::Invalid { .. }) => {
+        Err(e @ Error::Invalid { .. }) => {
             let shown = e.to_string();
             assert!(shown.starts_with("bad.nff: "), "{shown}");
             for w in words {
@@ -782,7 +783,7 @@ fn load_reads_files_and_reports_io_and_encoding_errors() {
     let binary = dir.join("binary.nff");
     std::fs::write(&binary, b"v\nfrom 0 0 1\n\xff\xfe\n").unwrap();
     match cuberay::load::nff::load(&binary) {
-        Err(LoadError::Nff { line, message, .. }) => {
+        Err(Error::Nff { line, message, .. }) => {
             assert_eq!(line, 3);
             assert!(message.contains("UTF-8"), "{message}");
         }
@@ -790,7 +791,7 @@ fn load_reads_files_and_reports_io_and_encoding_errors() {
     }
     let missing = dir.join("missing.nff");
     match cuberay::load::nff::load(&missing) {
-        Err(e @ LoadError::Io { .. }) => assert!(e.to_string().contains("missing.nff"), "{e}"),
+        Err(e @ Error::Io { .. }) => assert!(e.to_string().contains("missing.nff"), "{e}"),
         other => panic!("expected an I/O error, got {other:?}"),
     }
     std::fs::remove_dir_all(&dir).unwrap();

@@ -10,9 +10,9 @@ use std::process::{Child, Command, Stdio};
 use std::sync::Arc;
 
 use cuberay::gpu::GpuRenderer;
+use cuberay::job::RenderOptions;
 use cuberay::load;
 use cuberay::preview::session::{Session, Toggles};
-use cuberay::reference::RenderOptions;
 use cuberay::scene::Camera;
 use indicatif::ProgressBar;
 

@@ -10,9 +10,10 @@ use indicatif::ProgressBar;
 
 use common::cuberay;
 
+use cuberay::job::{AccelKind, RenderOptions, Rendered};
 use cuberay::output::{Aov, Image};
-use cuberay::reference::sampling::pcg;
-use cuberay::reference::{render, render_aov, AccelKind, RenderOptions, Rendered, Sampling};
+use cuberay::reference::{render, render_aov};
+use cuberay::sampling::{pcg, Sampling};
 use cuberay::scene::{
     Camera, Cylinder, FovSpan, Light, Material, Primitive, Projection, Scene, Sphere, Triangle,
 };

@@ -8,8 +8,9 @@ use clap::Args;
 
 use cuberay::compare::compare;
 use cuberay::gpu::GpuRenderer;
+use cuberay::job::{AccelKind, RenderOptions};
 use cuberay::output;
-use cuberay::reference::{self, AccelKind, RenderOptions};
+use cuberay::reference;
 
 use super::render::{progress_bar, TraceArgs};
 

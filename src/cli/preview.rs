@@ -39,7 +39,7 @@ pub fn run(args: PreviewArgs) -> anyhow::Result<()> {
         bail!("--frames must be at least 1");
     }
     let (scene_name, loaded, mut opts) = args.trace.load(&args.scene)?;
-    if args.trace.spp.is_none() && opts.sampling != cuberay::reference::Sampling::Corners {
+    if args.trace.spp.is_none() && opts.sampling != cuberay::sampling::Sampling::Corners {
         opts.spp = args.frames.unwrap_or(DEFAULT_SPP);
     }
     if let Some(frames) = args.frames {

@@ -9,9 +9,11 @@ use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use cuberay::gpu::GpuRenderer;
+use cuberay::job::{AccelKind, RenderOptions};
 use cuberay::load::{self, Loaded};
 use cuberay::output::{self, Aov, OutputFormat};
-use cuberay::reference::{self, AccelKind, RenderOptions, Sampling};
+use cuberay::reference;
+use cuberay::sampling::Sampling;
 
 /// Which renderer to run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -126,7 +128,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     // Everything that can be checked before the (possibly long) render is checked first.
     let format = OutputFormat::from_path(&args.output)?;
     if args.aov.is_some() && format != OutputFormat::Exr {
-        bail!(output::OutputError::AovNeedsExr { path: args.output.clone() });
+        bail!(cuberay::Error::AovNeedsExr { path: args.output.clone() });
     }
     let (scene_name, loaded, opts) = args.trace.load(&args.scene)?;
     let scene = &loaded.scene;

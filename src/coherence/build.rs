@@ -28,6 +28,7 @@ use super::groups::{Groups, GROUP_BIT, GROUP_MIN_LIST, GROUP_SIZE};
 use super::origins::{
     bounding_sphere, cluster, mark_enclosing, patch_counts, patch_rounding, patch_sphere, Bvh, Shape, Target,
 };
+use crate::error::{Error, Result};
 use crate::scene::{Effects, LightKind, Projection, Scene};
 
 /// Where shadow rays are looked up.
@@ -106,13 +107,6 @@ impl Default for BuildParams {
             effects: None,
         }
     }
-}
-
-/// Why tables could not be built.
-#[derive(Debug, thiserror::Error)]
-pub enum BuildError {
-    #[error("the candidate tables need {bytes} bytes in one buffer, over wgpu's {limit}-byte binding limit, even at the coarsest resolution and clustering allowed")]
-    TooLarge { bytes: usize, limit: usize },
 }
 
 /// One origin before building: its kind, its sphere (already inflated), its members and its
@@ -1179,7 +1173,7 @@ impl Tables {
     /// offset (which grows with the distance from the eye to the scene) and through the
     /// spheres the eye is inside; when either changed, everything is rebuilt. Returns
     /// whether the eye table alone was rebuilt.
-    pub fn rebuild_eye(&mut self, scene: &Scene, params: &BuildParams) -> Result<bool, BuildError> {
+    pub fn rebuild_eye(&mut self, scene: &Scene, params: &BuildParams) -> Result<bool> {
         let start = Instant::now();
         let eps = params.spawn_offset.unwrap_or_else(|| default_spawn_offset(scene));
         let targets: Vec<Target> = scene.primitives.iter().map(|p| Target::of(p, scene)).collect();
@@ -1203,7 +1197,7 @@ impl Tables {
         let mut flat = flatten(&self.built, &self.defs, targets.len(), scene.lights.len(), &ctx.groups);
         frames(&mut flat, &targets, &ctx.groups, eye);
         if flat.largest_buffer_bytes() > MAX_BINDING_BYTES {
-            return Err(BuildError::TooLarge {
+            return Err(Error::TablesTooLarge {
                 bytes: flat.largest_buffer_bytes(),
                 limit: MAX_BINDING_BYTES,
             });
@@ -1216,7 +1210,7 @@ impl Tables {
 }
 
 /// Builds the candidate tables a scene calls for.
-pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables, BuildError> {
+pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables> {
     let start = Instant::now();
     let eps = params.spawn_offset.unwrap_or_else(|| default_spawn_offset(scene));
     let mut targets: Vec<Target> = scene.primitives.iter().map(|p| Target::of(p, scene)).collect();
@@ -1350,7 +1344,7 @@ pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables, BuildError> 
     let mut flat = flatten(&fixed, &defs, targets.len(), scene.lights.len(), &ctx.groups);
     frames(&mut flat, &targets, &ctx.groups, scene.camera.eye);
     if flat.largest_buffer_bytes() > MAX_BINDING_BYTES {
-        return Err(BuildError::TooLarge { bytes: flat.largest_buffer_bytes(), limit: MAX_BINDING_BYTES });
+        return Err(Error::TablesTooLarge { bytes: flat.largest_buffer_bytes(), limit: MAX_BINDING_BYTES });
     }
     Ok(Tables {
         flat,

@@ -174,7 +174,11 @@ impl FlatTables {
 
     /// Checks the structural invariants the WGSL relies on: ranges in bounds, windows inside
     /// the cube, lists sorted by `d_min`, finite `d_min`, ids in range.
-    pub fn check(&self, primitives: usize) -> Result<(), String> {
+    pub fn check(&self, primitives: usize) -> crate::error::Result<()> {
+        self.check_lists(primitives).map_err(crate::error::Error::TablesInvalid)
+    }
+
+    fn check_lists(&self, primitives: usize) -> Result<(), String> {
         if self.faces.len() != self.origins.len() * 6 {
             return Err("faces is not six per origin".into());
         }

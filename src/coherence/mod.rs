@@ -52,7 +52,7 @@ pub mod origins;
 pub mod stats;
 pub mod walk;
 
-pub use build::{build, default_spawn_offset, BuildError, BuildParams, ShadowMode, Tables};
+pub use build::{build, default_spawn_offset, BuildParams, ShadowMode, Tables};
 pub use flat::{FlatTables, GpuEntry, GpuFace, GpuGroup, GpuOrigin, OriginKind};
 pub use stats::TableStats;
 pub use walk::{Dist, OriginKey, WalkCount};

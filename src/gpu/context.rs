@@ -4,25 +4,8 @@
 //! name, e.g. `llvmpipe`) and `WGPU_POWER_PREF`, as wgpu's own tools do, but reports a
 //! missing adapter as an error that says how to install one instead of panicking.
 
+use crate::error::{Error, Result};
 use wgpu::{Adapter, Backends, Device, Features, Instance, InstanceDescriptor, Limits, Queue};
-
-/// What can go wrong while opening the GPU.
-#[derive(Debug, thiserror::Error)]
-pub enum GpuError {
-    /// No adapter at all (or none matching `WGPU_ADAPTER_NAME`).
-    #[error(
-        "no GPU adapter found{filter}. On Debian or Ubuntu install Mesa's software Vulkan driver \
-         (lavapipe) with `sudo apt-get install mesa-vulkan-drivers`, or run `bash .ci/setup` in \
-         the cuberay repository; or render on the CPU with `--backend cpu`"
-    )]
-    NoAdapter { filter: String },
-    #[error("the GPU adapter '{adapter}' refused to open a device: {source}")]
-    Device {
-        adapter: String,
-        #[source]
-        source: wgpu::RequestDeviceError,
-    },
-}
 
 /// An open device with the optional features cuberay uses when the adapter has them.
 pub struct GpuContext {
@@ -36,11 +19,11 @@ pub struct GpuContext {
 
 impl GpuContext {
     /// Opens the first suitable adapter (see the module documentation for the variables).
-    pub fn new() -> Result<GpuContext, GpuError> {
+    pub fn new() -> Result<GpuContext> {
         pollster::block_on(Self::new_async())
     }
 
-    async fn new_async() -> Result<GpuContext, GpuError> {
+    async fn new_async() -> Result<GpuContext> {
         Self::open(&Self::instance(InstanceDescriptor::new_without_display_handle_from_env()), None).await
     }
 
@@ -53,10 +36,7 @@ impl GpuContext {
 
     /// Opens an adapter of `instance` (one that can present to `surface` when given) as
     /// [`GpuContext::new`] does.
-    pub async fn open(
-        instance: &Instance,
-        surface: Option<&wgpu::Surface<'_>>,
-    ) -> Result<GpuContext, GpuError> {
+    pub async fn open(instance: &Instance, surface: Option<&wgpu::Surface<'_>>) -> Result<GpuContext> {
         let adapter = pick_adapter(instance, desc_backends(), surface).await?;
         let info = adapter.get_info();
         let wanted = Features::TIMESTAMP_QUERY;
@@ -77,7 +57,7 @@ impl GpuContext {
                 ..Default::default()
             })
             .await
-            .map_err(|source| GpuError::Device { adapter: info.name.clone(), source })?;
+            .map_err(|source| Error::Device { adapter: info.name.clone(), source })?;
         log::info!("GPU: {} ({:?}, {})", info.name, info.backend, info.driver_info);
         Ok(GpuContext {
             adapter,
@@ -97,7 +77,7 @@ async fn pick_adapter(
     instance: &Instance,
     backends: Backends,
     surface: Option<&wgpu::Surface<'_>>,
-) -> Result<Adapter, GpuError> {
+) -> Result<Adapter> {
     let adapters = instance.enumerate_adapters(backends).await;
     if let Ok(name) = std::env::var("WGPU_ADAPTER_NAME") {
         let name = name.to_lowercase();
@@ -105,7 +85,7 @@ async fn pick_adapter(
             .into_iter()
             .filter(|a| surface.is_none_or(|s| a.is_surface_supported(s)))
             .find(|a| a.get_info().name.to_lowercase().contains(&name))
-            .ok_or(GpuError::NoAdapter { filter: format!(" matching WGPU_ADAPTER_NAME='{name}'") });
+            .ok_or(Error::NoAdapter { filter: format!(" matching WGPU_ADAPTER_NAME='{name}'") });
     }
     let options = wgpu::RequestAdapterOptions {
         power_preference: wgpu::PowerPreference::from_env().unwrap_or(wgpu::PowerPreference::HighPerformance),
@@ -118,6 +98,6 @@ async fn pick_adapter(
         Err(_) => instance
             .request_adapter(&wgpu::RequestAdapterOptions { force_fallback_adapter: true, ..options })
             .await
-            .map_err(|_| GpuError::NoAdapter { filter: String::new() }),
+            .map_err(|_| Error::NoAdapter { filter: String::new() }),
     }
 }

@@ -9,9 +9,9 @@ mod render;
 pub mod shader;
 pub mod tables;
 
-pub use context::{GpuContext, GpuError};
+pub use context::GpuContext;
 pub use render::{
-    check, decode_counters, tile_points, uses_tables, GpuRenderError, GpuRenderer, Kernels, SceneBuffers,
-    COUNTER_SLOTS, MAX_DEPTH, WORKGROUP,
+    check, decode_counters, tile_points, uses_tables, GpuRenderer, Kernels, SceneBuffers, COUNTER_SLOTS,
+    MAX_DEPTH, WORKGROUP,
 };
 pub use tables::GpuTables;

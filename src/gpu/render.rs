@@ -34,9 +34,11 @@ use wgpu::util::DeviceExt;
 use super::layout::{self, Packed, Params, PointState, STACK_SIZE};
 use super::shader::{self, Variant};
 use super::tables::{self, GpuTables};
-use super::{GpuContext, GpuError};
+use super::GpuContext;
+use crate::error::{Error, Result};
+use crate::job::{simulated_effects, AccelKind, RenderOptions, Rendered};
 use crate::output::{Aov, Image};
-use crate::reference::{self, sampling, simulated_effects, AccelKind, RenderOptions, Rendered, Sampling};
+use crate::sampling::{self, Sampling};
 use crate::scene::{Effects, Scene};
 use crate::stats::{self, Counters, Stats};
 
@@ -74,20 +76,6 @@ pub fn shadow_inline(scene: &Scene) -> u32 {
 
 /// Counter slots in the kernels (`COUNTER_COUNT` in common.wgsl), each 64-bit.
 pub const COUNTER_SLOTS: usize = 22;
-
-#[derive(Debug, thiserror::Error)]
-pub enum GpuRenderError {
-    #[error(transparent)]
-    Gpu(#[from] GpuError),
-    #[error("{0}")]
-    Options(String),
-    #[error("invalid scene: {0}")]
-    Scene(String),
-    #[error(transparent)]
-    Shader(#[from] shader::ShaderError),
-    #[error("the GPU failed: {0}")]
-    Device(String),
-}
 
 /// The two entry points of one composed module.
 pub struct Kernels {
@@ -145,7 +133,7 @@ fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
 
 impl GpuRenderer {
     /// Opens the GPU (see [`GpuContext::new`]).
-    pub fn new() -> Result<GpuRenderer, GpuError> {
+    pub fn new() -> Result<GpuRenderer> {
         Ok(Self::with_context(GpuContext::new()?))
     }
 
@@ -188,7 +176,7 @@ impl GpuRenderer {
     }
 
     /// The kernels of `variant`, compiled on first use.
-    pub fn kernels(&self, variant: Variant) -> Result<Arc<Kernels>, GpuRenderError> {
+    pub fn kernels(&self, variant: Variant) -> Result<Arc<Kernels>> {
         let mut cache = self.cache.lock().expect("kernel cache lock");
         if let Some(k) = cache.get(&variant) {
             return Ok(k.clone());
@@ -219,7 +207,7 @@ impl GpuRenderer {
     /// then (timed as preprocessing) pack the scene and build the tables they trace.
     /// Checks, compiles and packs for a render (`aov`: the AOV pass, which traces eye rays
     /// only, so its kernels and tables have no effects).
-    fn prepare(&self, scene: &Scene, opts: &RenderOptions, aov: bool) -> Result<Prepared, GpuRenderError> {
+    fn prepare(&self, scene: &Scene, opts: &RenderOptions, aov: bool) -> Result<Prepared> {
         check(scene, opts)?;
         let effects = if aov { Effects::default() } else { scene.effects() };
         let depth = if aov { 1 } else { opts.max_depth };
@@ -232,17 +220,12 @@ impl GpuRenderer {
     }
 
     /// Renders `scene` to linear radiance on the GPU.
-    pub fn render(
-        &self,
-        scene: &Scene,
-        opts: &RenderOptions,
-        progress: &ProgressBar,
-    ) -> Result<Rendered, GpuRenderError> {
+    pub fn render(&self, scene: &Scene, opts: &RenderOptions, progress: &ProgressBar) -> Result<Rendered> {
         let (w, h) = (opts.width, opts.height);
         let Prepared { variant, kernels, mut packed, tables, start } = self.prepare(scene, opts, false)?;
         let corners = opts.sampling == Sampling::Corners;
         let (gw, gh) = if corners { (w + 1, h + 1) } else { (w, h) };
-        let seed_hash = sampling::pcg(sampling::pcg((opts.seed >> 32) as u32) ^ opts.seed as u32);
+        let seed_hash = sampling::seed_hash(opts.seed);
         packed.params = Params {
             grid_w: gw,
             grid_h: gh,
@@ -286,7 +269,7 @@ impl GpuRenderer {
             }
         }
         let stats = Stats::new(
-            reference::settings(opts, "gpu", accel_name(variant)),
+            opts.settings("gpu", accel_name(variant)),
             simulated_effects(scene, opts.max_depth),
             &run.counters,
             stats::Times {
@@ -300,14 +283,14 @@ impl GpuRenderer {
     }
 
     /// Renders an auxiliary output from the eye ray through each pixel centre, as
-    /// [`crate::reference::render_aov`] does.
+    /// the CPU reference's `render_aov` does.
     pub fn render_aov(
         &self,
         scene: &Scene,
         opts: &RenderOptions,
         aov: Aov,
         progress: &ProgressBar,
-    ) -> Result<Rendered, GpuRenderError> {
+    ) -> Result<Rendered> {
         let (w, h) = (opts.width, opts.height);
         let Prepared { variant, kernels, mut packed, tables, start } = self.prepare(scene, opts, true)?;
         packed.params = Params {
@@ -329,10 +312,7 @@ impl GpuRenderer {
         let trace_s = start.elapsed().as_secs_f64();
         let mut image = Image::new(w, h, true);
         image.pixels = run.values;
-        let mut set = reference::settings(opts, "gpu", accel_name(variant));
-        set.sampling = "center".into();
-        set.spp = 1;
-        set.max_depth = 1;
+        let set = opts.aov_settings("gpu", accel_name(variant));
         let stats = Stats::new(
             set,
             Vec::new(),
@@ -356,12 +336,11 @@ impl GpuRenderer {
         h: u32,
         variant: Variant,
         params: &mut Params,
-    ) -> Result<Option<GpuTables>, GpuRenderError> {
+    ) -> Result<Option<GpuTables>> {
         if !variant.cube {
             return Ok(None);
         }
-        let t = tables::build(scene, w, h, variant)
-            .map_err(|e| GpuRenderError::Scene(format!("cannot build the candidate tables: {e}")))?;
+        let t = tables::build(scene, w, h, variant)?;
         log::info!(
             "tables: {} origins, {} entries, longest lists {} (nearest) {} (shadow), fallback reachable: {}",
             t.flat.origins.len(),
@@ -487,7 +466,7 @@ impl GpuRenderer {
         gw: u32,
         gh: u32,
         progress: &ProgressBar,
-    ) -> Result<RunOutput, GpuRenderError> {
+    ) -> Result<RunOutput> {
         self.check_loop_budget(scene, tables, max_depth)?;
         let stepped = max_depth.is_some();
         let device = &self.ctx.device;
@@ -620,7 +599,7 @@ impl GpuRenderer {
         scene: &Scene,
         tables: Option<&GpuTables>,
         max_depth: Option<u32>,
-    ) -> Result<(), GpuRenderError> {
+    ) -> Result<()> {
         if !self.ctx.info.name.to_lowercase().contains("llvmpipe") {
             return Ok(());
         }
@@ -650,7 +629,7 @@ impl GpuRenderer {
         };
         let worst = walks + lights + COUNTER_SLOTS as u64 + 16;
         if worst > LAVAPIPE_LOOP_LIMIT {
-            return Err(GpuRenderError::Options(format!(
+            return Err(Error::Options(format!(
                 "{what} over {} primitives and {lights} lights need up to {worst} loop iterations per \
                  ray on lavapipe, which stops at {LAVAPIPE_LOOP_LIMIT}; render this scene with --backend cpu",
                 scene.primitives.len()
@@ -660,7 +639,7 @@ impl GpuRenderer {
     }
 
     /// Waits for the queue and copies the first `bytes` of mappable `buffer`.
-    pub fn read(&self, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, GpuRenderError> {
+    pub fn read(&self, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>> {
         let (tx, rx) = std::sync::mpsc::channel();
         buffer.map_async(wgpu::MapMode::Read, 0..bytes, move |r| {
             let _ = tx.send(r);
@@ -668,12 +647,9 @@ impl GpuRenderer {
         self.ctx
             .device
             .poll(wgpu::PollType::Wait { submission_index: None, timeout: None })
-            .map_err(|e| GpuRenderError::Device(e.to_string()))?;
-        rx.recv()
-            .map_err(|e| GpuRenderError::Device(e.to_string()))?
-            .map_err(|e| GpuRenderError::Device(e.to_string()))?;
-        let data =
-            buffer.get_mapped_range(0..bytes).map_err(|e| GpuRenderError::Device(format!("{e:?}")))?.to_vec();
+            .map_err(|e| Error::Gpu(e.to_string()))?;
+        rx.recv().map_err(|e| Error::Gpu(e.to_string()))?.map_err(|e| Error::Gpu(e.to_string()))?;
+        let data = buffer.get_mapped_range(0..bytes).map_err(|e| Error::Gpu(format!("{e:?}")))?.to_vec();
         buffer.unmap();
         Ok(data)
     }
@@ -742,22 +718,22 @@ struct RunOutput {
 }
 
 /// Checks that the GPU backend can render `scene` with `opts`.
-pub fn check(scene: &Scene, opts: &RenderOptions) -> Result<(), GpuRenderError> {
-    opts.validate().map_err(|e| GpuRenderError::Options(e.to_string()))?;
-    scene.validate().map_err(GpuRenderError::Scene)?;
+pub fn check(scene: &Scene, opts: &RenderOptions) -> Result<()> {
+    opts.validate()?;
+    scene.validate()?;
     if opts.max_depth > MAX_DEPTH {
-        return Err(GpuRenderError::Options(format!(
+        return Err(Error::Options(format!(
             "--max-depth {} is deeper than the GPU backend's ray stack allows ({MAX_DEPTH}); use --backend cpu",
             opts.max_depth
         )));
     }
     if opts.accel == AccelKind::Bvh {
-        return Err(GpuRenderError::Options(
+        return Err(Error::Options(
             "the GPU backend has no BVH: use --accel cube (the default) or brute with --backend gpu".into(),
         ));
     }
     if scene.primitives.len() >= u32::MAX as usize {
-        return Err(GpuRenderError::Scene("too many primitives for the GPU backend".into()));
+        return Err(Error::Scene("too many primitives for the GPU backend".into()));
     }
     Ok(())
 }

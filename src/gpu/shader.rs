@@ -9,6 +9,7 @@
 //! scene without mirrors thus gets a module with no reflection code at all, not a branch
 //! that is never taken.
 
+use crate::error::{Error, Result};
 use crate::scene::Effects;
 
 /// The shader sources, by the name `#include` uses.
@@ -85,22 +86,13 @@ impl Variant {
     }
 }
 
-/// A preprocessing error: a bug in `shaders/`, reported with file and line.
-#[derive(Debug, thiserror::Error)]
-#[error("shaders/{file}:{line}: {message}")]
-pub struct ShaderError {
-    pub file: String,
-    pub line: usize,
-    pub message: String,
-}
-
 /// The WGSL source of `variant`.
-pub fn compose(variant: Variant) -> Result<String, ShaderError> {
+pub fn compose(variant: Variant) -> Result<String> {
     compose_from(SOURCES, ROOT, variant)
 }
 
 /// Composes `root` from `sources` (name, text).
-fn compose_from(sources: &[(&str, &str)], root: &str, variant: Variant) -> Result<String, ShaderError> {
+fn compose_from(sources: &[(&str, &str)], root: &str, variant: Variant) -> Result<String> {
     let mut out = String::new();
     let mut included = Vec::new();
     expand(sources, root, variant, &mut out, &mut included)?;
@@ -113,12 +105,12 @@ fn expand(
     variant: Variant,
     out: &mut String,
     included: &mut Vec<String>,
-) -> Result<(), ShaderError> {
+) -> Result<()> {
     if included.iter().any(|f| f == file) {
         return Ok(());
     }
     included.push(file.to_string());
-    let err = |line: usize, message: String| ShaderError { file: file.to_string(), line, message };
+    let err = |line: usize, message: String| Error::Shader { file: file.to_string(), line, message };
     let src = sources
         .iter()
         .find(|(n, _)| *n == file)
@@ -189,7 +181,8 @@ mod tests {
     fn malformed_sources_are_errors_with_file_and_line() {
         let v = Variant::default();
         let e = compose_from(&[("a", "x\n#if NOPE\n#endif")], "a", v).unwrap_err();
-        assert_eq!((e.file.as_str(), e.line), ("a", 2));
+        let Error::Shader { file, line, .. } = &e else { panic!("{e:?}") };
+        assert_eq!((file.as_str(), *line), ("a", 2));
         assert!(e.to_string().contains("unknown flag NOPE"));
         assert!(compose_from(&[("a", "#if SHADOWS\n")], "a", v).is_err());
         assert!(compose_from(&[("a", "#endif\n")], "a", v).is_err());

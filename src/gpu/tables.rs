@@ -8,6 +8,7 @@
 
 use crate::coherence::groups::GROUP_BIT;
 use crate::coherence::{self, BuildParams, FlatTables, GpuEntry, GpuFace, GpuOrigin, OriginKind};
+use crate::error::{Error, Result};
 use crate::scene::{Effects, Scene};
 
 use super::shader::Variant;
@@ -73,9 +74,8 @@ fn params(scene: &Scene, width: u32, height: u32, variant: Variant) -> BuildPara
 }
 
 /// Builds the tables for a `width`×`height` render of `scene` with kernels `variant`.
-pub fn build(scene: &Scene, width: u32, height: u32, variant: Variant) -> Result<GpuTables, String> {
-    let tables =
-        coherence::build(scene, &params(scene, width, height, variant)).map_err(|e| e.to_string())?;
+pub fn build(scene: &Scene, width: u32, height: u32, variant: Variant) -> Result<GpuTables> {
+    let tables = coherence::build(scene, &params(scene, width, height, variant))?;
     finish(scene, tables, variant)
 }
 
@@ -89,21 +89,20 @@ impl GpuTables {
         width: u32,
         height: u32,
         variant: Variant,
-    ) -> Result<(GpuTables, bool), String> {
+    ) -> Result<(GpuTables, bool)> {
         let mut source = self.source;
-        let eye_only =
-            source.rebuild_eye(scene, &params(scene, width, height, variant)).map_err(|e| e.to_string())?;
+        let eye_only = source.rebuild_eye(scene, &params(scene, width, height, variant))?;
         Ok((finish(scene, source, variant)?, eye_only))
     }
 }
 
 /// Checks the built tables against the scene, measures their longest lists and appends the
 /// fallback origin.
-fn finish(scene: &Scene, mut tables: coherence::Tables, variant: Variant) -> Result<GpuTables, String> {
+fn finish(scene: &Scene, mut tables: coherence::Tables, variant: Variant) -> Result<GpuTables> {
     let build_s = tables.build_s;
     let mut flat = std::mem::take(&mut tables.flat);
     if flat.light_origin.len() != scene.lights.len() || flat.prim_origin.len() != scene.primitives.len() {
-        return Err("the tables' light or primitive index does not match the scene".into());
+        return Err(Error::TablesInvalid("the light or primitive index does not match the scene".into()));
     }
     let reachable = fallback_reachable(scene, &flat, variant);
     let (mut worst_closest, mut worst_eye, mut worst_shadow) = (0u64, 0u64, 0u64);

@@ -1,11 +1,12 @@
 //! Scene loaders: NFF (Haines' Standard Procedural Databases) and glTF 2.0 (.gltf, .glb).
 //!
 //! Every loader returns a validated [`Scene`] (see the invariants in [`crate::scene`]) or a
-//! [`LoadError`] that names the file, the place in it (NFF: line and token; glTF: the JSON
+//! [`Error`] that names the file, the place in it (NFF: line and token; glTF: the JSON
 //! path of the node, mesh, accessor...) and what was wrong. Loaders never panic on input.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
+use crate::error::Error;
 use crate::scene::Scene;
 
 pub mod gltf;
@@ -28,34 +29,13 @@ pub struct Loaded {
     pub warnings: Vec<String>,
 }
 
-#[derive(Debug, thiserror::Error)]
-pub enum LoadError {
-    #[error("{}: {source}", path.display())]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
-    /// NFF syntax or value error. `line` is 1-based; `token` is the offending token, if any.
-    #[error("{}:{line}: {message}{}", path.display(), token.as_ref().map(|t| format!(" (at token '{t}')")).unwrap_or_default())]
-    Nff { path: PathBuf, line: usize, token: Option<String>, message: String },
-    /// glTF error. `location` is a JSON path such as `meshes[2].primitives[0].attributes.POSITION`.
-    #[error("{}: {location}: {message}", path.display())]
-    Gltf { path: PathBuf, location: String, message: String },
-    /// The file parsed but the scene cannot be rendered (no geometry, bad camera...).
-    #[error("{}: {message}", path.display())]
-    Invalid { path: PathBuf, message: String },
-    #[error("{}: unknown scene format (expected a .nff, .gltf or .glb file)", path.display())]
-    UnknownFormat { path: PathBuf },
-}
-
 /// Loads a scene file, choosing the format by extension.
-pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, LoadError> {
+pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, Error> {
     let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
     match ext.as_deref() {
         Some("nff") => nff::load(path),
         Some("gltf") | Some("glb") => gltf::load(path, options),
-        _ => Err(LoadError::UnknownFormat { path: path.to_owned() }),
+        _ => Err(Error::UnknownSceneFormat { path: path.to_owned() }),
     }
 }
 
@@ -64,6 +44,6 @@ pub const SHOWCASE_NAME: &str = "scenes/showcase.nff";
 
 /// The built-in showcase scene (`cuberay render` without a scene): mirrors, glass,
 /// shadows and three lights, compiled into the binary from `scenes/showcase.nff`.
-pub fn showcase() -> Result<Loaded, LoadError> {
+pub fn showcase() -> Result<Loaded, Error> {
     nff::parse(include_str!("../../scenes/showcase.nff"), Path::new(SHOWCASE_NAME))
 }

@@ -34,27 +34,28 @@
 //!
 //! # Errors
 //! Unknown keywords, missing or non-numeric or non-finite numbers, bad vertex counts, zero
-//! sphere radii, coincident cylinder ends and impossible views are [`LoadError::Nff`] naming
+//! sphere radii, coincident cylinder ends and impossible views are [`Error::Nff`] naming
 //! the line and the token. A file without `v` or without any primitive is
-//! [`LoadError::Invalid`]. The loader never panics.
+//! [`Error::Invalid`]. The loader never panics.
 
 use std::path::Path;
 
 use glam::{DVec2, DVec3};
 
-use super::{LoadError, Loaded};
+use super::Loaded;
+use crate::error::Error;
 use crate::scene::{
     Camera, Cylinder, FovSpan, Light, Material, Primitive, Projection, Scene, Sphere, Triangle,
 };
 
 /// Loads an NFF file.
-pub fn load(path: &Path) -> Result<Loaded, LoadError> {
-    let bytes = std::fs::read(path).map_err(|source| LoadError::Io { path: path.to_owned(), source })?;
+pub fn load(path: &Path) -> Result<Loaded, Error> {
+    let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_owned(), source })?;
     match std::str::from_utf8(&bytes) {
         Ok(text) => parse(text, path),
         Err(e) => {
             let line = bytes[..e.valid_up_to()].iter().filter(|&&b| b == b'\n').count() + 1;
-            Err(LoadError::Nff {
+            Err(Error::Nff {
                 path: path.to_owned(),
                 line,
                 token: None,
@@ -65,7 +66,7 @@ pub fn load(path: &Path) -> Result<Loaded, LoadError> {
 }
 
 /// Parses NFF text; `path` is only used in error messages.
-pub fn parse(text: &str, path: &Path) -> Result<Loaded, LoadError> {
+pub fn parse(text: &str, path: &Path) -> Result<Loaded, Error> {
     let mut parser = Parser { path, tokens: tokenize(text), pos: 0, entity: ("", 0) };
     let mut state = State::default();
     parser.entities(&mut state)?;
@@ -143,8 +144,8 @@ impl State {
         })
     }
 
-    fn finish(mut self, path: &Path) -> Result<Loaded, LoadError> {
-        let invalid = |message: String| LoadError::Invalid { path: path.to_owned(), message };
+    fn finish(mut self, path: &Path) -> Result<Loaded, Error> {
+        let invalid = |message: String| Error::Invalid { path: path.to_owned(), message };
         let Some(View { camera, resolution, .. }) = self.view else {
             return Err(invalid("no 'v' (viewpoint) entity: an NFF file must say where the eye is".into()));
         };
@@ -197,7 +198,7 @@ impl State {
             primitives: self.primitives,
             resolution,
         };
-        scene.validate().map_err(invalid)?;
+        scene.validate().map_err(|e| invalid(e.into_message()))?;
         Ok(Loaded { scene, warnings })
     }
 }
@@ -211,11 +212,11 @@ struct Parser<'a> {
 }
 
 impl<'a> Parser<'a> {
-    fn error(&self, line: usize, token: Option<&str>, message: String) -> LoadError {
-        LoadError::Nff { path: self.path.to_owned(), line, token: token.map(str::to_owned), message }
+    fn error(&self, line: usize, token: Option<&str>, message: String) -> Error {
+        Error::Nff { path: self.path.to_owned(), line, token: token.map(str::to_owned), message }
     }
 
-    fn error_at(&self, token: Token<'_>, message: String) -> LoadError {
+    fn error_at(&self, token: Token<'_>, message: String) -> Error {
         self.error(token.line, Some(token.text), message)
     }
 
@@ -229,7 +230,7 @@ impl<'a> Parser<'a> {
     }
 
     /// The next token, or an end-of-file error saying what was expected.
-    fn expect(&mut self, what: &impl Fn() -> String) -> Result<Token<'a>, LoadError> {
+    fn expect(&mut self, what: &impl Fn() -> String) -> Result<Token<'a>, Error> {
         let token = self.peek().ok_or_else(|| {
             let (keyword, line) = self.entity;
             self.error(
@@ -243,7 +244,7 @@ impl<'a> Parser<'a> {
     }
 
     /// Error for a token that should have been `what` (`kind` says what that is).
-    fn not_a(&self, token: Token<'_>, what: String, kind: &str) -> LoadError {
+    fn not_a(&self, token: Token<'_>, what: String, kind: &str) -> Error {
         let (keyword, line) = self.entity;
         let message = if KEYWORDS.contains(&token.text) || VIEW_KEYWORDS.contains(&token.text) {
             format!(
@@ -257,7 +258,7 @@ impl<'a> Parser<'a> {
     }
 
     /// A finite number.
-    fn number(&mut self, what: impl Fn() -> String) -> Result<f64, LoadError> {
+    fn number(&mut self, what: impl Fn() -> String) -> Result<f64, Error> {
         let token = self.expect(&what)?;
         match token.text.parse::<f64>() {
             Ok(v) if v.is_finite() => Ok(v),
@@ -266,7 +267,7 @@ impl<'a> Parser<'a> {
         }
     }
 
-    fn vec3(&mut self, what: impl Fn() -> String) -> Result<DVec3, LoadError> {
+    fn vec3(&mut self, what: impl Fn() -> String) -> Result<DVec3, Error> {
         let mut v = [0.0; 3];
         for (k, axis) in AXES.iter().enumerate() {
             v[k] = self.number(|| format!("{axis} of {}", what()))?;
@@ -274,7 +275,7 @@ impl<'a> Parser<'a> {
         Ok(DVec3::from_array(v))
     }
 
-    fn colour(&mut self, what: &str) -> Result<DVec3, LoadError> {
+    fn colour(&mut self, what: &str) -> Result<DVec3, Error> {
         let mut v = [0.0; 3];
         for (k, channel) in ["red", "green", "blue"].iter().enumerate() {
             v[k] = self.number(|| format!("{channel} of {what}"))?;
@@ -283,12 +284,12 @@ impl<'a> Parser<'a> {
     }
 
     /// A non-negative whole number.
-    fn whole(&mut self, what: impl Fn() -> String) -> Result<usize, LoadError> {
+    fn whole(&mut self, what: impl Fn() -> String) -> Result<usize, Error> {
         let token = self.expect(&what)?;
         token.text.parse::<usize>().map_err(|_| self.not_a(token, what(), "a whole number"))
     }
 
-    fn entities(&mut self, state: &mut State) -> Result<(), LoadError> {
+    fn entities(&mut self, state: &mut State) -> Result<(), Error> {
         while let Some(token) = self.peek() {
             self.pos += 1;
             let keyword = KEYWORDS.iter().find(|k| **k == token.text).copied();
@@ -317,7 +318,7 @@ impl<'a> Parser<'a> {
     }
 
     /// `v` followed by its sub-keywords, in any order.
-    fn view(&mut self, state: &mut State) -> Result<(), LoadError> {
+    fn view(&mut self, state: &mut State) -> Result<(), Error> {
         let line = self.entity.1;
         if let Some(View { line: first, .. }) = &state.view {
             return Err(self.error(
@@ -400,14 +401,14 @@ impl<'a> Parser<'a> {
         let projection =
             Projection::Perspective { fov_y: angle.to_radians(), span: FovSpan::EdgePixelCenters };
         let mut camera = Camera::look_at(from, at, up, projection)
-            .map_err(|m| self.error(line, Some("v"), format!("impossible view: {m}")))?;
+            .map_err(|m| self.error(line, Some("v"), format!("impossible view: {}", m.into_message())))?;
         camera.near = hither.unwrap_or(0.0);
         state.view = Some(View { camera, line, resolution });
         Ok(())
     }
 
     /// `l X Y Z [R G B]`: the colour is there when a number follows the position.
-    fn light(&mut self, state: &mut State) -> Result<(), LoadError> {
+    fn light(&mut self, state: &mut State) -> Result<(), Error> {
         let position = self.vec3(|| "the light position".into())?;
         let coloured = self.peek().is_some_and(|t| t.text.parse::<f64>().is_ok());
         let colour = if coloured { self.colour("the light colour")? } else { DVec3::ONE };
@@ -417,7 +418,7 @@ impl<'a> Parser<'a> {
     }
 
     /// `f r g b Kd Ks Shine T ior`.
-    fn fill(&mut self, state: &mut State) -> Result<(), LoadError> {
+    fn fill(&mut self, state: &mut State) -> Result<(), Error> {
         let color = self.colour("the fill colour")?;
         let kd = self.number(|| "the diffuse weight Kd".into())?;
         let ks = self.number(|| "the specular weight Ks".into())?;
@@ -448,7 +449,7 @@ impl<'a> Parser<'a> {
     }
 
     /// `s x y z r`.
-    fn sphere(&mut self, state: &mut State) -> Result<(), LoadError> {
+    fn sphere(&mut self, state: &mut State) -> Result<(), Error> {
         let center = self.vec3(|| "the sphere centre".into())?;
         let radius = self.number(|| "the sphere radius".into())?;
         if radius == 0.0 {
@@ -465,7 +466,7 @@ impl<'a> Parser<'a> {
     }
 
     /// `c  bx by bz br  ax ay az ar`.
-    fn cylinder(&mut self, state: &mut State) -> Result<(), LoadError> {
+    fn cylinder(&mut self, state: &mut State) -> Result<(), Error> {
         let base = self.vec3(|| "the cylinder base".into())?;
         let base_radius = self.number(|| "the cylinder base radius".into())?;
         let apex_start = self.peek();
@@ -502,7 +503,7 @@ impl<'a> Parser<'a> {
     }
 
     /// `p n` followed by n vertices, or `pp n` followed by n (vertex, normal) pairs.
-    fn polygon(&mut self, state: &mut State, patch: bool) -> Result<(), LoadError> {
+    fn polygon(&mut self, state: &mut State, patch: bool) -> Result<(), Error> {
         let (keyword, line) = self.entity;
         let n = self.whole(|| "the vertex count".into())?;
         if n < 3 {

@@ -29,9 +29,10 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::{KeyCode, PhysicalKey};
 use winit::window::{Window, WindowId};
 
-use crate::gpu::{GpuContext, GpuRenderError, GpuRenderer, MAX_DEPTH};
-use crate::output::{self, OutputError};
-use crate::reference::RenderOptions;
+use crate::error::{Error, Result};
+use crate::gpu::{GpuContext, GpuRenderer, MAX_DEPTH};
+use crate::job::RenderOptions;
+use crate::output;
 use crate::scene::Scene;
 use controls::Controller;
 use session::{Session, Toggles};
@@ -52,28 +53,12 @@ pub struct Config {
     pub screenshot: Option<PathBuf>,
 }
 
-#[derive(Debug, thiserror::Error)]
-pub enum PreviewError {
-    #[error(
-        "cannot open a window ({0}): the preview needs a display (X11 or Wayland). To render \
-         without one use `cuberay render SCENE -o image.png` (--spp N renders the samples of N \
-         preview frames)"
-    )]
-    NoDisplay(String),
-    #[error("the window system failed: {0}")]
-    Window(String),
-    #[error(transparent)]
-    Gpu(#[from] GpuRenderError),
-    #[error(transparent)]
-    Output(#[from] OutputError),
-}
-
 /// Opens the window and runs until it is closed, Escape is pressed or `--frames` passes
 /// are done.
-pub fn run(config: Config) -> Result<(), PreviewError> {
+pub fn run(config: Config) -> Result<()> {
     let set = |v: &str| std::env::var_os(v).is_some_and(|s| !s.is_empty());
     if !set("DISPLAY") && !set("WAYLAND_DISPLAY") && !set("WAYLAND_SOCKET") {
-        return Err(PreviewError::NoDisplay("neither DISPLAY nor WAYLAND_DISPLAY is set".into()));
+        return Err(Error::NoDisplay("neither DISPLAY nor WAYLAND_DISPLAY is set".into()));
     }
     let event_loop = EventLoop::new().map_err(|e| {
         // winit says "os error at <source file>:<line>: <reason>"; keep the reason.
@@ -82,10 +67,10 @@ pub fn run(config: Config) -> Result<(), PreviewError> {
             Some((_, reason)) => reason.to_string(),
             None => text,
         };
-        PreviewError::NoDisplay(reason)
+        Error::NoDisplay(reason)
     })?;
     let mut app = App { config: Some(config), view: None, error: None };
-    event_loop.run_app(&mut app).map_err(|e| PreviewError::Window(e.to_string()))?;
+    event_loop.run_app(&mut app).map_err(|e| Error::Window(e.to_string()))?;
     match app.error {
         Some(e) => Err(e),
         None => Ok(()),
@@ -96,7 +81,7 @@ struct App {
     /// Taken when the window opens.
     config: Option<Config>,
     view: Option<View>,
-    error: Option<PreviewError>,
+    error: Option<Error>,
 }
 
 /// An open window and everything that draws into it.
@@ -182,19 +167,17 @@ enum Flow {
 }
 
 impl View {
-    fn open(event_loop: &ActiveEventLoop, config: Config) -> Result<View, PreviewError> {
+    fn open(event_loop: &ActiveEventLoop, config: Config) -> Result<View> {
         let Config { scene, name, opts, frames, screenshot } = config;
         let attrs = Window::default_attributes()
             .with_title(format!("cuberay preview: {name}"))
             .with_inner_size(PhysicalSize::new(opts.width, opts.height));
-        let window =
-            Arc::new(event_loop.create_window(attrs).map_err(|e| PreviewError::Window(e.to_string()))?);
+        let window = Arc::new(event_loop.create_window(attrs).map_err(|e| Error::Window(e.to_string()))?);
         let instance = GpuContext::instance(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
         let surface = instance
             .create_surface(window.clone())
-            .map_err(|e| PreviewError::Window(format!("cannot create a GPU surface for the window: {e}")))?;
-        let ctx =
-            pollster::block_on(GpuContext::open(&instance, Some(&surface))).map_err(GpuRenderError::from)?;
+            .map_err(|e| Error::Window(format!("cannot create a GPU surface for the window: {e}")))?;
+        let ctx = pollster::block_on(GpuContext::open(&instance, Some(&surface)))?;
         let caps = surface.get_capabilities(&ctx.adapter);
         // The shader encodes sRGB itself on a plain format (as the PNG writer does).
         let format = caps
@@ -205,7 +188,7 @@ impl View {
                 !f.is_srgb() && matches!(f, wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Rgba8Unorm)
             })
             .or_else(|| caps.formats.first().copied())
-            .ok_or_else(|| PreviewError::Window("the GPU cannot present to this window".into()))?;
+            .ok_or_else(|| Error::Window("the GPU cannot present to this window".into()))?;
         let size = window.inner_size();
         let surface_config = wgpu::SurfaceConfiguration {
             usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
@@ -267,7 +250,7 @@ impl View {
             || self.pending_size.is_some()
     }
 
-    fn handle(&mut self, event: WindowEvent) -> Result<Flow, PreviewError> {
+    fn handle(&mut self, event: WindowEvent) -> Result<Flow> {
         match event {
             WindowEvent::CloseRequested => return Ok(Flow::Exit),
             WindowEvent::Resized(size) => {
@@ -320,7 +303,7 @@ impl View {
         self.window.request_redraw();
     }
 
-    fn key(&mut self, event: KeyEvent) -> Result<Flow, PreviewError> {
+    fn key(&mut self, event: KeyEvent) -> Result<Flow> {
         let PhysicalKey::Code(code) = event.physical_key else { return Ok(Flow::Continue) };
         if event.state == ElementState::Released {
             self.held.remove(&code);
@@ -365,7 +348,7 @@ impl View {
         Ok(Flow::Continue)
     }
 
-    fn redraw(&mut self) -> Result<Flow, PreviewError> {
+    fn redraw(&mut self) -> Result<Flow> {
         let frame_start = Instant::now();
         if let Some(size) = self.pending_size.take() {
             self.resize(size)?;
@@ -421,7 +404,7 @@ impl View {
     }
 
     /// Renders the image at the window's new size (a new session on the same device).
-    fn resize(&mut self, size: PhysicalSize<u32>) -> Result<(), PreviewError> {
+    fn resize(&mut self, size: PhysicalSize<u32>) -> Result<()> {
         if size.width == 0 || size.height == 0 {
             return Ok(());
         }
@@ -440,7 +423,7 @@ impl View {
         Ok(())
     }
 
-    fn draw(&mut self) -> Result<(), PreviewError> {
+    fn draw(&mut self) -> Result<()> {
         let texture = match self.surface.get_current_texture() {
             wgpu::CurrentSurfaceTexture::Success(t) | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
             wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
@@ -448,7 +431,7 @@ impl View {
                 return Ok(());
             }
             wgpu::CurrentSurfaceTexture::Timeout | wgpu::CurrentSurfaceTexture::Occluded => return Ok(()),
-            other => return Err(PreviewError::Window(format!("cannot draw into the window: {other:?}"))),
+            other => return Err(Error::Window(format!("cannot draw into the window: {other:?}"))),
         };
         let target = texture.texture.create_view(&Default::default());
         self.display.draw(&self.gpu.ctx, &self.session, &target);
@@ -488,7 +471,7 @@ impl View {
     }
 
     /// P or F12: the next free `cuberay-<scene>-<n>.png` in the current directory.
-    fn save_screenshot_key(&mut self) -> Result<(), PreviewError> {
+    fn save_screenshot_key(&mut self) -> Result<()> {
         if self.session.passes() == 0 {
             log::warn!("no sample accumulated yet: no screenshot");
             return Ok(());
@@ -507,19 +490,19 @@ impl View {
         Ok(())
     }
 
-    fn save_final_screenshot(&self) -> Result<(), PreviewError> {
+    fn save_final_screenshot(&self) -> Result<()> {
         match &self.screenshot {
             Some(path) => self.write_image(path),
             None => Ok(()),
         }
     }
 
-    fn write_image(&self, path: &Path) -> Result<(), PreviewError> {
+    fn write_image(&self, path: &Path) -> Result<()> {
         let image = self.session.image()?;
         if !image.is_finite() {
-            return Err(PreviewError::Gpu(GpuRenderError::Device(
+            return Err(Error::Gpu(
                 "the render produced a non-finite pixel; nothing written (this is a renderer bug)".into(),
-            )));
+            ));
         }
         output::write(&image, path)?;
         Ok(())
@@ -589,7 +572,7 @@ impl Display {
 
     fn draw(&self, ctx: &GpuContext, session: &Session, target: &wgpu::TextureView) {
         let o = session.options();
-        let corners = o.sampling == crate::reference::Sampling::Corners;
+        let corners = o.sampling == crate::sampling::Sampling::Corners;
         let view =
             [o.width, o.height, session.grid().0, session.passes(), corners as u32, self.encode as u32, 0, 0];
         ctx.queue.write_buffer(&self.uniform, 0, bytemuck::cast_slice(&view));

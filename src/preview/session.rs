@@ -15,11 +15,13 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use crate::error::{Error, Result};
 use crate::gpu::layout::{self, Params, PointState};
 use crate::gpu::shader::Variant;
-use crate::gpu::{self, GpuRenderError, GpuRenderer, GpuTables, Kernels, SceneBuffers, MAX_DEPTH, WORKGROUP};
+use crate::gpu::{self, GpuRenderer, GpuTables, Kernels, SceneBuffers, MAX_DEPTH, WORKGROUP};
+use crate::job::RenderOptions;
 use crate::output::Image;
-use crate::reference::{sampling, RenderOptions, Sampling};
+use crate::sampling::{self, Sampling};
 use crate::scene::{Camera, Effects, Scene};
 
 /// The WGSL of the preview's own passes (accumulation and display).
@@ -130,7 +132,7 @@ impl Session {
         opts: RenderOptions,
         toggles: Toggles,
         limit: u32,
-    ) -> Result<Session, GpuRenderError> {
+    ) -> Result<Session> {
         gpu::check(&scene, &opts)?;
         let cube = gpu::uses_tables(opts.accel);
         let mut packed = layout::pack(&scene, opts.width, opts.height);
@@ -187,7 +189,7 @@ impl Session {
         };
         let active_read = read_buffer("active readback", 4);
         let counters_read = read_buffer("counters readback", (gpu::COUNTER_SLOTS * 8) as u64);
-        let seed_hash = sampling::pcg(sampling::pcg((opts.seed >> 32) as u32) ^ opts.seed as u32);
+        let seed_hash = sampling::seed_hash(opts.seed);
         let base = Params {
             grid_w: grid.0,
             grid_h: grid.1,
@@ -279,7 +281,7 @@ impl Session {
         self.last_eye_update
     }
 
-    fn update_eye(&mut self) -> Result<(), GpuRenderError> {
+    fn update_eye(&mut self) -> Result<()> {
         let (w, h) = (self.opts.width, self.opts.height);
         let queue = &self.gpu.ctx.queue;
         let mut packed;
@@ -297,7 +299,7 @@ impl Session {
                     self.kernels = self.gpu.kernels(variant)?;
                     self.buffers = self.gpu.upload(&packed, None, self.buffers.tile, true);
                     self.rebind();
-                    return Err(GpuRenderError::Scene(format!("cannot rebuild the candidate tables: {e}")));
+                    return Err(Error::Scene(format!("cannot rebuild the candidate tables: {e}")));
                 }
             };
             packed.params.eye_origin = tables.flat.eye_origin;
@@ -347,7 +349,7 @@ impl Session {
 
     /// Switches effects on or off and sets the maximum depth; restarts the
     /// accumulation. The kernels of a new combination are compiled on first use.
-    pub fn set_effects(&mut self, toggles: Toggles, max_depth: u32) -> Result<(), GpuRenderError> {
+    pub fn set_effects(&mut self, toggles: Toggles, max_depth: u32) -> Result<()> {
         let mut opts = self.opts.clone();
         opts.max_depth = max_depth;
         gpu::check(&self.scene, &opts)?;
@@ -373,7 +375,7 @@ impl Session {
 
     /// Runs steps while another one is expected to end within `budget` (at least one
     /// step unless complete). Returns whether any work was done.
-    pub fn advance(&mut self, budget: Duration) -> Result<bool, GpuRenderError> {
+    pub fn advance(&mut self, budget: Duration) -> Result<bool> {
         let start = Instant::now();
         let mut worked = false;
         while !self.is_complete() && (!worked || start.elapsed() + self.last_step < budget) {
@@ -384,7 +386,7 @@ impl Session {
     }
 
     /// Runs passes until complete.
-    pub fn finish(&mut self) -> Result<(), GpuRenderError> {
+    pub fn finish(&mut self) -> Result<()> {
         while !self.is_complete() {
             self.step()?;
         }
@@ -393,7 +395,7 @@ impl Session {
 
     /// One dispatch of the `render` kernel over the current tile (starting it if
     /// needed); a finished tile is added to the accumulation.
-    fn step(&mut self) -> Result<(), GpuRenderError> {
+    fn step(&mut self) -> Result<()> {
         let device = &self.gpu.ctx.device;
         let queue = &self.gpu.ctx.queue;
         let total = self.grid.0 as u64 * self.grid.1 as u64;
@@ -469,7 +471,7 @@ impl Session {
     }
 
     /// Rays traced since the session started (all kinds).
-    pub fn rays(&self) -> Result<u64, GpuRenderError> {
+    pub fn rays(&self) -> Result<u64> {
         let bytes = (gpu::COUNTER_SLOTS * 8) as u64;
         let mut enc = self.gpu.ctx.device.create_command_encoder(&Default::default());
         enc.copy_buffer_to_buffer(&self.buffers.counters, 0, &self.counters_read, 0, bytes);
@@ -480,9 +482,9 @@ impl Session {
 
     /// The average of the passes done as a linear image, computed as the headless
     /// renderer computes its result (f64 average of the grid points).
-    pub fn image(&self) -> Result<Image, GpuRenderError> {
+    pub fn image(&self) -> Result<Image> {
         if self.passes == 0 {
-            return Err(GpuRenderError::Options("no sample has been accumulated yet".into()));
+            return Err(Error::Options("no sample has been accumulated yet".into()));
         }
         let (gw, gh) = self.grid;
         let bytes = gw as u64 * gh as u64 * 16;

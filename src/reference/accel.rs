@@ -17,7 +17,8 @@ use glam::{DVec3, Vec3A};
 use obvhs::{aabb::Aabb as BvhAabb, bvh2::Bvh2, Boundable, BvhBuildParams};
 
 use super::geometry::{intersect, PrimHit, Ray};
-use crate::coherence::BuildError;
+use crate::error::Result;
+use crate::job::AccelKind;
 use crate::scene::{Aabb, Primitive, Scene};
 use crate::stats::TestCounts;
 
@@ -53,20 +54,6 @@ pub struct ShadowQuery {
     pub light_position: Option<DVec3>,
 }
 
-/// Which acceleration structure to use.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum AccelKind {
-    /// GPU: the candidate tables; CPU: brute force up to 16 primitives
-    /// ([`AUTO_BRUTE_MAX`]), a BVH above.
-    Auto,
-    /// Test every primitive for every ray.
-    Brute,
-    /// Bounding volume hierarchy.
-    Bvh,
-    /// The direction-cube candidate tables of the coherence method (Ohta and Maekawa).
-    Cube,
-}
-
 /// The largest scene [`AccelKind::Auto`] traces by brute force.
 pub const AUTO_BRUTE_MAX: usize = 16;
 
@@ -84,12 +71,7 @@ pub trait Accel: Sync {
 
 /// Builds the structure `kind` asks for; the direction-cube tables cover primary rays of a
 /// `width`×`height` image.
-pub fn build<'a>(
-    scene: &'a Scene,
-    kind: AccelKind,
-    width: u32,
-    height: u32,
-) -> Result<Box<dyn Accel + 'a>, BuildError> {
+pub fn build<'a>(scene: &'a Scene, kind: AccelKind, width: u32, height: u32) -> Result<Box<dyn Accel + 'a>> {
     Ok(match kind {
         AccelKind::Auto if scene.primitives.len() <= AUTO_BRUTE_MAX => {
             Box::new(Brute::new(&scene.primitives))

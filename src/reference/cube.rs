@@ -15,7 +15,8 @@
 
 use glam::DVec3;
 
-use crate::coherence::{self, BuildError, BuildParams, FlatTables, OriginKey, Tables};
+use crate::coherence::{self, BuildParams, FlatTables, OriginKey, Tables};
+use crate::error::Result;
 use crate::scene::{Primitive, Scene};
 use crate::stats::TestCounts;
 
@@ -33,7 +34,7 @@ pub struct Cube<'a> {
 impl<'a> Cube<'a> {
     /// Builds the tables `scene` calls for, with the eye table covering a `width`×`height`
     /// image.
-    pub fn new(scene: &'a Scene, width: u32, height: u32) -> Result<Cube<'a>, BuildError> {
+    pub fn new(scene: &'a Scene, width: u32, height: u32) -> Result<Cube<'a>> {
         let params = BuildParams { image: Some((width, height)), ..BuildParams::default() };
         let tables = coherence::build(scene, &params)?;
         Ok(Cube { prims: &scene.primitives, tables, eye: scene.camera.eye })

@@ -7,7 +7,6 @@
 //! - [`cube`]: `--accel cube`, the reference's own intersection tests in the order and
 //!   number the direction-cube tables of [`crate::coherence`] choose;
 //! - [`shade`]: the Whitted shading model and the ray tree;
-//! - [`sampling`]: where eye rays go (pixel centres, stratified jitter, SPD corners);
 //! - [`texture`]: texture sampling.
 //!
 //! [`render`] produces a linear radiance image and [`render_aov`] an auxiliary image, both
@@ -20,123 +19,25 @@ use glam::DVec3;
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 
+use crate::error::Result;
+use crate::job::{simulated_effects, RenderOptions, Rendered};
 use crate::output::{Aov, Image};
+use crate::sampling::{self, Sampling};
 use crate::scene::Scene;
 use crate::stats::{self, Counters, Stats};
 
 pub mod accel;
 pub mod cube;
 pub mod geometry;
-pub mod sampling;
 pub mod shade;
 pub mod texture;
-
-pub use accel::AccelKind;
-pub use sampling::Sampling;
 
 use geometry::Ray;
 use shade::Tracer;
 
-/// What to render and how.
-#[derive(Clone, Debug)]
-pub struct RenderOptions {
-    pub width: u32,
-    pub height: u32,
-    /// Samples per pixel with [`Sampling::Center`] (1: the pixel centre; N > 1:
-    /// stratified jitter). Must be 1 with [`Sampling::Corners`].
-    pub spp: u32,
-    pub seed: u64,
-    pub sampling: Sampling,
-    /// Maximum ray-tree depth, the eye ray being depth 1 (SPD: 5).
-    pub max_depth: u32,
-    pub accel: AccelKind,
-}
-
-impl RenderOptions {
-    /// Pixel centres, one sample, depth 5, automatic acceleration.
-    pub fn new(width: u32, height: u32) -> RenderOptions {
-        RenderOptions {
-            width,
-            height,
-            spp: 1,
-            seed: 0,
-            sampling: Sampling::Center,
-            max_depth: 5,
-            accel: AccelKind::Auto,
-        }
-    }
-
-    /// Checks the options; the error says what is wrong in words.
-    pub fn validate(&self) -> Result<(), RenderError> {
-        let bad = |m: String| Err(RenderError::Options(m));
-        if self.width == 0 || self.height == 0 || self.width > 32768 || self.height > 32768 {
-            return bad(format!(
-                "image size {}x{} is not within 1..=32768 per side",
-                self.width, self.height
-            ));
-        }
-        if self.spp == 0 {
-            return bad("--spp must be at least 1".into());
-        }
-        if self.sampling == Sampling::Corners && self.spp != 1 {
-            return bad("--sampling corners traces exactly the pixel corners: --spp must be 1".into());
-        }
-        if self.max_depth == 0 {
-            return bad("--max-depth must be at least 1 (the eye ray)".into());
-        }
-        Ok(())
-    }
-}
-
-#[derive(Debug, thiserror::Error)]
-pub enum RenderError {
-    /// Invalid render options.
-    #[error("{0}")]
-    Options(String),
-    /// The scene breaks an invariant of the scene model.
-    #[error("invalid scene: {0}")]
-    Scene(String),
-    /// The direction-cube tables (`--accel cube`) could not be built.
-    #[error(transparent)]
-    Tables(#[from] crate::coherence::BuildError),
-}
-
-/// A rendered image and its statistics.
-pub struct Rendered {
-    pub image: Image,
-    pub stats: Stats,
-}
-
-/// The settings block of the statistics, shared by both backends.
-pub fn settings(opts: &RenderOptions, backend: &str, accel: &str) -> stats::Settings {
-    stats::Settings {
-        backend: backend.into(),
-        accel: accel.into(),
-        size: [opts.width, opts.height],
-        spp: opts.spp,
-        sampling: match opts.sampling {
-            Sampling::Corners => "corners".into(),
-            Sampling::Center if opts.spp > 1 => "jitter".into(),
-            Sampling::Center => "center".into(),
-        },
-        seed: opts.seed,
-        max_depth: opts.max_depth,
-    }
-}
-
-/// The effects a render with `max_depth` simulates.
-pub fn simulated_effects(scene: &Scene, max_depth: u32) -> Vec<&'static str> {
-    let mut e = scene.effects();
-    if max_depth < 2 {
-        e.reflection = false;
-        e.refraction = false;
-    }
-    e.names()
-}
-
-fn prepare(scene: &Scene, opts: &RenderOptions) -> Result<(), RenderError> {
+fn prepare(scene: &Scene, opts: &RenderOptions) -> Result<()> {
     opts.validate()?;
-    scene.validate().map_err(RenderError::Scene)
+    scene.validate()
 }
 
 fn to_pixel(c: DVec3) -> [f32; 4] {
@@ -144,7 +45,7 @@ fn to_pixel(c: DVec3) -> [f32; 4] {
 }
 
 /// Renders `scene` to linear radiance. `progress` advances once per traced row.
-pub fn render(scene: &Scene, opts: &RenderOptions, progress: &ProgressBar) -> Result<Rendered, RenderError> {
+pub fn render(scene: &Scene, opts: &RenderOptions, progress: &ProgressBar) -> Result<Rendered> {
     prepare(scene, opts)?;
     let (w, h) = (opts.width, opts.height);
     let start = Instant::now();
@@ -213,7 +114,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions, progress: &ProgressBar) -> Re
     }
     let trace_s = start.elapsed().as_secs_f64();
     let stats = Stats::new(
-        settings(opts, "cpu", accel.name()),
+        opts.settings("cpu", accel.name()),
         simulated_effects(scene, opts.max_depth),
         &counters,
         stats::Times { preprocess_s, trace_s, ..Default::default() },
@@ -223,12 +124,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions, progress: &ProgressBar) -> Re
 
 /// Renders an auxiliary output from the eye ray through each pixel centre (whatever the
 /// sampling options say); see [`Aov`] for the values. Only eye rays are traced and counted.
-pub fn render_aov(
-    scene: &Scene,
-    opts: &RenderOptions,
-    aov: Aov,
-    progress: &ProgressBar,
-) -> Result<Rendered, RenderError> {
+pub fn render_aov(scene: &Scene, opts: &RenderOptions, aov: Aov, progress: &ProgressBar) -> Result<Rendered> {
     prepare(scene, opts)?;
     let (w, h) = (opts.width, opts.height);
     let start = Instant::now();
@@ -268,10 +164,7 @@ pub fn render_aov(
         image.pixels[j * w as usize..(j + 1) * w as usize].copy_from_slice(&row);
     }
     let trace_s = start.elapsed().as_secs_f64();
-    let mut set = settings(opts, "cpu", accel.name());
-    set.sampling = "center".into();
-    set.spp = 1;
-    set.max_depth = 1;
+    let set = opts.aov_settings("cpu", accel.name());
     let stats =
         Stats::new(set, Vec::new(), &counters, stats::Times { preprocess_s, trace_s, ..Default::default() });
     Ok(Rendered { image, stats })

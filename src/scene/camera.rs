@@ -7,6 +7,8 @@
 
 use glam::DVec3;
 
+use crate::error::{Error, Result};
+
 /// How the field of view is measured.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FovSpan {
@@ -46,28 +48,23 @@ pub struct Camera {
 impl Camera {
     /// A camera at `eye` looking at `at`. `up` need not be orthogonal to the view
     /// direction, only not parallel to it. Returns an error for degenerate input.
-    pub fn look_at(eye: DVec3, at: DVec3, up: DVec3, projection: Projection) -> Result<Camera, String> {
+    pub fn look_at(eye: DVec3, at: DVec3, up: DVec3, projection: Projection) -> Result<Camera> {
         if !(eye.is_finite() && at.is_finite() && up.is_finite()) {
-            return Err("camera position, target or up vector is not finite".into());
+            return Err(Error::Scene("camera position, target or up vector is not finite".into()));
         }
         let f = at - eye;
         if f.length_squared() == 0.0 {
-            return Err("camera eye and look-at point coincide".into());
+            return Err(Error::Scene("camera eye and look-at point coincide".into()));
         }
         Self::from_basis(eye, f, up, projection)
     }
 
     /// A camera looking along `forward` (any length) with the given `up` hint.
-    pub fn from_basis(
-        eye: DVec3,
-        forward: DVec3,
-        up: DVec3,
-        projection: Projection,
-    ) -> Result<Camera, String> {
+    pub fn from_basis(eye: DVec3, forward: DVec3, up: DVec3, projection: Projection) -> Result<Camera> {
         let forward = forward.normalize();
         let right = forward.cross(up);
         if right.length() <= 1e-12 * up.length() || !right.is_finite() {
-            return Err("camera up vector is zero or parallel to the viewing direction".into());
+            return Err(Error::Scene("camera up vector is zero or parallel to the viewing direction".into()));
         }
         let right = right.normalize();
         let up = right.cross(forward).normalize();
@@ -76,26 +73,28 @@ impl Camera {
         Ok(cam)
     }
 
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<()> {
         for (v, what) in
             [(self.eye, "eye"), (self.forward, "forward"), (self.up, "up"), (self.right, "right")]
         {
             if !v.is_finite() {
-                return Err(format!("camera {what} is not finite"));
+                return Err(Error::Scene(format!("camera {what} is not finite")));
             }
         }
         match self.projection {
             Projection::Perspective { fov_y, .. } => {
                 if !(fov_y.is_finite() && fov_y > 0.0 && fov_y < std::f64::consts::PI) {
-                    return Err(format!(
+                    return Err(Error::Scene(format!(
                         "camera field of view {} degrees is not in (0, 180)",
                         fov_y.to_degrees()
-                    ));
+                    )));
                 }
             }
             Projection::Orthographic { half_height } => {
                 if !(half_height.is_finite() && half_height > 0.0) {
-                    return Err(format!("orthographic camera half-height {half_height} is not positive"));
+                    return Err(Error::Scene(format!(
+                        "orthographic camera half-height {half_height} is not positive"
+                    )));
                 }
             }
         }

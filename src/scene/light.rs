@@ -4,6 +4,7 @@
 use glam::DVec3;
 
 use super::Camera;
+use crate::error::{Error, Result};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum LightKind {
@@ -75,19 +76,19 @@ impl Light {
         }
     }
 
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<()> {
         if !(self.position.is_finite() && self.direction.is_finite() && self.color.is_finite()) {
-            return Err("position, direction or colour is not finite".into());
+            return Err(Error::Scene("position, direction or colour is not finite".into()));
         }
         if (self.direction.length() - 1.0).abs() > 1e-6 {
-            return Err("direction is not a unit vector".into());
+            return Err(Error::Scene("direction is not a unit vector".into()));
         }
         if !(self.intensity.is_finite() && self.intensity >= 0.0) {
-            return Err(format!("intensity {} is not finite and non-negative", self.intensity));
+            return Err(Error::Scene(format!("intensity {} is not finite and non-negative", self.intensity)));
         }
         if let Some(r) = self.range {
             if !(r.is_finite() && r > 0.0) {
-                return Err(format!("range {r} is not positive"));
+                return Err(Error::Scene(format!("range {r} is not positive")));
             }
         }
         if let LightKind::Spot { inner_cone, outer_cone } = self.kind {
@@ -95,7 +96,7 @@ impl Light {
                 && inner_cone < outer_cone
                 && outer_cone <= std::f64::consts::FRAC_PI_2 + 1e-9)
             {
-                return Err(format!("spot cone angles inner {inner_cone} and outer {outer_cone} are not 0 <= inner < outer <= pi/2"));
+                return Err(Error::Scene(format!("spot cone angles inner {inner_cone} and outer {outer_cone} are not 0 <= inner < outer <= pi/2")));
             }
         }
         Ok(())

@@ -3,6 +3,8 @@
 
 use glam::DVec3;
 
+use crate::error::{Error, Result};
+
 /// A Whitted/Phong material (Whitted 1980, Haines' NFF):
 /// `L = ambient·kd·C + Σ_lights vis·I·(kd·C·max(N·L,0) + ks·max(R·V,0)^shine)
 ///      + mirror·L_reflected + transmittance·L_refracted + emission`.
@@ -63,7 +65,7 @@ impl Material {
         self.emission.max_element() > 0.0
     }
 
-    pub fn validate(&self, texture_count: usize) -> Result<(), String> {
+    pub fn validate(&self, texture_count: usize) -> Result<()> {
         let scalars = [
             ("kd", self.kd),
             ("ks", self.ks),
@@ -73,20 +75,23 @@ impl Material {
         ];
         for (what, v) in scalars {
             if !v.is_finite() {
-                return Err(format!("{what} is not finite"));
+                return Err(Error::Scene(format!("{what} is not finite")));
             }
         }
         for (what, v) in [("colour", self.color), ("mirror", self.mirror), ("emission", self.emission)] {
             if !v.is_finite() {
-                return Err(format!("{what} is not finite"));
+                return Err(Error::Scene(format!("{what} is not finite")));
             }
         }
         if self.ior <= 0.0 {
-            return Err(format!("index of refraction {} is not positive", self.ior));
+            return Err(Error::Scene(format!("index of refraction {} is not positive", self.ior)));
         }
         if let Some(t) = &self.base_color_texture {
             if t.texture as usize >= texture_count {
-                return Err(format!("texture index {} out of range ({} textures)", t.texture, texture_count));
+                return Err(Error::Scene(format!(
+                    "texture index {} out of range ({} textures)",
+                    t.texture, texture_count
+                )));
             }
         }
         Ok(())

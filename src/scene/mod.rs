@@ -56,6 +56,8 @@
 use glam::{DVec2, DVec3};
 use serde::Serialize;
 
+use crate::error::{Error, Result};
+
 mod camera;
 mod light;
 mod material;
@@ -332,26 +334,27 @@ impl Scene {
 
     /// Checks the invariants listed in the module documentation. Loaders call this last;
     /// an error here is a loader bug or an unchecked input, described in words.
-    pub fn validate(&self) -> Result<(), String> {
-        let finite3 = |v: DVec3, what: &str| -> Result<(), String> {
+    pub fn validate(&self) -> Result<()> {
+        let bad = |m: String| Err(Error::Scene(m));
+        let finite3 = |v: DVec3, what: &str| -> Result<()> {
             if v.is_finite() {
                 Ok(())
             } else {
-                Err(format!("{what} is not finite: {v}"))
+                bad(format!("{what} is not finite: {v}"))
             }
         };
         self.camera.validate()?;
         finite3(self.background, "background")?;
         finite3(self.ambient, "ambient")?;
         for (i, l) in self.lights.iter().enumerate() {
-            l.validate().map_err(|e| format!("light {i}: {e}"))?;
+            l.validate().map_err(|e| e.within(format_args!("light {i}")))?;
         }
         for (i, m) in self.materials.iter().enumerate() {
-            m.validate(self.textures.len()).map_err(|e| format!("material {i}: {e}"))?;
+            m.validate(self.textures.len()).map_err(|e| e.within(format_args!("material {i}")))?;
         }
         for (i, t) in self.textures.iter().enumerate() {
             if t.width == 0 || t.height == 0 || t.texels.len() != (t.width as usize) * (t.height as usize) {
-                return Err(format!(
+                return bad(format!(
                     "texture {i}: size {}x{} does not match its {} texels",
                     t.width,
                     t.height,
@@ -361,19 +364,16 @@ impl Scene {
         }
         let nmat = self.materials.len();
         for (id, p) in self.primitives.iter().enumerate() {
-            let ctx = |e: String| format!("primitive {id}: {e}");
+            let ctx = |e: Error| e.within(format_args!("primitive {id}"));
+            let bad = |m: String| Err(Error::Scene(format!("primitive {id}: {m}")));
             if p.material() as usize >= nmat {
-                return Err(ctx(format!(
-                    "material index {} out of range ({} materials)",
-                    p.material(),
-                    nmat
-                )));
+                return bad(format!("material index {} out of range ({} materials)", p.material(), nmat));
             }
             match p {
                 Primitive::Sphere(s) => {
                     finite3(s.center, "sphere centre").map_err(ctx)?;
                     if !(s.radius.is_finite() && s.radius > 0.0) {
-                        return Err(ctx(format!("sphere radius {} is not positive and finite", s.radius)));
+                        return bad(format!("sphere radius {} is not positive and finite", s.radius));
                     }
                 }
                 Primitive::Cylinder(c) => {
@@ -381,30 +381,30 @@ impl Scene {
                     finite3(c.apex, "cylinder apex").map_err(ctx)?;
                     for r in [c.base_radius, c.apex_radius] {
                         if !(r.is_finite() && r >= 0.0) {
-                            return Err(ctx(format!("cylinder radius {r} is not non-negative and finite")));
+                            return bad(format!("cylinder radius {r} is not non-negative and finite"));
                         }
                     }
                     if c.base_radius == 0.0 && c.apex_radius == 0.0 {
-                        return Err(ctx("cylinder radii are both zero".into()));
+                        return bad("cylinder radii are both zero".into());
                     }
                     if c.base == c.apex {
-                        return Err(ctx("cylinder base and apex coincide".into()));
+                        return bad("cylinder base and apex coincide".into());
                     }
                 }
                 Primitive::Triangle(t) => {
                     if t.is_degenerate() {
-                        return Err(ctx("degenerate or non-finite triangle".into()));
+                        return bad("degenerate or non-finite triangle".into());
                     }
                     if let Some(n) = &t.n {
                         for v in n {
                             if !v.is_finite() || (v.length() - 1.0).abs() > 1e-6 {
-                                return Err(ctx(format!("shading normal {v} is not a finite unit vector")));
+                                return bad(format!("shading normal {v} is not a finite unit vector"));
                             }
                         }
                     }
                     if let Some(uv) = &t.uv {
                         if !uv.iter().all(|u| u.is_finite()) {
-                            return Err(ctx("texture coordinate is not finite".into()));
+                            return bad("texture coordinate is not finite".into());
                         }
                     }
                 }

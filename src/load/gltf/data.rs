@@ -14,7 +14,7 @@ use gltf::accessor::{DataType, Dimensions};
 use gltf::Document;
 
 use super::Ctx;
-use crate::load::LoadError;
+use crate::error::Error;
 
 /// The bytes of every buffer of the document, in file order. Each holds at least the
 /// buffer's declared `byteLength`.
@@ -23,7 +23,7 @@ pub struct Buffers(Vec<Vec<u8>>);
 impl Buffers {
     /// Loads every buffer: the GLB binary chunk, external files (relative to the glTF file)
     /// and base64 data URIs.
-    pub fn load(ctx: &Ctx, doc: &Document, mut blob: Option<Vec<u8>>) -> Result<Buffers, LoadError> {
+    pub fn load(ctx: &Ctx, doc: &Document, mut blob: Option<Vec<u8>>) -> Result<Buffers, Error> {
         let mut out = Vec::new();
         for buffer in doc.buffers() {
             let loc = format!("buffers[{}]", buffer.index());
@@ -48,12 +48,7 @@ impl Buffers {
     }
 
     /// The bytes of buffer view `view`, checked against its buffer. `loc` names the use.
-    pub fn view<'a>(
-        &'a self,
-        ctx: &Ctx,
-        view: &gltf::buffer::View,
-        loc: &str,
-    ) -> Result<&'a [u8], LoadError> {
+    pub fn view<'a>(&'a self, ctx: &Ctx, view: &gltf::buffer::View, loc: &str) -> Result<&'a [u8], Error> {
         let buffer = &self.0[view.buffer().index()];
         let start = view.offset();
         match start.checked_add(view.length()).filter(|&end| end <= buffer.len()) {
@@ -76,7 +71,7 @@ impl Buffers {
 
 /// Reads the resource a URI names: a base64 `data:` URI, or a path relative to the glTF
 /// file (percent-decoded). `loc` (e.g. `buffers[0]`) names the referring object.
-pub fn read_uri<'u>(ctx: &Ctx, uri: &'u str, loc: &str) -> Result<Cow<'u, [u8]>, LoadError> {
+pub fn read_uri<'u>(ctx: &Ctx, uri: &'u str, loc: &str) -> Result<Cow<'u, [u8]>, Error> {
     if let Some(rest) = uri.strip_prefix("data:") {
         let (meta, payload) =
             rest.split_once(',').ok_or_else(|| ctx.err(loc, "malformed data URI (no comma)"))?;
@@ -213,7 +208,7 @@ fn span_end(offset: usize, count: usize, stride: usize, size: usize) -> Option<u
 }
 
 impl Reader<'_> {
-    fn err(&self, loc: &str, message: impl Into<String>) -> LoadError {
+    fn err(&self, loc: &str, message: impl Into<String>) -> Error {
         self.ctx.err(loc, message)
     }
 
@@ -224,7 +219,7 @@ impl Reader<'_> {
         loc: &str,
         dims: Dimensions,
         allowed: &[(DataType, bool)],
-    ) -> Result<(), LoadError> {
+    ) -> Result<(), Error> {
         if acc.dimensions() != dims {
             return Err(self.err(
                 loc,
@@ -244,7 +239,7 @@ impl Reader<'_> {
 
     /// Checks every byte range of the accessor (dense data and sparse substitutions)
     /// before anything is allocated or read.
-    fn layout<'b>(&'b self, acc: &gltf::Accessor, loc: &str) -> Result<Layout<'b>, LoadError> {
+    fn layout<'b>(&'b self, acc: &gltf::Accessor, loc: &str) -> Result<Layout<'b>, Error> {
         let size = acc.size();
         let count = acc.count();
         let dense = match acc.view() {
@@ -333,7 +328,7 @@ impl Reader<'_> {
 
     /// Calls `f(i, bytes)` for every element `i` of a checked accessor (dense data first, then
     /// the sparse substitutions, so a later call for the same `i` overrides an earlier one).
-    fn visit(&self, layout: Layout, loc: &str, mut f: impl FnMut(usize, &[u8])) -> Result<(), LoadError> {
+    fn visit(&self, layout: Layout, loc: &str, mut f: impl FnMut(usize, &[u8])) -> Result<(), Error> {
         let Layout { size, count, dense, sparse } = layout;
         match dense {
             Some(Dense { data, offset, stride }) => {
@@ -374,7 +369,7 @@ impl Reader<'_> {
         acc: &gltf::Accessor,
         loc: &str,
         read: impl Fn(&[u8]) -> T,
-    ) -> Result<Vec<T>, LoadError> {
+    ) -> Result<Vec<T>, Error> {
         let layout = self.layout(acc, loc)?;
         let mut out = vec![T::default(); layout.count];
         self.visit(layout, loc, |i, b| out[i] = read(b))?;
@@ -382,13 +377,13 @@ impl Reader<'_> {
     }
 
     /// Reads a VEC3 FLOAT accessor (POSITION, NORMAL) without judging its values.
-    pub fn vec3(&self, acc: &gltf::Accessor, loc: &str) -> Result<Vec<[f32; 3]>, LoadError> {
+    pub fn vec3(&self, acc: &gltf::Accessor, loc: &str) -> Result<Vec<[f32; 3]>, Error> {
         self.check_format(acc, loc, Dimensions::Vec3, &[(DataType::F32, false)])?;
         self.collect(acc, loc, |b| [0, 1, 2].map(|k| component_f32(b, DataType::F32, false, k)))
     }
 
     /// Reads POSITION: VEC3 FLOAT, every coordinate finite.
-    pub fn positions(&self, acc: &gltf::Accessor, loc: &str) -> Result<Vec<[f32; 3]>, LoadError> {
+    pub fn positions(&self, acc: &gltf::Accessor, loc: &str) -> Result<Vec<[f32; 3]>, Error> {
         let out = self.vec3(acc, loc)?;
         if let Some((i, p)) = out.iter().enumerate().find(|(_, p)| !p.iter().all(|c| c.is_finite())) {
             return Err(self.err(loc, format!("position {i} is not finite: {p:?}")));
@@ -397,7 +392,7 @@ impl Reader<'_> {
     }
 
     /// Reads TEXCOORD_n: VEC2 of FLOAT or normalized UNSIGNED_BYTE/SHORT, every value finite.
-    pub fn texcoords(&self, acc: &gltf::Accessor, loc: &str) -> Result<Vec<[f32; 2]>, LoadError> {
+    pub fn texcoords(&self, acc: &gltf::Accessor, loc: &str) -> Result<Vec<[f32; 2]>, Error> {
         self.check_format(
             acc,
             loc,
@@ -414,7 +409,7 @@ impl Reader<'_> {
 
     /// Reads indices: SCALAR UNSIGNED_BYTE/SHORT/INT. Ranges are checked by the caller,
     /// which knows the vertex count.
-    pub fn indices(&self, acc: &gltf::Accessor, loc: &str) -> Result<Vec<u32>, LoadError> {
+    pub fn indices(&self, acc: &gltf::Accessor, loc: &str) -> Result<Vec<u32>, Error> {
         self.check_format(
             acc,
             loc,

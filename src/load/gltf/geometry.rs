@@ -17,7 +17,7 @@ use rayon::prelude::*;
 use super::data::Reader;
 use super::materials::MaterialTable;
 use super::Ctx;
-use crate::load::LoadError;
+use crate::error::Error;
 use crate::scene::{Primitive, Triangle};
 
 /// Something attached to a node, with the node's world matrix.
@@ -38,7 +38,7 @@ pub struct Hierarchy {
 }
 
 /// The local transform of a node (matrix, or T·R·S with the rotation renormalised).
-fn local_matrix(ctx: &Ctx, node: &gltf::Node) -> Result<DMat4, LoadError> {
+fn local_matrix(ctx: &Ctx, node: &gltf::Node) -> Result<DMat4, Error> {
     let loc = format!("nodes[{}]", node.index());
     match node.transform() {
         gltf::scene::Transform::Matrix { matrix } => {
@@ -71,7 +71,7 @@ fn local_matrix(ctx: &Ctx, node: &gltf::Node) -> Result<DMat4, LoadError> {
 }
 
 /// Walks the default scene (or scene 0, or every root node when the file has no scene).
-pub fn walk(ctx: &Ctx, doc: &Document) -> Result<Hierarchy, LoadError> {
+pub fn walk(ctx: &Ctx, doc: &Document) -> Result<Hierarchy, Error> {
     let (label, roots): (String, Vec<usize>) = match doc.default_scene().or_else(|| doc.scenes().next()) {
         Some(s) => (format!("scenes[{}]", s.index()), s.nodes().map(|n| n.index()).collect()),
         None => {
@@ -176,7 +176,7 @@ impl Cache {
         prim: &gltf::Primitive,
         table: &MaterialTable,
         warnings: &mut Vec<String>,
-    ) -> Result<Option<PrimGeom>, LoadError> {
+    ) -> Result<Option<PrimGeom>, Error> {
         let ctx = reader.ctx;
         let loc = format!("meshes[{mesh}].primitives[{}]", prim.index());
         let mode = prim.mode();
@@ -197,7 +197,7 @@ impl Cache {
             }
         };
         let n = positions.len();
-        let same_count = |acc: &gltf::Accessor, name: &str| -> Result<(), LoadError> {
+        let same_count = |acc: &gltf::Accessor, name: &str| -> Result<(), Error> {
             if acc.count() != n {
                 return Err(ctx.err(
                     attr_loc(&loc, name, acc),
@@ -370,7 +370,7 @@ pub fn triangles(
     hierarchy: &Hierarchy,
     table: &MaterialTable,
     warnings: &mut Vec<String>,
-) -> Result<Vec<Primitive>, LoadError> {
+) -> Result<Vec<Primitive>, Error> {
     let meshes: Vec<gltf::Mesh> = doc.meshes().collect();
     let mut cache = Cache::default();
     let mut decoded: HashMap<(usize, usize), Option<Arc<PrimGeom>>> = HashMap::new();

@@ -19,7 +19,7 @@ use rayon::prelude::*;
 
 use super::data::{read_uri, Buffers};
 use super::Ctx;
-use crate::load::LoadError;
+use crate::error::Error;
 use crate::scene::{Material, Texture, TextureRef, Wrap};
 
 /// The scene's materials and textures, and how glTF materials map onto them.
@@ -87,7 +87,7 @@ pub fn whitted(p: &PbrInputs) -> Material {
 }
 
 /// Decodes image `index` (PNG or JPEG, from a file, a data URI or a buffer view) to RGBA8.
-fn decode_image(ctx: &Ctx, doc: &Document, buffers: &Buffers, index: usize) -> Result<RgbaImage, LoadError> {
+fn decode_image(ctx: &Ctx, doc: &Document, buffers: &Buffers, index: usize) -> Result<RgbaImage, Error> {
     let loc = format!("images[{index}]");
     let json = &doc.as_json().images[index];
     let bytes: Cow<[u8]> = match (&json.uri, &json.buffer_view) {
@@ -153,7 +153,7 @@ pub fn build(
     buffers: &Buffers,
     used: &BTreeSet<Option<usize>>,
     warnings: &mut Vec<String>,
-) -> Result<MaterialTable, LoadError> {
+) -> Result<MaterialTable, Error> {
     let materials: Vec<gltf::Material> = doc.materials().collect();
     let used_gltf: Vec<usize> = used.iter().flatten().copied().collect();
     let source = |info: &gltf::texture::Info| info.texture().source().index();
@@ -235,7 +235,7 @@ pub fn build(
             };
             mat.base_color_texture = Some(TextureRef { texture: id, texcoord: info.tex_coord() });
         }
-        mat.validate(table.textures.len()).map_err(|e| ctx.err(&loc, e))?;
+        mat.validate(table.textures.len()).map_err(|e| ctx.err(&loc, e.into_message()))?;
         match m.alpha_mode() {
             AlphaMode::Opaque => {}
             mode => warnings.push(format!(

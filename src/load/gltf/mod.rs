@@ -28,7 +28,8 @@ use std::path::Path;
 use glam::DVec3;
 use gltf::Document;
 
-use super::{LoadError, LoadOptions, Loaded};
+use super::{LoadOptions, Loaded};
+use crate::error::Error;
 use crate::scene::{Light, Scene};
 
 mod data;
@@ -52,18 +53,18 @@ pub(crate) struct Ctx<'a> {
 
 impl Ctx<'_> {
     /// An error at `location` (a JSON path) in the file.
-    pub fn err(&self, location: impl Into<String>, message: impl Into<String>) -> LoadError {
-        LoadError::Gltf { path: self.path.to_owned(), location: location.into(), message: message.into() }
+    pub fn err(&self, location: impl Into<String>, message: impl Into<String>) -> Error {
+        Error::Gltf { path: self.path.to_owned(), location: location.into(), message: message.into() }
     }
 
-    fn invalid(&self, message: impl Into<String>) -> LoadError {
-        LoadError::Invalid { path: self.path.to_owned(), message: message.into() }
+    fn invalid(&self, message: impl Into<String>) -> Error {
+        Error::Invalid { path: self.path.to_owned(), message: message.into() }
     }
 }
 
 /// Parses the JSON (and GLB container), rejects unsupported required extensions, then
 /// runs the `gltf` crate's validation.
-fn parse(ctx: &Ctx, bytes: &[u8]) -> Result<gltf::Gltf, LoadError> {
+fn parse(ctx: &Ctx, bytes: &[u8]) -> Result<gltf::Gltf, Error> {
     if bytes.starts_with(b"glTF") {
         // The gltf crate subtracts the header size from the declared length unchecked.
         let declared = bytes.get(8..12).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize);
@@ -145,9 +146,9 @@ fn used_materials(doc: &Document, hierarchy: &geometry::Hierarchy) -> BTreeSet<O
 }
 
 /// Loads a .gltf or .glb file into a validated scene.
-pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, LoadError> {
+pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, Error> {
     let ctx = Ctx { path };
-    let bytes = std::fs::read(path).map_err(|source| LoadError::Io { path: path.to_owned(), source })?;
+    let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_owned(), source })?;
     let gltf::Gltf { document: doc, blob } = parse(&ctx, &bytes)?;
     drop(bytes);
     let mut warnings = Vec::new();
@@ -187,7 +188,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, LoadError> {
             Some(placed) => view::camera(&ctx, &doc, placed)?,
             None => {
                 let bounds = primitives.iter().fold(crate::scene::Aabb::EMPTY, |b, p| b.union(&p.bounds()));
-                let cam = view::framing_camera(&bounds).map_err(|e| ctx.invalid(e))?;
+                let cam = view::framing_camera(&bounds).map_err(|e| ctx.invalid(e.into_message()))?;
                 let d = view::AUTO_CAMERA_DIRECTION;
                 warnings.push(format!(
                     "the scene has no camera: using a {}° perspective camera framing its bounds from direction ({}, {}, {})",
@@ -221,6 +222,6 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, LoadError> {
         primitives,
         resolution: None,
     };
-    scene.validate().map_err(|e| ctx.invalid(format!("internal check failed: {e}")))?;
+    scene.validate().map_err(|e| ctx.invalid(format!("internal check failed: {}", e.into_message())))?;
     Ok(Loaded { scene, warnings })
 }

@@ -8,7 +8,7 @@ use gltf::Document;
 
 use super::geometry::Placed;
 use super::Ctx;
-use crate::load::LoadError;
+use crate::error::Error;
 use crate::scene::{Aabb, Camera, FovSpan, Light, LightKind, LightSource, Projection};
 
 /// Direction from the scene's centre towards the automatic camera (before normalising).
@@ -25,7 +25,7 @@ fn node_forward(world: &DMat4) -> Option<DVec3> {
 
 /// The camera of `placed` (a camera node): it looks down the node's −Z with +Y up; any
 /// scale in the node's transform is removed.
-pub fn camera(ctx: &Ctx, doc: &Document, placed: &Placed) -> Result<Camera, LoadError> {
+pub fn camera(ctx: &Ctx, doc: &Document, placed: &Placed) -> Result<Camera, Error> {
     let loc = format!("nodes[{}] (cameras[{}])", placed.node, placed.item);
     let json = &doc.as_json().cameras[placed.item];
     let (projection, near, aspect_hint) = match (json.type_, &json.perspective, &json.orthographic) {
@@ -56,7 +56,8 @@ pub fn camera(ctx: &Ctx, doc: &Document, placed: &Placed) -> Result<Camera, Load
     let eye = world.transform_point3(DVec3::ZERO);
     let forward = node_forward(world).ok_or_else(|| ctx.err(&loc, "the node's transform has no −Z axis"))?;
     let up = DMat3::from_mat4(*world) * DVec3::Y;
-    let mut cam = Camera::from_basis(eye, forward, up, projection).map_err(|e| ctx.err(&loc, e))?;
+    let mut cam =
+        Camera::from_basis(eye, forward, up, projection).map_err(|e| ctx.err(&loc, e.into_message()))?;
     cam.near = if near.is_finite() { near } else { 0.0 };
     cam.aspect_hint = aspect_hint;
     Ok(cam)
@@ -65,7 +66,7 @@ pub fn camera(ctx: &Ctx, doc: &Document, placed: &Placed) -> Result<Camera, Load
 /// A perspective camera that shows all of `bounds`: it looks at the centre from
 /// [`AUTO_CAMERA_DIRECTION`], far enough that the bounding sphere fits the
 /// [`AUTO_CAMERA_FOV_DEGREES`] field of view.
-pub fn framing_camera(bounds: &Aabb) -> Result<Camera, String> {
+pub fn framing_camera(bounds: &Aabb) -> Result<Camera, Error> {
     let center = bounds.center();
     let radius = (bounds.diagonal() * 0.5).max(f64::MIN_POSITIVE);
     let fov = AUTO_CAMERA_FOV_DEGREES.to_radians();
@@ -83,7 +84,7 @@ pub fn framing_camera(bounds: &Aabb) -> Result<Camera, String> {
 
 /// The KHR_lights_punctual light of `placed` (a light node): at the node's origin,
 /// shining down its −Z axis.
-pub fn light(ctx: &Ctx, doc: &Document, placed: &Placed) -> Result<Light, LoadError> {
+pub fn light(ctx: &Ctx, doc: &Document, placed: &Placed) -> Result<Light, Error> {
     let loc = format!("nodes[{}] (KHR_lights_punctual.lights[{}])", placed.node, placed.item);
     let Some(l) = doc.lights().and_then(|mut ls| ls.nth(placed.item)) else {
         return Err(ctx.err(loc, "the light does not exist"));
@@ -112,6 +113,6 @@ pub fn light(ctx: &Ctx, doc: &Document, placed: &Placed) -> Result<Light, LoadEr
         range: if kind == LightKind::Directional { None } else { l.range().map(f64::from) },
         source: LightSource::File,
     };
-    light.validate().map_err(|e| ctx.err(loc, e))?;
+    light.validate().map_err(|e| ctx.err(loc, e.into_message()))?;
     Ok(light)
 }

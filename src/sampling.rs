@@ -1,6 +1,7 @@
 //! Where eye rays go through the image: pixel centres, stratified jitter (`--spp N
-//! --seed S`), or the SPD pixel corners. The GPU backend must reproduce these positions
-//! exactly, so the random numbers come from a stateless 32-bit hash that WGSL can copy.
+//! --seed S`), or the SPD pixel corners. Both backends place their samples with these
+//! functions (the GPU's twins are in `shaders/shared/sampling.wgsl`, keep them in sync), so
+//! the random numbers come from a stateless 32-bit hash that WGSL can copy.
 //!
 //! - **Centre** (`spp = 1`): pixel (i, j) is sampled once at (i + 0.5, j + 0.5).
 //! - **Jitter** (`spp = N > 1`): sample s of pixel (i, j) lies in stratum
@@ -30,10 +31,15 @@ pub fn pcg(v: u32) -> u32 {
     (word >> 22) ^ word
 }
 
+/// The seed's part of every random number, `pcg(pcg(seed_hi) ^ seed_lo)` (the GPU gets it
+/// precomputed as `Params::seed_hash`).
+pub fn seed_hash(seed: u64) -> u32 {
+    pcg(pcg((seed >> 32) as u32) ^ seed as u32)
+}
+
 /// A number in [0, 1) for (seed, pixel, sample, dimension); see the module documentation.
 pub fn random(seed: u64, pixel: u32, sample: u32, dim: u32) -> f64 {
-    let s = pcg(pcg((seed >> 32) as u32) ^ seed as u32);
-    let h = pcg(pcg(s ^ pixel) ^ (2 * sample + dim));
+    let h = pcg(pcg(seed_hash(seed) ^ pixel) ^ (2 * sample + dim));
     (h >> 8) as f64 / (1u32 << 24) as f64
 }
 

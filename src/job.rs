@@ -1,0 +1,126 @@
+//! The render job both backends take and the result both return: what to render
+//! ([`RenderOptions`]: image size, sampling, depth, accelerator), the statistics' settings
+//! block, and the rendered image with its statistics ([`Rendered`]).
+//!
+//! It sits beside the renderers, not inside either: the GPU renderer, the preview and the
+//! CPU reference all read it, and none of them imports another.
+
+use crate::error::{Error, Result};
+use crate::output::Image;
+use crate::sampling::Sampling;
+use crate::scene::Scene;
+use crate::stats::{self, Stats};
+
+/// Which acceleration structure to use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum AccelKind {
+    /// GPU: the candidate tables; CPU: brute force for tiny scenes, a BVH above.
+    Auto,
+    /// Test every primitive for every ray.
+    Brute,
+    /// Bounding volume hierarchy.
+    Bvh,
+    /// The direction-cube candidate tables of the coherence method (Ohta and Maekawa).
+    Cube,
+}
+
+/// What to render and how.
+#[derive(Clone, Debug)]
+pub struct RenderOptions {
+    pub width: u32,
+    pub height: u32,
+    /// Samples per pixel with [`Sampling::Center`] (1: the pixel centre; N > 1:
+    /// stratified jitter). Must be 1 with [`Sampling::Corners`].
+    pub spp: u32,
+    pub seed: u64,
+    pub sampling: Sampling,
+    /// Maximum ray-tree depth, the eye ray being depth 1 (SPD: 5).
+    pub max_depth: u32,
+    pub accel: AccelKind,
+}
+
+impl RenderOptions {
+    /// Pixel centres, one sample, depth 5, automatic acceleration.
+    pub fn new(width: u32, height: u32) -> RenderOptions {
+        RenderOptions {
+            width,
+            height,
+            spp: 1,
+            seed: 0,
+            sampling: Sampling::Center,
+            max_depth: 5,
+            accel: AccelKind::Auto,
+        }
+    }
+
+    /// Checks the options; the error says what is wrong in words.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |m: String| Err(Error::Options(m));
+        if self.width == 0 || self.height == 0 || self.width > 32768 || self.height > 32768 {
+            return bad(format!(
+                "image size {}x{} is not within 1..=32768 per side",
+                self.width, self.height
+            ));
+        }
+        if self.spp == 0 {
+            return bad("--spp must be at least 1".into());
+        }
+        if self.sampling == Sampling::Corners && self.spp != 1 {
+            return bad("--sampling corners traces exactly the pixel corners: --spp must be 1".into());
+        }
+        if self.max_depth == 0 {
+            return bad("--max-depth must be at least 1 (the eye ray)".into());
+        }
+        Ok(())
+    }
+
+    /// The grid of eye-ray points: the pixels, or the (W+1)×(H+1) pixel corners.
+    pub fn grid(&self) -> (u32, u32) {
+        match self.sampling {
+            Sampling::Corners => (self.width + 1, self.height + 1),
+            Sampling::Center => (self.width, self.height),
+        }
+    }
+
+    /// The settings block of the statistics.
+    pub fn settings(&self, backend: &str, accel: &str) -> stats::Settings {
+        stats::Settings {
+            backend: backend.into(),
+            accel: accel.into(),
+            size: [self.width, self.height],
+            spp: self.spp,
+            sampling: match self.sampling {
+                Sampling::Corners => "corners".into(),
+                Sampling::Center if self.spp > 1 => "jitter".into(),
+                Sampling::Center => "center".into(),
+            },
+            seed: self.seed,
+            max_depth: self.max_depth,
+        }
+    }
+
+    /// The settings block of an AOV pass: one eye ray through each pixel centre.
+    pub fn aov_settings(&self, backend: &str, accel: &str) -> stats::Settings {
+        let mut set = self.settings(backend, accel);
+        set.sampling = "center".into();
+        set.spp = 1;
+        set.max_depth = 1;
+        set
+    }
+}
+
+/// A rendered image and its statistics.
+pub struct Rendered {
+    pub image: Image,
+    pub stats: Stats,
+}
+
+/// The effects a render of `scene` with `max_depth` simulates.
+pub fn simulated_effects(scene: &Scene, max_depth: u32) -> Vec<&'static str> {
+    let mut e = scene.effects();
+    if max_depth < 2 {
+        e.reflection = false;
+        e.refraction = false;
+    }
+    e.names()
+}
