@@ -14,8 +14,9 @@
 
 use std::time::Instant;
 
-use cuberay::coherence::{self, BuildParams};
-use cuberay::gpu::{layout, tables::spawn_offset_bound};
+use cuberay::coherence;
+use cuberay::kernel::spawn::SpawnPolicy;
+use cuberay::layout;
 use cuberay::load::{self, LoadOptions};
 use cuberay::preview::controls::Controller;
 
@@ -38,10 +39,8 @@ fn main() -> anyhow::Result<()> {
     let repeat: usize = value("--repeat").map(|v| v.parse()).transpose()?.unwrap_or(5);
     for path in &args {
         let mut scene = load::load(path.as_ref(), &LoadOptions::default())?.scene;
-        let params = |s: &cuberay::scene::Scene| BuildParams {
-            image: Some((w, h)),
-            spawn_offset: Some(spawn_offset_bound(s, w, h)),
-            ..BuildParams::default()
+        let params = |s: &cuberay::scene::Scene| {
+            layout::budget::table_params(s, w, h, s.effects(), SpawnPolicy::Scaled)
         };
         let start = Instant::now();
         let mut tables = coherence::build(&scene, &params(&scene))?;
@@ -54,7 +53,7 @@ fn main() -> anyhow::Result<()> {
             scene.camera = controller.camera().clone();
             let textures = std::mem::take(&mut scene.textures);
             let start = Instant::now();
-            let packed = layout::pack(&scene, w, h);
+            let packed = layout::pack(&scene, w, h, SpawnPolicy::Scaled);
             pack.push(start.elapsed().as_secs_f64() * 1e3);
             std::hint::black_box(packed);
             scene.textures = textures;

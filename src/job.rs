@@ -6,6 +6,7 @@
 //! CPU reference all read it, and none of them imports another.
 
 use crate::error::{Error, Result};
+use crate::kernel::spawn::SpawnPolicy;
 use crate::output::Image;
 use crate::sampling::Sampling;
 use crate::scene::Scene;
@@ -37,6 +38,9 @@ pub struct RenderOptions {
     /// Maximum ray-tree depth, the eye ray being depth 1 (SPD: 5).
     pub max_depth: u32,
     pub accel: AccelKind,
+    /// How far the GPU kernels move spawned rays off their surfaces (the candidate tables
+    /// are built for it). The CPU reference keeps its own, much smaller f64 offset.
+    pub spawn: SpawnPolicy,
 }
 
 impl RenderOptions {
@@ -50,6 +54,7 @@ impl RenderOptions {
             sampling: Sampling::Center,
             max_depth: 5,
             accel: AccelKind::Auto,
+            spawn: SpawnPolicy::Scaled,
         }
     }
 

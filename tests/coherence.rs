@@ -9,8 +9,12 @@ mod common;
 use glam::{DVec3, Vec3};
 use proptest::prelude::*;
 
-use cuberay::coherence::{self, bench, BuildParams, OriginKey, ShadowMode, Tables};
-use cuberay::mirror::{self, Prim32, F32_MAX, NO_ID};
+use cuberay::coherence::walk::{self, AnyHit};
+use cuberay::coherence::{self, bench, BuildParams, OriginKey, ShadowMode, Tables, WalkCount};
+use cuberay::kernel::closest::{brute_nearest, no_closest, test_prim};
+use cuberay::kernel::geometry::{make_ray, Prim32, PrimHit, Ray, Surface};
+use cuberay::kernel::spawn::{offset_bound, spawn_origin, SpawnPolicy, SPAWN_OFFSET_REL};
+use cuberay::kernel::{FAR, NO_ID};
 use cuberay::scene::{
     Camera, Cylinder, FovSpan, Light, Material, Primitive, Projection, Scene, Sphere, Triangle,
 };
@@ -86,74 +90,127 @@ struct World {
     prims: Vec<Prim32>,
     tables: Tables,
     shift: DVec3,
+    /// The largest `scale` of a hit the kernels' spawn offset can see in this scene: some
+    /// rays leave from there, the extreme the tables are inflated for.
+    worst_scale: f32,
 }
 
 impl World {
     fn new(scene: &Scene, params: &BuildParams) -> World {
         let tables = coherence::build(scene, params).unwrap();
         tables.flat.check(scene.primitives.len()).unwrap();
+        World::of(scene, tables)
+    }
+
+    fn of(scene: &Scene, tables: Tables) -> World {
         let shift = scene.camera.eye;
-        World { prims: Prim32::from_scene(scene, shift), tables, shift }
+        let (w, h) = tables.eye_image;
+        // `offset_bound` assumes scale ≤ (1 + 2√3)·M, M the scene's re-centred magnitude
+        // (image-plane corners included); rays here take that largest scale.
+        let m = offset_bound(scene, w, h, SpawnPolicy::Scaled) / 1.01 / (SPAWN_OFFSET_REL as f64);
+        World { prims: Prim32::from_scene(scene, shift), tables, shift, worst_scale: (m * 0.999) as f32 }
     }
 
     fn p(&self, p: DVec3) -> Vec3 {
         (p - self.shift).as_vec3()
     }
 
-    fn brute(&self, o: Vec3, d: Vec3, t_max: f32) -> (u32, f32) {
-        mirror::brute_nearest(&self.prims, o, d, t_max, NO_ID)
+    /// The origin of a ray leaving primitive `id` at `p` (geometric normal `ng`) along `d`,
+    /// by the kernels' spawn model with the policy the tables were built for; `far`: with the
+    /// largest scale a hit in the scene can have, else with the hit's own magnitude.
+    fn spawn(&self, id: usize, p: Vec3, ng: Vec3, d: Vec3, far: bool) -> Vec3 {
+        let extent = match self.prims[id] {
+            Prim32::Sphere { c, r, .. } => c.abs().max_element() + r,
+            Prim32::Triangle { p } => p.iter().map(|v| v.abs().max_element()).fold(0.0, f32::max),
+            Prim32::Cylinder { base, apex, .. } => {
+                base[..3].iter().chain(&apex[..3]).fold(0.0f32, |m, x| m.max(x.abs()))
+            }
+        };
+        let scale = if far { self.worst_scale } else { p.abs().max_element().max(extent) };
+        spawn_origin(&Surface { p, ng, scale }, d, self.tables.spawn)
     }
 
-    /// Nearest hit through the mirror walker and through the generic walker (f32 and f64
-    /// closures); all must agree with brute force.
+    fn brute(&self, ray: &Ray, t_max: f32) -> (u32, f32) {
+        let b = brute_nearest(&self.prims, ray, t_max, NO_ID);
+        (b.prim, b.best_t(FAR))
+    }
+
+    /// The entries of `org`'s cell for `d`, in walk order (for failure messages).
+    fn candidates(&self, org: u32, d: Vec3) -> Vec<(u32, f32)> {
+        let f = &self.tables.flat;
+        let mut w = walk::walk_start(f, org, d);
+        let mut out = Vec::new();
+        while !walk::walk_done(&w) {
+            let e = walk::walk_next(f, &mut w);
+            out.push((e.id, e.d_min));
+        }
+        out
+    }
+
+    /// Nearest hit through the walker, unbounded, in steps of a small budget, and with f64
+    /// distances; all must agree with brute force.
     fn check_nearest(&self, key: OriginKey, o: Vec3, d: Vec3) -> Result<(), String> {
         let f = &self.tables.flat;
-        let org = f.origin(key).ok_or(format!("no table for {key:?}"))?;
-        let (h, _) = mirror::cube_walk_nearest(f, org, o, d, F32_MAX, NO_ID, |id| {
-            self.prims[id as usize].intersect(o, d)
-        });
-        let want = self.brute(o, d, F32_MAX);
-        if (h.id, h.t) != want {
+        let org = f.table_of(key).ok_or(format!("no table for {key:?}"))?;
+        let ray = make_ray(o, d);
+        let test = |id: u32| test_prim(&self.prims[id as usize], &ray, FAR);
+        let mut count = WalkCount::default();
+        let h = walk::cube_walk_nearest(f, org, ray.o, ray.d, FAR, NO_ID, &mut count, test);
+        let want = self.brute(&ray, FAR);
+        if (h.prim, h.best_t(FAR)) != want {
             return Err(format!(
                 "{key:?} o={o} d={d}: walker {:?} brute {:?}; candidates {:?}",
-                (h.id, h.t),
+                (h.prim, h.best_t(FAR)),
                 want,
-                f.candidates(org, d)
+                self.candidates(org, ray.d)
             ));
         }
-        let (g, _) = f.walk_nearest(org, o, d, f32::MAX, u32::MAX, |id, _| {
-            let t = self.prims[id as usize].intersect(o, d);
-            (t < F32_MAX).then_some(t)
-        });
-        let g = g.unwrap_or((NO_ID, F32_MAX));
-        if g != want {
-            return Err(format!("{key:?}: generic f32 walker {g:?} brute {want:?}"));
+        // Stepped, as the GPU walks long lists: three iterations per step, resumed.
+        let mut w = walk::walk_start(f, org, ray.d);
+        let mut best = no_closest::<f32, PrimHit>();
+        let mut steps = 0;
+        while !walk::walk_nearest(f, &mut w, &mut best, ray.o, ray.d, FAR, NO_ID, 3, &mut count, test) {
+            steps += 1;
         }
-        let (g64, _) = f.walk_nearest(org, o, d, f64::MAX, u32::MAX, |id, _| {
-            let t = self.prims[id as usize].intersect(o, d);
-            (t < F32_MAX).then_some(t as f64)
+        if (best.prim, best.best_t(FAR)) != want {
+            return Err(format!(
+                "{key:?}: stepped walker ({steps} steps) {:?} brute {want:?}",
+                (best.prim, best.t)
+            ));
+        }
+        let g64 = walk::cube_walk_nearest(f, org, ray.o, ray.d, f64::MAX, NO_ID, &mut count, |id| {
+            test(id).map(|(t, _)| (t as f64, ()))
         });
-        if g64.map(|(i, _)| i).unwrap_or(NO_ID) != want.0 {
-            return Err(format!("{key:?}: generic f64 walker {g64:?} brute {want:?}"));
+        if g64.prim != want.0 {
+            return Err(format!("{key:?}: f64 walker {:?} brute {want:?}", (g64.prim, g64.t)));
         }
         Ok(())
     }
 
     fn check_any(&self, key: OriginKey, o: Vec3, d: Vec3, t_max: f32) -> Result<(), String> {
         let f = &self.tables.flat;
-        let org = f.origin(key).ok_or(format!("no table for {key:?}"))?;
-        let (b, _) =
-            mirror::cube_walk_any(f, org, o, d, t_max, NO_ID, |id| self.prims[id as usize].intersect(o, d));
-        let want = self.brute(o, d, t_max).0 != NO_ID;
+        let org = f.table_of(key).ok_or(format!("no table for {key:?}"))?;
+        let ray = make_ray(o, d);
+        let hits = |id: u32| self.prims[id as usize].intersect(&ray, t_max).ok;
+        let mut count = WalkCount::default();
+        let b = walk::cube_walk_any(f, org, ray.o, ray.d, t_max, NO_ID, &mut count, hits);
+        let want = self.brute(&ray, t_max).0 != NO_ID;
         if b != want {
             return Err(format!("{key:?} any o={o} d={d} t_max={t_max}: walker {b} brute {want}"));
         }
-        let (g, _) = f.walk_any(org, o, d, t_max as f64, u32::MAX, |id, _| {
-            let t = self.prims[id as usize].intersect(o, d);
-            (t < F32_MAX).then_some(t as f64)
-        });
+        let mut w = walk::walk_start(f, org, ray.d);
+        let stepped = loop {
+            match walk::walk_any(f, &mut w, ray.o, ray.d, t_max, NO_ID, 2, &mut count, hits) {
+                AnyHit::Unfinished => continue,
+                a => break a == AnyHit::Blocked,
+            }
+        };
+        if stepped != want {
+            return Err(format!("{key:?}: stepped any {stepped} brute {want}"));
+        }
+        let g = walk::cube_walk_any(f, org, ray.o, ray.d, t_max as f64, NO_ID, &mut count, hits);
         if g != want {
-            return Err(format!("{key:?}: generic any {g} brute {want}"));
+            return Err(format!("{key:?}: f64 any {g} brute {want}"));
         }
         Ok(())
     }
@@ -161,7 +218,7 @@ impl World {
     /// A point on primitive `id` from two numbers in [0, 1), and its geometric normal.
     fn surface_point(&self, id: usize, a: f32, b: f32) -> (Vec3, Vec3) {
         match self.prims[id] {
-            Prim32::Sphere { c, r } => {
+            Prim32::Sphere { c, r, .. } => {
                 let z = 2.0 * a - 1.0;
                 let phi = b * std::f32::consts::TAU;
                 let s = (1.0 - z * z).max(0.0).sqrt();
@@ -172,14 +229,15 @@ impl World {
                 let (a, b) = if a + b > 1.0 { (1.0 - a, 1.0 - b) } else { (a, b) };
                 (p[0] + a * (p[1] - p[0]) + b * (p[2] - p[0]), (p[1] - p[0]).cross(p[2] - p[0]).normalize())
             }
-            Prim32::Cylinder { base, r0, apex, r1 } => {
-                let ax = (apex - base).normalize();
+            Prim32::Cylinder { base, apex, .. } => {
+                let (b3, a3) = (Vec3::from_slice(&base[..3]), Vec3::from_slice(&apex[..3]));
+                let ax = (a3 - b3).normalize();
                 let u = ax.any_orthonormal_vector();
                 let v = ax.cross(u);
                 let phi = b * std::f32::consts::TAU;
                 let radial = u * phi.cos() + v * phi.sin();
-                let r = r0 + (r1 - r0) * a;
-                (base + (apex - base) * a + r * radial, radial)
+                let r = base[3] + (apex[3] - base[3]) * a;
+                (b3 + (a3 - b3) * a + r * radial, radial)
             }
         }
     }
@@ -300,18 +358,21 @@ proptest! {
     }
 
     /// Secondary rays leaving any reflecting or transmitting primitive from a random surface
-    /// point (offset as the renderers do) in a random direction, inward or outward, also
-    /// with several primitives per cluster.
+    /// point (offset by the kernels' spawn model, under the scaled policy or a fixed epsilon,
+    /// as far as the tables allow) in a random direction, inward or outward, also with
+    /// several primitives per cluster.
     #[test]
     fn surface_rays_match_brute_force(
         s in arb_scene(),
         k in 1usize..4,
         grouped in proptest::bool::ANY,
+        fixed in proptest::option::of(1e-4f32..2e-2),
         rays in proptest::collection::vec((0.0f32..1.0, 0.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0, 0.05f32..2.0), 40),
     ) {
         // `grouped`: every surface list of two or more entries names primitive groups.
         let group_min_list = if grouped { 2 } else { usize::MAX };
-        let params = BuildParams { cluster_size: Some(k), group_min_list, ..small_params() };
+        let spawn = fixed.map_or(SpawnPolicy::Scaled, SpawnPolicy::Fixed);
+        let params = BuildParams { cluster_size: Some(k), group_min_list, spawn, ..small_params() };
         let w = World::new(&s, &params);
         let origins: Vec<usize> = (0..s.primitives.len())
             .filter(|&i| w.tables.flat.has_surface(i as u32))
@@ -326,7 +387,7 @@ proptest! {
             let id = origins[n % origins.len()];
             let (p, ng) = w.surface_point(id, a, b);
             let d = legal(&s, id, ng, dir(x, y, z));
-            let o = mirror::offset_ray_origin(p, ng, d);
+            let o = w.spawn(id, p, ng, d, n % 2 == 1);
             w.check_nearest(OriginKey::Surface(id as u32, o), o, d).map_err(TestCaseError::fail)?;
             w.check_any(OriginKey::Surface(id as u32, o), o, d, tm).map_err(TestCaseError::fail)?;
         }
@@ -348,7 +409,7 @@ proptest! {
                 if legal(&s, id, ng, d) != d {
                     continue; // the surface faces away from the light: no shadow ray
                 }
-                let o = mirror::offset_ray_origin(p, ng, d);
+                let o = w.spawn(id, p, ng, d, n % 2 == 1);
                 w.check_any(OriginKey::Surface(id as u32, o), o, d, (w.p(l.position) - o).length())
                     .map_err(TestCaseError::fail)?;
             }
@@ -448,7 +509,7 @@ fn boundary_directions_from_every_origin_kind() {
             w.check_nearest(OriginKey::Light(0), w.p(c), d).unwrap();
             w.check_any(OriginKey::Light(0), w.p(c), d, 3.2).unwrap();
             let (p, ng) = (w.p(c) + 0.3 * d, d);
-            let o = mirror::offset_ray_origin(p, ng, d);
+            let o = w.spawn(centre_id as usize, p, ng, d, false);
             w.check_nearest(OriginKey::Surface(centre_id, o), o, d).unwrap();
         }
     }
@@ -459,11 +520,16 @@ fn zero_direction_is_rejected() {
     let s = scene(DVec3::ZERO, DVec3::X, &[DVec3::Z], vec![sphere(DVec3::new(3.0, 0.0, 0.0), 1.0, 0)]);
     let w = World::new(&s, &small_params());
     let f = &w.tables.flat;
-    let eye = f.origin(OriginKey::Eye).unwrap();
-    let (h, tests) = mirror::cube_walk_nearest(f, eye, Vec3::ZERO, Vec3::ZERO, F32_MAX, NO_ID, |_| 0.0);
-    assert_eq!((h.id, tests.tests, tests.bounds), (NO_ID, 0, 0));
-    let (hit, count) = f.walk_nearest(eye, Vec3::ZERO, Vec3::ZERO, f64::MAX, u32::MAX, |_, _| Some(0.0));
-    assert!(hit.is_none() && count.tests == 0);
+    let eye = f.table_of(OriginKey::Eye).unwrap();
+    let mut count = WalkCount::default();
+    let h =
+        walk::cube_walk_nearest(f, eye, Vec3::ZERO, Vec3::ZERO, FAR, NO_ID, &mut count, |_| Some((0.0, ())));
+    assert_eq!((h.found, h.prim, count.tests, count.bounds), (false, NO_ID, 0, 0));
+    let h = walk::cube_walk_nearest(f, eye, Vec3::ZERO, Vec3::ZERO, f64::MAX, NO_ID, &mut count, |_| {
+        Some((0.0, ()))
+    });
+    assert!(!h.found && count.tests == 0);
+    assert!(!walk::cube_walk_any(f, eye, Vec3::ZERO, Vec3::ZERO, FAR, NO_ID, &mut count, |_| true));
 }
 
 /// Rays from many points toward random directions; used by the directed scenes below.
@@ -516,12 +582,12 @@ fn eye_inside_bounding_spheres() {
         for k in 0..200 {
             let (p, ng) = w.surface_point(0, (k as f32 * 0.618) % 1.0, (k as f32 * 0.377) % 1.0);
             let d = dir(-ng.x + 0.3 * (k as f32).sin(), -ng.y, -ng.z + 0.3 * (k as f32).cos());
-            let o = mirror::offset_ray_origin(p, ng, d);
+            let o = w.spawn(0, p, ng, d, k % 2 == 1);
             w.check_nearest(OriginKey::Surface(0, o), o, d).unwrap();
             // The mirror sphere enclosing a smaller one reflects inside itself.
             let (p, ng) = w.surface_point(5, (k as f32 * 0.618) % 1.0, (k as f32 * 0.377) % 1.0);
             let d = dir(-ng.x + 0.5 * (k as f32).sin(), -ng.y + 0.5 * (k as f32).cos(), -ng.z);
-            let o = mirror::offset_ray_origin(p, ng, d);
+            let o = w.spawn(5, p, ng, d, k % 2 == 1);
             w.check_nearest(OriginKey::Surface(5, o), o, d).unwrap();
         }
     }
@@ -565,7 +631,7 @@ fn tangent_and_nested_spheres() {
                     if legal(&s, id, ng, d) != d {
                         continue;
                     }
-                    let o = mirror::offset_ray_origin(p, ng, d);
+                    let o = w.spawn(id, p, ng, d, m % 2 == 1);
                     w.check_nearest(OriginKey::Surface(id as u32, o), o, d).unwrap();
                 }
             }
@@ -613,10 +679,15 @@ fn huge_ground_polygon() {
         for m in 0..40 {
             let (p, ng) = w.surface_point(id, (m as f32 * 0.618) % 1.0, (m as f32 * 0.377) % 1.0);
             let d = dir(ng.x + 0.7 * (m as f32).sin(), ng.y + 0.7 * (m as f32).cos(), ng.z);
-            let o = mirror::offset_ray_origin(p, ng, d);
+            let o = w.spawn(id, p, ng, d, m % 2 == 1);
             w.check_nearest(OriginKey::Surface(id as u32, o), o, d).unwrap();
         }
     }
+}
+
+/// Origins with a table of their own (all but the fallback origin).
+fn tables_of(t: &Tables) -> usize {
+    t.flat.origins.iter().filter(|o| o.kind != coherence::OriginKind::Fallback as u32).count()
 }
 
 #[test]
@@ -626,11 +697,11 @@ fn only_the_effects_the_scene_calls_for() {
     let s = scene(DVec3::new(-3.0, 0.0, 0.5), DVec3::new(3.0, 0.0, 0.0), &[DVec3::Z], prims.clone());
     let t = coherence::build(&s, &small_params()).unwrap();
     assert!(t.flat.prim_origin.iter().all(|&o| o == u32::MAX));
-    assert_eq!(t.flat.origins.len(), 2, "eye and one light");
+    assert_eq!(tables_of(&t), 2, "eye and one light");
     let mut dark = s.clone();
     dark.lights.clear();
     let t = coherence::build(&dark, &small_params()).unwrap();
-    assert_eq!(t.flat.origins.len(), 1, "eye only");
+    assert_eq!(tables_of(&t), 1, "eye only");
     assert!(t.flat.light_origin.is_empty());
     // A mirror and a light, but tables for eye rays only (the AOV pass, depth 1 renders).
     let mirror = vec![sphere(DVec3::new(3.0, 0.0, 0.0), 1.0, 1), tri(DVec3::ZERO, DVec3::X, DVec3::Y, 0)];
@@ -640,7 +711,7 @@ fn only_the_effects_the_scene_calls_for() {
     assert!(t.flat.prim_origin[0] != u32::MAX && t.flat.light_origin[0] != u32::MAX);
     let eye_only = BuildParams { effects: Some(cuberay::scene::Effects::default()), ..small_params() };
     let t = coherence::build(&s, &eye_only).unwrap();
-    assert_eq!(t.flat.origins.len(), 1, "eye only");
+    assert_eq!(tables_of(&t), 1, "eye only");
     assert!(t.flat.prim_origin.iter().all(|&o| o == u32::MAX));
     assert!(t.flat.light_origin.iter().all(|&o| o == u32::MAX));
 }
@@ -664,11 +735,11 @@ fn memory_budget_is_respected() {
     small.flat.check(s.primitives.len()).unwrap();
     assert!(small.flat.bytes() <= budget, "{} bytes over the budget {budget}", small.flat.bytes());
     assert!(small.cluster_size > big.cluster_size || small.surface_n < big.surface_n);
-    let w = World { prims: Prim32::from_scene(&s, s.camera.eye), tables: small, shift: s.camera.eye };
+    let w = World::of(&s, small);
     for id in (0..s.primitives.len()).step_by(7) {
         for m in 0..20 {
             let (p, ng) = w.surface_point(id, (m as f32 * 0.618) % 1.0, (m as f32 * 0.377) % 1.0);
-            let o = mirror::offset_ray_origin(p, ng, ng);
+            let o = w.spawn(id, p, ng, ng, m % 2 == 1);
             w.check_nearest(OriginKey::Surface(id as u32, o), o, dir(ng.x + 0.3, ng.y, ng.z - 0.2)).unwrap();
         }
     }
@@ -691,8 +762,7 @@ fn spd_scenes_every_ray_agrees_with_brute_force() {
             BuildParams { eye_n: Some(64), light_cells: 1 << 12, group_min_list, ..BuildParams::default() };
         let tables = coherence::build(&scene, &params).unwrap();
         if group_min_list == 2 {
-            let named =
-                tables.flat.entries.iter().filter(|e| e.id & coherence::groups::GROUP_BIT != 0).count();
+            let named = tables.flat.entries.iter().filter(|e| e.id & coherence::flat::GROUP_BIT != 0).count();
             assert!(named > 0 && !tables.flat.groups.is_empty(), "{name}: no list names a group");
         }
         tables.flat.check(scene.primitives.len()).unwrap();
@@ -756,7 +826,7 @@ fn mirror_floor_patches_match_brute_force() {
         let (p, ng) = w.surface_point(id, u, v);
         let t = k as f32 * 0.7;
         let dd = dir(t.sin(), t.cos(), if k % 5 == 0 { -0.3 } else { 0.05 + (k % 7) as f32 * 0.2 });
-        let o = mirror::offset_ray_origin(p, ng, dd);
+        let o = w.spawn(id, p, ng, dd, k % 2 == 1);
         w.check_nearest(OriginKey::Surface(id as u32, o), o, dd).unwrap();
         w.check_any(OriginKey::Surface(id as u32, o), o, dd, 3.0).unwrap();
     }
@@ -779,8 +849,7 @@ fn moving_the_eye_rebuilds_only_its_table() {
     let kept: Vec<_> = tables.built[1..].to_vec();
     let check = |s: &Scene, tables: &coherence::Tables| {
         tables.flat.check(s.primitives.len()).unwrap();
-        let w =
-            World { prims: Prim32::from_scene(s, s.camera.eye), tables: tables.clone(), shift: s.camera.eye };
+        let w = World::of(s, tables.clone());
         for j in 0..16 {
             for i in 0..16 {
                 let (o, d) = s.camera.ray(i as f64 * 4.0 + 0.5, j as f64 * 4.0 + 0.5, 64, 64);
@@ -795,7 +864,7 @@ fn moving_the_eye_rebuilds_only_its_table() {
             let id = ids[k % ids.len()];
             let (p, ng) = w.surface_point(id, (k as f32 * 0.618) % 1.0, (k as f32 * 0.377) % 1.0);
             let d = legal(s, id, ng, dir((k as f32).sin(), (k as f32).cos(), 0.3));
-            let o = mirror::offset_ray_origin(p, ng, d);
+            let o = w.spawn(id, p, ng, d, k % 2 == 1);
             w.check_nearest(OriginKey::Surface(id as u32, o), o, d).unwrap();
         }
     };

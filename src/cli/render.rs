@@ -103,6 +103,7 @@ impl TraceArgs {
             sampling: self.sampling,
             max_depth: self.max_depth,
             accel: self.accel,
+            ..RenderOptions::new(1, 1)
         };
         opts.validate()?;
         Ok((scene_name, loaded, opts))

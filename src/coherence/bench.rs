@@ -1,6 +1,7 @@
 //! Measuring the tables: primitive tests per ray, by ray kind, over a scene's primary rays and
-//! the Whitted ray trees they spawn, traced in f32 with the [`crate::mirror`] functions and the
-//! table walker. Optionally checks a share of the rays against testing every primitive.
+//! the Whitted ray trees they spawn, traced in f32 with the kernels' intersection and spawn
+//! twins ([`crate::kernel`]) and the table walker. Optionally checks a share of the rays
+//! against testing every primitive.
 //!
 //! This is a geometric tracer only (no shading): it spawns a shadow ray per light where the
 //! surface faces the light, a reflection ray on reflecting surfaces, a refraction ray on
@@ -11,10 +12,14 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::build::{ShadowMode, Tables};
-use super::walk::{OriginKey, WalkCount};
-use crate::mirror::{self, Prim32, F32_MAX, NO_ID};
-use crate::scene::{LightKind, Primitive, Scene};
+use super::params::ShadowMode;
+use super::tables::Tables;
+use super::walk::{cube_walk_any, cube_walk_nearest, OriginKey, WalkCount};
+use crate::kernel::closest::{brute_nearest, test_prim, Closest};
+use crate::kernel::geometry::{make_ray, surface, Prim32, PrimHit, Ray};
+use crate::kernel::spawn::spawn_origin;
+use crate::kernel::{FAR, NO_ID, SHADOW_END_REL};
+use crate::scene::{LightKind, Scene};
 
 /// What to trace.
 #[derive(Clone, Copy, Debug)]
@@ -35,7 +40,7 @@ pub struct KindCount {
     pub tests: u64,
     /// Group bounding-sphere tests.
     pub bounds: u64,
-    /// Rays whose origin had no table (traced by brute force, tests counted here too).
+    /// Rays whose origin had no table (they walk the fallback origin: every primitive).
     pub untabled: u64,
     pub tests_per_ray: f64,
     pub bounds_per_ray: f64,
@@ -115,39 +120,34 @@ impl Tracer<'_> {
         r: &mut BenchResult,
         kind: Kind,
         key: OriginKey,
-        o: Vec3,
-        d: Vec3,
+        ray: &Ray,
         skip: u32,
         n: u64,
-    ) -> (u32, f32) {
+    ) -> Closest<f32, PrimHit> {
         let f = &self.tables.flat;
-        let (hit, tests, untabled) = match f.origin(key) {
-            Some(org) => {
-                let (h, tests) = mirror::cube_walk_nearest(f, org, o, d, F32_MAX, skip, |id| {
-                    self.prims[id as usize].intersect(o, d)
-                });
-                ((h.id, h.t), tests, 0)
-            }
-            None => (
-                mirror::brute_nearest(&self.prims, o, d, F32_MAX, skip),
-                WalkCount { tests: self.prims.len() as u32, bounds: 0 },
-                1,
-            ),
-        };
+        let mut count = WalkCount::default();
+        let hit = cube_walk_nearest(f, f.cube_origin(key), ray.o, ray.d, FAR, skip, &mut count, |id| {
+            test_prim(&self.prims[id as usize], ray, FAR)
+        });
         let c = kind_mut(r, kind);
         c.rays += 1;
-        c.untabled += untabled;
-        c.tests += tests.tests as u64;
-        c.bounds += tests.bounds as u64;
+        c.untabled += f.table_of(key).is_none() as u64;
+        c.tests += count.tests as u64;
+        c.bounds += count.bounds as u64;
         if self.params.verify_every > 0 && n % self.params.verify_every as u64 == 0 {
             r.verified += 1;
-            let want = mirror::brute_nearest(&self.prims, o, d, F32_MAX, skip);
-            if want != hit {
+            let want = brute_nearest(&self.prims, ray, FAR, skip);
+            if (want.prim, want.t) != (hit.prim, hit.t) {
                 r.mismatches += 1;
-                r.first_mismatch
-                    .get_or_insert(format!("{key:?} o={o} d={d} skip={skip}: walker {hit:?} brute {want:?}"));
+                r.first_mismatch.get_or_insert(format!(
+                    "{key:?} o={} d={} skip={skip}: walker {:?} brute {:?}",
+                    ray.o,
+                    ray.d,
+                    (hit.prim, hit.t),
+                    (want.prim, want.t)
+                ));
             }
-            if skip != NO_ID && self.prims[skip as usize].intersect(o, d) < hit.1 {
+            if skip != NO_ID && self.prims[skip as usize].intersect(ray, hit.best_t(FAR)).ok {
                 r.self_hits += 1;
             }
         }
@@ -155,71 +155,36 @@ impl Tracer<'_> {
     }
 
     #[allow(clippy::too_many_arguments)]
-    fn any(
-        &self,
-        r: &mut BenchResult,
-        key: OriginKey,
-        o: Vec3,
-        d: Vec3,
-        t_max: f32,
-        skip: u32,
-        n: u64,
-    ) -> bool {
+    fn any(&self, r: &mut BenchResult, key: OriginKey, ray: &Ray, t_max: f32, skip: u32, n: u64) -> bool {
         let f = &self.tables.flat;
-        let (blocked, tests) = match f.origin(key) {
-            Some(org) => {
-                let (b, tests) = mirror::cube_walk_any(f, org, o, d, t_max, skip, |id| {
-                    self.prims[id as usize].intersect(o, d)
-                });
-                (b, tests)
-            }
-            None => {
-                r.shadow.untabled += 1;
-                (
-                    mirror::brute_nearest(&self.prims, o, d, t_max, skip).0 != NO_ID,
-                    WalkCount { tests: self.prims.len() as u32, bounds: 0 },
-                )
-            }
-        };
+        let mut count = WalkCount::default();
+        let hits = |id: u32| self.prims[id as usize].intersect(ray, t_max).ok;
+        let blocked = cube_walk_any(f, f.cube_origin(key), ray.o, ray.d, t_max, skip, &mut count, hits);
+        r.shadow.untabled += f.table_of(key).is_none() as u64;
         r.shadow.rays += 1;
-        r.shadow.tests += tests.tests as u64;
-        r.shadow.bounds += tests.bounds as u64;
+        r.shadow.tests += count.tests as u64;
+        r.shadow.bounds += count.bounds as u64;
         r.shadow_blocked += blocked as u64;
         if self.params.verify_every > 0 && n % self.params.verify_every as u64 == 0 {
             r.verified += 1;
-            let want = mirror::brute_nearest(&self.prims, o, d, t_max, skip);
-            if (want.0 != NO_ID) != blocked {
+            let want = brute_nearest(&self.prims, ray, t_max, skip).found;
+            if want != blocked {
                 r.mismatches += 1;
                 r.first_mismatch.get_or_insert(format!(
-                    "{key:?} any o={o} d={d} t_max={t_max} skip={skip}: walker {blocked} brute {want:?}"
+                    "{key:?} any o={} d={} t_max={t_max} skip={skip}: walker {blocked} brute {want}",
+                    ray.o, ray.d
                 ));
             }
         }
         blocked
     }
 
-    /// Geometric normal at `p` on primitive `id` (unit, outward for spheres and cylinders).
-    fn normal(&self, id: u32, p: Vec3) -> Vec3 {
+    /// Which primitive a ray leaving primitive `id` towards `dir` need not test (WGSL
+    /// `leave_skip`): a triangle, or a sphere left outwards.
+    fn leave_skip(&self, id: u32, dir: Vec3, ng: Vec3) -> u32 {
         match self.prims[id as usize] {
-            Prim32::Sphere { c, .. } => (p - c).normalize(),
-            Prim32::Triangle { p: v } => (v[1] - v[0]).cross(v[2] - v[0]).normalize(),
-            Prim32::Cylinder { base, r0, apex, r1 } => {
-                let axis = apex - base;
-                let len = axis.length();
-                let a = axis / len;
-                let x = p - base;
-                let radial = x - x.dot(a) * a;
-                let k = (r1 - r0) / len;
-                (radial.normalize_or_zero() - k * a).normalize_or_zero()
-            }
-        }
-    }
-
-    /// Whether rays leaving `id` at this hit may skip testing `id` (convex, left from outside).
-    fn can_skip(&self, id: u32, leaves_outside: bool) -> u32 {
-        match &self.scene.primitives[id as usize] {
-            Primitive::Triangle(_) => id,
-            Primitive::Sphere(s) if leaves_outside && !s.inside_only => id,
+            Prim32::Triangle { .. } => id,
+            Prim32::Sphere { inside_only: false, .. } if dir.dot(ng) > 0.0 => id,
             _ => NO_ID,
         }
     }
@@ -230,46 +195,56 @@ impl Tracer<'_> {
         r: &mut BenchResult,
         kind: Kind,
         key: OriginKey,
-        o: Vec3,
-        d: Vec3,
+        ray: Ray,
         skip: u32,
         depth: u32,
         n: u64,
     ) {
-        let (id, t) = self.nearest(r, kind, key, o, d, skip, n);
-        if id == NO_ID {
+        let hit = self.nearest(r, kind, key, &ray, skip, n);
+        if !hit.found {
             return;
         }
-        let p = o + t * d;
-        let ng = self.normal(id, p);
-        if ng == Vec3::ZERO {
+        let id = hit.prim;
+        let s = surface(&self.prims[id as usize], &ray, &hit.hit);
+        let (d, ng) = (ray.d, s.ng);
+        if !ng.is_finite() {
             return;
         }
         let outside = d.dot(ng) < 0.0; // arrived from the side the normal points to
         let nf = if outside { ng } else { -ng };
+        let spawn = |dir: Vec3| spawn_origin(&s, dir, self.tables.spawn);
         let prim = &self.scene.primitives[id as usize];
         let mat = &self.scene.materials[prim.material() as usize];
         for (li, &(lp, lk, ldir)) in self.lights.iter().enumerate() {
-            let to_light = if lk == LightKind::Directional { -ldir } else { lp - p };
+            let to_light = if lk == LightKind::Directional { -ldir } else { (lp - s.p).normalize() };
             if nf.dot(to_light) <= 0.0 {
                 continue;
             }
-            let q = mirror::offset_ray_origin(p, ng, to_light);
+            let q = spawn(to_light);
+            let skip = self.leave_skip(id, to_light, ng);
             let use_light =
                 lk != LightKind::Directional && self.tables.shadow_mode == ShadowMode::LightBuffer;
             if use_light {
+                // Light-buffer style, as the kernels trace it: from the light towards the point.
                 let v = q - lp;
                 let dist = v.length();
-                self.any(r, OriginKey::Light(li), lp, v / dist, dist * (1.0 - 1e-4), NO_ID, n);
+                if dist > 0.0 {
+                    self.any(
+                        r,
+                        OriginKey::Light(li),
+                        &make_ray(lp, v),
+                        dist * (1.0 - SHADOW_END_REL),
+                        skip,
+                        n,
+                    );
+                }
             } else {
-                let (dir, t_max) = if lk == LightKind::Directional {
-                    (to_light.normalize(), F32_MAX)
+                let t_max = if lk == LightKind::Directional {
+                    FAR
                 } else {
-                    let v = lp - q;
-                    (v.normalize(), v.length())
+                    (lp - q).length() * (1.0 - SHADOW_END_REL)
                 };
-                let skip = self.can_skip(id, true);
-                self.any(r, OriginKey::Surface(id, q), q, dir, t_max, skip, n);
+                self.any(r, OriginKey::Surface(id, q), &make_ray(q, to_light), t_max, skip, n);
             }
         }
         if depth >= self.params.max_depth {
@@ -285,15 +260,15 @@ impl Tracer<'_> {
                 want_reflect = true;
             } else {
                 let dt = (eta * d + (eta * cosi - k.sqrt()) * nf).normalize();
-                let q = mirror::offset_ray_origin(p, ng, dt);
-                let skip = if matches!(prim, Primitive::Triangle(_)) { id } else { NO_ID };
-                self.trace(r, Kind::Refract, OriginKey::Surface(id, q), q, dt, skip, depth + 1, n);
+                let q = spawn(dt);
+                let skip = self.leave_skip(id, dt, ng);
+                self.trace(r, Kind::Refract, OriginKey::Surface(id, q), make_ray(q, dt), skip, depth + 1, n);
             }
         }
         if want_reflect {
-            let q = mirror::offset_ray_origin(p, ng, refl);
-            let skip = self.can_skip(id, outside);
-            self.trace(r, Kind::Reflect, OriginKey::Surface(id, q), q, refl, skip, depth + 1, n);
+            let q = spawn(refl);
+            let skip = self.leave_skip(id, refl, ng);
+            self.trace(r, Kind::Reflect, OriginKey::Surface(id, q), make_ray(q, refl), skip, depth + 1, n);
         }
     }
 }
@@ -323,16 +298,7 @@ pub fn trace_counts(scene: &Scene, tables: &Tables, params: BenchParams) -> Benc
             for i in 0..cols {
                 let (o, d) = scene.camera.ray(i as f64 + off, j as f64 + off, w, h);
                 let n = (j * cols + i) as u64;
-                tracer.trace(
-                    &mut r,
-                    Kind::Eye,
-                    OriginKey::Eye,
-                    shift(o),
-                    d.as_vec3().normalize(),
-                    NO_ID,
-                    1,
-                    n,
-                );
+                tracer.trace(&mut r, Kind::Eye, OriginKey::Eye, make_ray(shift(o), d.as_vec3()), NO_ID, 1, n);
             }
             r
         })

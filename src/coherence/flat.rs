@@ -13,27 +13,22 @@
 //!                                   for a primitive split into m×m surface patches, the first
 //!                                   of its m² consecutive origins
 //! prim_patches: array<u32>          per primitive: m (1: one origin for the whole primitive);
-//!                                   a ray origin's patch is `mirror::triangle_patch`
+//!                                   a ray origin's patch is [`super::patches::triangle_patch`]
 //! light_origin: array<u32>          per light: the origin of its shadow rays, or 0xffffffff
 //! groups:       array<GpuGroup>     primitive groups (see [`super::groups`]): a camera-relative
 //!                                   bounding sphere and group_prims[first .. first + count]
 //! group_prims:  array<u32>          the primitives of every group, group after group
 //! ```
 //!
-//! An entry whose id has bit 31 ([`super::groups::GROUP_BIT`]) set names group `id & 0x7fffffff`:
-//! the walker tests the group's sphere and, if the ray meets it in time, every member.
+//! An entry whose id has bit 31 ([`GROUP_BIT`]) set names group `id & 0x7fffffff` (see
+//! [`super::groups`]): the walker tests the group's sphere and, if the ray meets it in time,
+//! every member. The last origin is the fallback ([`OriginKind::Fallback`]): every primitive
+//! in its always-test list with `d_min` 0, walked by rays whose origin entity has no table.
 //!
-//! WGSL twins (field for field; every field is a 4-byte scalar, so WGSL's and C's layouts agree
-//! and no implicit padding exists):
-//!
-//! ```wgsl
-//! struct GpuOrigin { n: u32, always_start: u32, always_count: u32, kind: u32 }   // 16 bytes
-//! struct GpuFace   { iu0: u32, iv0: u32, width: u32, height: u32,
-//!                    cell_base: u32, _pad0: u32, _pad1: u32, _pad2: u32 }       // 32 bytes
-//! struct GpuEntry  { id: u32, d_min: f32 }                                       // 8 bytes
-//! struct GpuGroup  { cx: f32, cy: f32, cz: f32, radius: f32, first: u32, count: u32,
-//!                    _pad0: u32, _pad1: u32 }                                    // 32 bytes
-//! ```
+//! The structs are the Rust twins of the WGSL structs of the same names in
+//! `shaders/shared/tables.wgsl` (keep them in sync; `tests/twins.rs` compares the layouts).
+//! Every field is a 4-byte scalar, so WGSL's and C's layouts agree and no implicit padding
+//! exists.
 //!
 //! An origin's direction cube has `n`×`n` cells per face, but only a window of each face is
 //! stored: cells `iu0 .. iu0+width` × `iv0 .. iv0+height`, row by row from `cell_base`
@@ -41,7 +36,7 @@
 //! an empty list (no object lies that way). The origin's always-test list is
 //! `entries[always_start .. always_start + always_count]`, also sorted by `d_min`: objects
 //! that meet most of the origin's cells are stored there once instead of in every cell. The
-//! walker merges the two lists by `d_min` (see [`crate::mirror::cube_walk_nearest`]).
+//! walker merges the two lists by `d_min` (see [`super::walk`]).
 //!
 //! `d_min` is a lower bound on the distance (unit directions) at which the ray can hit the
 //! object, already lowered for f32 rounding; `f32::MAX` is never stored.
@@ -49,7 +44,8 @@
 use bytemuck::{Pod, Zeroable};
 use serde::Serialize;
 
-/// Per-origin record. `kind` is 0 = eye, 1 = light, 2 = surface cluster.
+/// Per-origin record; `kind` is an [`OriginKind`]. Keep in sync with `GpuOrigin` in
+/// `shaders/shared/tables.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
 pub struct GpuOrigin {
@@ -59,7 +55,8 @@ pub struct GpuOrigin {
     pub kind: u32,
 }
 
-/// The stored window of one face of an origin's cube.
+/// The stored window of one face of an origin's cube. Keep in sync with `GpuFace` in
+/// `shaders/shared/tables.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
 pub struct GpuFace {
@@ -73,7 +70,8 @@ pub struct GpuFace {
     pub _pad2: u32,
 }
 
-/// One candidate: a primitive id and the lower bound of its hit distance.
+/// One candidate: a primitive id (or a group, [`GROUP_BIT`]) and the lower bound of its hit
+/// distance. Keep in sync with `GpuEntry` in `shaders/shared/tables.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuEntry {
@@ -82,7 +80,8 @@ pub struct GpuEntry {
 }
 
 /// A group of primitives: its bounding sphere relative to the camera's eye (f32, widened
-/// for rounding) and its members `group_prims[first..first + count]`.
+/// for rounding) and its members `group_prims[first..first + count]`. Keep in sync with
+/// `GpuGroup` in `shaders/shared/tables.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuGroup {
@@ -99,13 +98,23 @@ pub struct GpuGroup {
 /// wgpu's default (and lavapipe's) limit on one storage buffer binding.
 pub const MAX_BINDING_BYTES: usize = 128 << 20;
 
-/// Origin kinds as stored in [`GpuOrigin::kind`].
+/// Set in [`GpuEntry::id`] for a group entry: the rest of the id is the group's index (WGSL
+/// `GROUP_BIT` in `shaders/shared/tables.wgsl`, keep them in sync).
+pub const GROUP_BIT: u32 = 1 << 31;
+
+/// "No origin": a primitive or light without a table (WGSL `NO_ORIGIN`, keep them in sync).
+pub const NO_ORIGIN: u32 = u32::MAX;
+
+/// Origin kinds as stored in [`GpuOrigin::kind`] (for statistics and checks; the kernels do
+/// not read it).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum OriginKind {
     Eye = 0,
     Light = 1,
     Surface = 2,
+    /// The origin every ray without a table of its own walks: all primitives.
+    Fallback = 3,
 }
 
 /// The flattened tables, ready for upload (`bytemuck::cast_slice` each vector).
@@ -128,6 +137,8 @@ pub struct FlatTables {
     pub light_origin: Vec<u32>,
     /// The eye origin, or `u32::MAX` for an empty scene.
     pub eye_origin: u32,
+    /// The fallback origin (the last).
+    pub fallback_origin: u32,
     /// The groups that entries name (empty when no list is grouped).
     pub groups: Vec<GpuGroup>,
     pub group_prims: Vec<u32>,
@@ -166,12 +177,6 @@ impl FlatTables {
         self.cell_start.len().saturating_sub(1)
     }
 
-    /// The `[begin, end)` entry range of origin `o`'s cell for direction `d` (the WGSL
-    /// `cube_cell_range`).
-    pub fn cell_range(&self, o: u32, d: glam::Vec3) -> [u32; 2] {
-        crate::mirror::cube_cell_range(&self.origins, &self.faces, &self.cell_start, o, d)
-    }
-
     /// Checks the structural invariants the WGSL relies on: ranges in bounds, windows inside
     /// the cube, lists sorted by `d_min`, finite `d_min`, ids in range.
     pub fn check(&self, primitives: usize) -> crate::error::Result<()> {
@@ -181,6 +186,15 @@ impl FlatTables {
     fn check_lists(&self, primitives: usize) -> Result<(), String> {
         if self.faces.len() != self.origins.len() * 6 {
             return Err("faces is not six per origin".into());
+        }
+        let last = self.origins.len().checked_sub(1);
+        let fallback = self.origins.get(self.fallback_origin as usize);
+        if last != Some(self.fallback_origin as usize)
+            || fallback.is_none_or(|o| {
+                o.kind != OriginKind::Fallback as u32 || o.always_count as usize != primitives
+            })
+        {
+            return Err("the last origin is not the fallback listing every primitive".into());
         }
         let ncells = self.cells() as u64;
         for (o, org) in self.origins.iter().enumerate() {
@@ -222,7 +236,7 @@ impl FlatTables {
                 return Err(format!("primitive {id}: patches {m} from origin {o} out of range"));
             }
         }
-        let bit = super::groups::GROUP_BIT;
+        let bit = GROUP_BIT;
         if let Some(e) = self.entries.iter().find(|e| {
             if e.id & bit != 0 {
                 (e.id & !bit) as usize >= self.groups.len()

@@ -17,11 +17,8 @@
 
 use glam::{DVec3, Vec3};
 
-use super::flat::{GpuEntry, GpuGroup};
-use super::origins::Bvh;
-
-/// Set in [`GpuEntry::id`] for a group entry: the rest of the id is the group's index.
-pub const GROUP_BIT: u32 = 1 << 31;
+use super::flat::{GpuEntry, GpuGroup, GROUP_BIT};
+use super::hierarchy::Bvh;
 
 /// Most targets in one group.
 pub const GROUP_SIZE: usize = 16;
@@ -125,11 +122,13 @@ impl Groups {
 }
 
 /// Relative widening of the f32 group test: covers the rounding of the ray's origin and
-/// direction (a reference ray converted from f64) and of the f32 primitives, with room.
-const GROUP_SLACK: f32 = 1e-5;
+/// direction (a reference ray converted from f64) and of the f32 primitives, with room
+/// (WGSL `GROUP_SLACK` in `shaders/shared/tables.wgsl`, keep them in sync).
+pub const GROUP_SLACK: f32 = 1e-5;
 
 /// Whether the ray `o + t·d` (`d` unit, f32, camera-relative) may meet group `g`'s sphere at
-/// some `0 < t ≤ t_far`: the twin of the WGSL `group_hit`. Conservative: false only when no
+/// some `0 < t ≤ t_far`: the twin of `group_hit` in `shaders/shared/tables.wgsl` (keep them in
+/// sync). Conservative: false only when no
 /// member can be hit there.
 pub fn group_hit(g: &GpuGroup, o: Vec3, d: Vec3, t_far: f32) -> bool {
     let oc = Vec3::new(g.cx, g.cy, g.cz) - o;
@@ -145,7 +144,7 @@ pub fn group_hit(g: &GpuGroup, o: Vec3, d: Vec3, t_far: f32) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::coherence::origins::{Shape, Target};
+    use crate::coherence::targets::{Shape, Target};
 
     fn sphere_target(c: DVec3, r: f64) -> Target {
         Target { shape: Shape::Sphere { c, r }, center: c, radius: r, self_list: true, occluder: true }

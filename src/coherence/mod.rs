@@ -1,16 +1,30 @@
 //! The coherence preprocessing: Ohta and Maekawa's direction-cube candidate tables, built on
-//! the CPU from a [`Scene`](crate::scene::Scene) and flattened for the GPU.
+//! the CPU from a [`Scene`](crate::scene::Scene), flattened into the buffers the GPU reads,
+//! and walked by the one walker the CPU and (as its WGSL twin) the GPU share.
 //!
 //! This module owns the tables and nothing else: it does no file IO and knows nothing of
-//! wgpu. It is organised as
-//! - [`geom`]: cells, cones, the cell tests (Test A to build, exact Test B to validate), and
-//!   the per-shape direction bounds and cover tests;
-//! - [`origins`]: targets, origin clusters and the bounding-sphere hierarchy;
-//! - [`build`]: the per-origin build (rayon-parallel), resolution and clustering under a
-//!   memory budget, and flattening;
+//! wgpu. Its files, in the order data flows through them:
+//! - [`params`]: what a build may be told (budget, resolutions, spawn-offset policy, effects);
+//! - [`targets`]: every primitive as a target (bounding shape, self-listing, occluder);
+//! - [`hierarchy`]: the bounding-sphere hierarchy over targets and the clustering of origins;
+//! - [`patches`]: large mirror triangles split into surface patches, and the patch lookup;
+//! - [`defs`]: the origins to build (eye frustum, lights, surface clusters and patches);
+//! - [`context`]: the shared inputs of the per-origin builds;
+//! - [`cells`]: direction-cube cells and cones, and the cell tests;
+//! - [`bounds`]: direction bounds from an origin sphere to spheres, triangles and capsules;
+//! - [`pair`]: one origin–target bound, its `d_min` and cover test;
+//! - [`blind`]: cells a triangle origin cannot see through;
+//! - [`raster`]: rasterising a bound into an origin's cells;
+//! - [`origin`]: building one origin's table (rayon-parallel over origins);
+//! - [`lists`]: finishing one origin's lists (sorting, always list, window cropping);
 //! - [`groups`]: primitive groups, which long candidate lists name instead of their members;
-//! - [`flat`]: the `#[repr(C)]` GPU buffers and their documented layout;
-//! - [`walk`]: the CPU walker (the WGSL's algorithm, generic over the intersection routine);
+//! - [`budget`]: the surface resolution and clustering under the memory budget;
+//! - [`tables`]: the whole build ([`build`]) and the eye-only rebuild;
+//! - [`flatten`]: origin tables into flat buffers, with the fallback origin;
+//! - [`flat`]: the `#[repr(C)]` buffers and their documented layout;
+//! - [`reach`]: how long a walk of the flat tables can be (for the GPU's loop budget);
+//! - [`cube`]: the direction-cube lookup (face, cell, candidate range);
+//! - [`walk`]: the walker (twin of `shaders/shared/walk.wgsl`);
 //! - [`stats`]: what `cuberay info --tables` prints;
 //! - [`bench`]: test counts per ray kind over a scene's primary rays and their ray trees.
 //!
@@ -23,36 +37,76 @@
 //! # Conservative in f32
 //! Bounds are computed in f64 and widened by an angle `delta` (the GPU's f32 lookup may put a
 //! direction in a neighbouring cell or face); origins are spheres inflated by the largest
-//! spawn offset (plus f32 rounding of the geometry); `d_min` is lowered by the same amount and
-//! rounded down to f32. Correctness never depends on how a lookup resolves a tie at a cell
-//! boundary, cube edge or corner.
+//! spawn offset of the kernels' model ([`crate::kernel::spawn`]) plus f32 rounding of the
+//! geometry; `d_min` is lowered by the same amount and rounded down to f32. Correctness never
+//! depends on how a lookup resolves a tie at a cell boundary, cube edge or corner.
 //!
 //! # Usage
 //! ```no_run
-//! # use cuberay::coherence::{build, BuildParams, OriginKey};
+//! # use cuberay::coherence::{build, walk, BuildParams, OriginKey, WalkCount};
+//! # use cuberay::kernel::{closest::Closest, FAR, NO_ID};
 //! # fn f(scene: &cuberay::scene::Scene) {
 //! let tables = build(scene, &BuildParams::default()).unwrap();
-//! let eye = tables.flat.origin(OriginKey::Eye).unwrap();
+//! let eye = tables.flat.cube_origin(OriginKey::Eye);
 //! let dir = glam::Vec3::new(0.0, 0.0, -1.0);
 //! // A primary ray starts at the eye: the origin of the walkers' camera-relative frame.
 //! let at = glam::Vec3::ZERO;
-//! let (hit, _count) = tables.flat.walk_nearest(eye, at, dir, f64::MAX, u32::MAX, |id, _t_best| {
-//!     let _ = id; // intersect primitive `id` here
-//!     None::<f64>
+//! let mut count = WalkCount::default();
+//! let hit: Closest<f32, ()> = walk::cube_walk_nearest(&tables.flat, eye, at, dir, FAR, NO_ID, &mut count, |id| {
+//!     let _ = id; // intersect primitive `id` here: Some((t, payload)) for a hit before FAR
+//!     None
 //! });
 //! # let _ = hit; }
 //! ```
 
 pub mod bench;
-pub mod build;
+pub mod blind;
+pub mod bounds;
+pub mod budget;
+pub mod cells;
+pub mod context;
+pub mod cube;
+pub mod defs;
 pub mod flat;
-pub mod geom;
+pub mod flatten;
 pub mod groups;
-pub mod origins;
+pub mod hierarchy;
+pub mod lists;
+pub mod origin;
+pub mod pair;
+pub mod params;
+pub mod patches;
+pub mod raster;
+pub mod reach;
 pub mod stats;
+pub mod tables;
+pub mod targets;
 pub mod walk;
 
-pub use build::{build, default_spawn_offset, BuildParams, ShadowMode, Tables};
 pub use flat::{FlatTables, GpuEntry, GpuFace, GpuGroup, GpuOrigin, OriginKind};
+pub use params::{BuildParams, ShadowMode};
 pub use stats::TableStats;
-pub use walk::{Dist, OriginKey, WalkCount};
+pub use tables::{build, Tables};
+pub use walk::{OriginKey, WalkCount};
+
+/// Random numbers and directions for the module's own tests.
+#[cfg(test)]
+pub(crate) mod testutil {
+    use glam::DVec3;
+
+    pub fn rng(seed: &mut u64) -> f64 {
+        *seed ^= *seed << 13;
+        *seed ^= *seed >> 7;
+        *seed ^= *seed << 17;
+        (*seed >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    pub fn unit(seed: &mut u64) -> DVec3 {
+        loop {
+            let v = DVec3::new(rng(seed) * 2.0 - 1.0, rng(seed) * 2.0 - 1.0, rng(seed) * 2.0 - 1.0);
+            if v.length_squared() > 1e-3 && v.length_squared() <= 1.0 {
+                return v.normalize();
+            }
+        }
+    }
+}

@@ -3,8 +3,8 @@
 
 use serde::Serialize;
 
-use super::build::Tables;
 use super::flat::OriginKind;
+use super::tables::Tables;
 
 /// List-length statistics over the stored cells of one origin kind. A cell's list length
 /// counts its own entries plus its origin's always-test entries (what one walk can scan).
@@ -55,7 +55,8 @@ impl TableStats {
         let f = &t.flat;
         let mut kinds = [KindStats::default(), KindStats::default(), KindStats::default()];
         for (o, org) in f.origins.iter().enumerate() {
-            let k = &mut kinds[org.kind as usize];
+            // The fallback origin is not a table: its list is every primitive.
+            let Some(k) = kinds.get_mut(org.kind as usize) else { continue };
             k.origins += 1;
             k.n = k.n.max(org.n);
             k.always_entries += org.always_count as usize;
@@ -92,7 +93,7 @@ impl TableStats {
             cluster_size: t.cluster_size,
             patched_primitives: f.prim_patches.iter().filter(|&&m| m > 1).count(),
             patches: t.defs.iter().filter(|d| d.patch.is_some()).count(),
-            group_entries: f.entries.iter().filter(|e| e.id & super::groups::GROUP_BIT != 0).count(),
+            group_entries: f.entries.iter().filter(|e| e.id & super::flat::GROUP_BIT != 0).count(),
             groups: f.groups.len(),
             shadow_mode: t.shadow_mode,
             spawn_offset: t.eps,

@@ -1,17 +1,33 @@
-//! The CPU table walker: traces a ray through the flattened tables with exactly the
-//! algorithm of the WGSL (see [`crate::mirror::cube_walk_nearest`]), generic over the
-//! intersection routine and its float type, so that the f64 reference renderer
-//! (`--accel cube`) and the f32 tests share it.
+//! The one table walker: a ray looks up the table of its origin entity, finds the cell of its
+//! direction, and walks the cell's list merged with the origin's always-test list by
+//! increasing `d_min`, stopping as soon as the next `d_min` passes the nearest hit so far (the
+//! distance interval optimisation). A group entry tests the group's bounding sphere first and
+//! its members only when the ray meets it in time.
 //!
-//! The walker looks the cell up with the f32 direction (the same function as the GPU), then
-//! merges the cell's list and the origin's always list by increasing `d_min`, stopping when the
-//! next `d_min` exceeds the nearest hit so far. An f64 caller converts its unit direction to
-//! f32 for the lookup only; the tables are widened for that.
+//! Line-by-line twin of the walk in `shaders/shared/walk.wgsl` (keep them in sync): the same
+//! names (`walk_start`, `walk_next`, `walk_done`, `walk_nearest`, `walk_any`,
+//! `cube_walk_nearest`, `cube_walk_any`) and the same step budget, so that a walk may stop
+//! after `budget` loop iterations and resume where it stopped, as the GPU's stepped kernel
+//! does ([`WALK_CHUNK`] per step). It is generic over the distance type and the hit payload
+//! ([`Closest`]): the GPU-side tests walk it with the f32 intersection twins, the CPU
+//! reference's `--accel cube` with its own f64 tests. Both look cells up with the f32
+//! direction, as the GPU does; the tables are widened for that.
 
 use glam::Vec3;
 
-use super::flat::{FlatTables, GpuEntry};
-use super::groups::{group_hit, GROUP_BIT};
+use super::cube::cube_cell_range;
+use super::flat::{FlatTables, GpuEntry, GROUP_BIT, NO_ORIGIN};
+use super::groups::group_hit;
+use super::patches::triangle_patch;
+use crate::kernel::closest::{consider, no_closest, Closest, Dist};
+
+/// Loop iterations one kernel step spends on a walk, at most (plus the members of the last
+/// group entry): lavapipe ends an invocation's loops after 65535 iterations in all (WGSL
+/// `WALK_CHUNK`, keep them in sync).
+pub const WALK_CHUNK: u32 = 8192;
+
+/// The budget of a walk that runs to its end in one go.
+pub const UNBOUNDED: u32 = u32::MAX;
 
 /// A ray's origin entity: what its table is keyed by.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -27,30 +43,19 @@ pub enum OriginKey {
     Surface(u32, Vec3),
 }
 
-/// A hit distance type: f32 on the GPU and in the tests, f64 in the reference renderer.
-pub trait Dist: Copy + PartialOrd + From<f32> {
-    /// The least f32 not below `self` (the far end of a group test).
-    fn far_f32(self) -> f32;
-}
-impl Dist for f32 {
-    fn far_f32(self) -> f32 {
-        self
-    }
-}
-impl Dist for f64 {
-    fn far_f32(self) -> f32 {
-        let f = self as f32;
-        if (f as f64) >= self {
-            f
-        } else if f >= 0.0 {
-            f32::from_bits(f.to_bits() + 1)
-        } else {
-            f32::from_bits(f.to_bits() - 1)
-        }
-    }
+/// The answer of a bounded any-hit walk (WGSL `ANY_CLEAR`, `ANY_BLOCKED`, `ANY_UNFINISHED`).
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AnyHit {
+    /// The walk ended without a hit.
+    Clear = 0,
+    /// A primitive is hit before `t_max`.
+    Blocked = 1,
+    /// The budget ran out first: resume the walk.
+    Unfinished = 2,
 }
 
-/// The counters a walk reports.
+/// The counters a walk adds to.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct WalkCount {
     /// Intersection tests made (calls of the test closure).
@@ -62,168 +67,219 @@ pub struct WalkCount {
 impl FlatTables {
     /// The table a ray from `key` uses, or `None` when the tables have none for it (a
     /// primitive that is no surface origin, a directional light, an empty scene).
-    pub fn origin(&self, key: OriginKey) -> Option<u32> {
+    pub fn table_of(&self, key: OriginKey) -> Option<u32> {
         let o = match key {
             OriginKey::Eye => self.eye_origin,
             OriginKey::Light(i) => *self.light_origin.get(i)?,
             OriginKey::Surface(id, at) => {
                 let base = *self.prim_origin.get(id as usize)?;
                 match self.patch_tris.get(&id) {
-                    Some(v) if base != u32::MAX => {
-                        base + crate::mirror::triangle_patch(v, self.prim_patches[id as usize], at)
+                    Some(v) if base != NO_ORIGIN => {
+                        base + triangle_patch(v, self.prim_patches[id as usize], at)
                     }
                     _ => base,
                 }
             }
         };
-        (o != u32::MAX).then_some(o)
+        (o != NO_ORIGIN).then_some(o)
+    }
+
+    /// The origin whose table a ray from `key` walks: its own, or the fallback origin
+    /// (every primitive) when it has none (WGSL `cube_origin`).
+    pub fn cube_origin(&self, key: OriginKey) -> u32 {
+        self.table_of(key).unwrap_or(self.fallback_origin)
     }
 
     /// Whether rays leaving primitive `id` have a table.
     pub fn has_surface(&self, id: u32) -> bool {
-        self.prim_origin.get(id as usize).is_some_and(|&o| o != u32::MAX)
+        self.prim_origin.get(id as usize).is_some_and(|&o| o != NO_ORIGIN)
     }
+}
 
-    /// The next entry of the merged (cell, always) lists.
-    #[inline]
-    fn next_entry(&self, i: &mut u32, iend: u32, j: &mut u32, jend: u32) -> Option<GpuEntry> {
-        let e = &self.entries;
-        if *i < iend && (*j >= jend || e[*i as usize].d_min <= e[*j as usize].d_min) {
-            *i += 1;
-            Some(e[*i as usize - 1])
-        } else if *j < jend {
-            *j += 1;
-            Some(e[*j as usize - 1])
-        } else {
-            None
-        }
+/// A position in the merged walk of a cell's list (`i..iend`) and the always list
+/// (`j..jend`) (WGSL `Walk`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Walk {
+    pub i: u32,
+    pub iend: u32,
+    pub j: u32,
+    pub jend: u32,
+}
+
+/// The walk of `origin`'s cell for direction `d` (not zero).
+pub fn walk_start(t: &FlatTables, origin: u32, d: Vec3) -> Walk {
+    let org = t.origins[origin as usize];
+    let range = cube_cell_range(t, origin, d);
+    Walk { i: range[0], iend: range[1], j: org.always_start, jend: org.always_start + org.always_count }
+}
+
+/// The entry the merged walk visits next; the walk must not be over ([`walk_done`]).
+pub fn walk_next(t: &FlatTables, w: &mut Walk) -> GpuEntry {
+    let e;
+    if w.i < w.iend && (w.j >= w.jend || t.entries[w.i as usize].d_min <= t.entries[w.j as usize].d_min) {
+        e = t.entries[w.i as usize];
+        w.i += 1;
+    } else {
+        e = t.entries[w.j as usize];
+        w.j += 1;
     }
+    e
+}
 
-    /// Nearest hit along `dir` (f32, non-zero; need not be unit length for the lookup, but
-    /// `d_min` assumes the caller's distances are along a unit direction) from origin `o`;
-    /// `at` is the ray's origin relative to the camera's eye in f32 (for the group tests).
-    ///
-    /// `test(id, t_best)` intersects primitive `id` and returns its hit distance, or `None`;
-    /// it may drop hits farther than `t_best` but must return a hit at exactly `t_best`.
-    /// Hits at `t ≥ t_max` do not count. Equal distances go to the lowest id. `skip` is never
-    /// tested (`u32::MAX` for none). A group entry tests every member (bar `skip`) when the
-    /// ray meets the group's sphere before the nearest hit so far.
-    pub fn walk_nearest<F: Dist>(
-        &self,
-        o: u32,
-        at: Vec3,
-        dir: Vec3,
-        t_max: F,
-        skip: u32,
-        mut test: impl FnMut(u32, F) -> Option<F>,
-    ) -> (Option<(u32, F)>, WalkCount) {
-        let mut count = WalkCount::default();
-        let mut best: Option<(u32, F)> = None;
-        if dir.abs().max_element() == 0.0 {
-            return (None, count);
+pub fn walk_done(w: &Walk) -> bool {
+    w.i >= w.iend && w.j >= w.jend
+}
+
+/// Continues the nearest-hit walk `w` of the ray from `o` along unit `d` (f32,
+/// camera-relative) for at most about `budget` loop iterations (an entry, or a group's
+/// members), keeping the nearest hit with `0 < t < t_max` in `best` by the shared rule (ties to
+/// the lower id); `skip` is never tested. `test(id)` intersects primitive `id` and returns its
+/// hit with `t < t_max`, if any. True when the walk is over.
+#[allow(clippy::too_many_arguments)]
+pub fn walk_nearest<F: Dist, H>(
+    t: &FlatTables,
+    w: &mut Walk,
+    best: &mut Closest<F, H>,
+    o: Vec3,
+    d: Vec3,
+    t_max: F,
+    skip: u32,
+    budget: u32,
+    count: &mut WalkCount,
+    mut test: impl FnMut(u32) -> Option<(F, H)>,
+) -> bool {
+    let mut left = budget;
+    let mut best_t = best.best_t(t_max);
+    loop {
+        if walk_done(w) {
+            break;
         }
-        let unit = dir.normalize();
-        let org = self.origins[o as usize];
-        let [mut i, iend] = self.cell_range(o, dir);
-        let mut j = org.always_start;
-        let jend = org.always_start + org.always_count;
-        let mut consider = |id: u32, best: &mut Option<(u32, F)>, count: &mut WalkCount| {
-            if id == skip {
-                return;
-            }
-            let t_best = best.map_or(t_max, |b| b.1);
-            count.tests += 1;
-            if let Some(t) = test(id, t_best) {
-                let better = match *best {
-                    None => t < t_max,
-                    Some((bid, tb)) => t < tb || (t == tb && id < bid),
-                };
-                if better {
-                    *best = Some((id, t));
-                }
-            }
-        };
-        while let Some(e) = self.next_entry(&mut i, iend, &mut j, jend) {
-            let t_best = best.map_or(t_max, |b| b.1);
-            if F::from(e.d_min) > t_best {
-                break;
-            }
-            if e.id & GROUP_BIT != 0 {
-                let g = &self.groups[(e.id & !GROUP_BIT) as usize];
-                count.bounds += 1;
-                if group_hit(g, at, unit, t_best.far_f32()) {
-                    for &m in &self.group_prims[g.first as usize..(g.first + g.count) as usize] {
-                        consider(m, &mut best, &mut count);
+        if left == 0 {
+            return false;
+        }
+        left -= 1;
+        let e = walk_next(t, w);
+        if F::from(e.d_min) > best_t {
+            break;
+        }
+        if e.id & GROUP_BIT != 0 {
+            let g = &t.groups[(e.id & !GROUP_BIT) as usize];
+            count.bounds += 1;
+            if group_hit(g, o, d, best_t.far_f32()) {
+                left -= left.min(g.count);
+                for k in g.first..g.first + g.count {
+                    let m = t.group_prims[k as usize];
+                    if m != skip {
+                        count.tests += 1;
+                        best_t = consider(best, m, test(m), best_t);
                     }
                 }
-                continue;
             }
-            consider(e.id, &mut best, &mut count);
+            continue;
         }
-        (best, count)
+        if e.id == skip {
+            continue;
+        }
+        count.tests += 1;
+        best_t = consider(best, e.id, test(e.id), best_t);
     }
+    true
+}
 
-    /// Any hit at `t < t_max` along `dir` from origin `o` (shadow rays), the ray leaving
-    /// `at`. `test(id, t_max)` as for [`FlatTables::walk_nearest`].
-    pub fn walk_any<F: Dist>(
-        &self,
-        o: u32,
-        at: Vec3,
-        dir: Vec3,
-        t_max: F,
-        skip: u32,
-        mut test: impl FnMut(u32, F) -> Option<F>,
-    ) -> (bool, WalkCount) {
-        let mut count = WalkCount::default();
-        if dir.abs().max_element() == 0.0 {
-            return (false, count);
+/// Continues the any-hit walk `w` for at most about `budget` loop iterations:
+/// [`AnyHit::Blocked`] when some primitive other than `skip` is hit at `0 < t < t_max`
+/// (`hits(id)`), [`AnyHit::Clear`] when the walk ended without one, [`AnyHit::Unfinished`]
+/// when the budget ran out first.
+#[allow(clippy::too_many_arguments)]
+pub fn walk_any<F: Dist>(
+    t: &FlatTables,
+    w: &mut Walk,
+    o: Vec3,
+    d: Vec3,
+    t_max: F,
+    skip: u32,
+    budget: u32,
+    count: &mut WalkCount,
+    mut hits: impl FnMut(u32) -> bool,
+) -> AnyHit {
+    let mut left = budget;
+    loop {
+        if walk_done(w) {
+            break;
         }
-        let unit = dir.normalize();
-        let org = self.origins[o as usize];
-        let [mut i, iend] = self.cell_range(o, dir);
-        let mut j = org.always_start;
-        let jend = org.always_start + org.always_count;
-        let mut hits = |id: u32, count: &mut WalkCount| {
-            if id == skip {
-                return false;
-            }
-            count.tests += 1;
-            test(id, t_max).is_some_and(|t| t < t_max)
-        };
-        while let Some(e) = self.next_entry(&mut i, iend, &mut j, jend) {
-            if F::from(e.d_min) >= t_max {
-                break;
-            }
-            if e.id & GROUP_BIT != 0 {
-                let g = &self.groups[(e.id & !GROUP_BIT) as usize];
-                count.bounds += 1;
-                if group_hit(g, at, unit, t_max.far_f32()) {
-                    for &m in &self.group_prims[g.first as usize..(g.first + g.count) as usize] {
-                        if hits(m, &mut count) {
-                            return (true, count);
+        if left == 0 {
+            return AnyHit::Unfinished;
+        }
+        left -= 1;
+        let e = walk_next(t, w);
+        if F::from(e.d_min) >= t_max {
+            break;
+        }
+        if e.id & GROUP_BIT != 0 {
+            let g = &t.groups[(e.id & !GROUP_BIT) as usize];
+            count.bounds += 1;
+            if group_hit(g, o, d, t_max.far_f32()) {
+                left -= left.min(g.count);
+                for k in g.first..g.first + g.count {
+                    let m = t.group_prims[k as usize];
+                    if m != skip {
+                        count.tests += 1;
+                        if hits(m) {
+                            return AnyHit::Blocked;
                         }
                     }
                 }
-                continue;
             }
-            if hits(e.id, &mut count) {
-                return (true, count);
-            }
+            continue;
         }
-        (false, count)
+        if e.id == skip {
+            continue;
+        }
+        count.tests += 1;
+        if hits(e.id) {
+            return AnyHit::Blocked;
+        }
     }
+    AnyHit::Clear
+}
 
-    /// The entries of the cell `dir` falls in, merged with the always list, in walk order
-    /// (for tests and debugging; group entries as stored).
-    pub fn candidates(&self, o: u32, dir: Vec3) -> Vec<GpuEntry> {
-        let org = self.origins[o as usize];
-        let [mut i, iend] = self.cell_range(o, dir);
-        let mut j = org.always_start;
-        let jend = org.always_start + org.always_count;
-        let mut out = Vec::new();
-        while let Some(e) = self.next_entry(&mut i, iend, &mut j, jend) {
-            out.push(e);
-        }
-        out
+/// The nearest hit with `0 < t < t_max` from the table of `origin`, ties to the lower id,
+/// walked to its end; `skip` is never tested. A zero direction hits nothing.
+#[allow(clippy::too_many_arguments)]
+pub fn cube_walk_nearest<F: Dist, H: Default>(
+    t: &FlatTables,
+    origin: u32,
+    o: Vec3,
+    d: Vec3,
+    t_max: F,
+    skip: u32,
+    count: &mut WalkCount,
+    test: impl FnMut(u32) -> Option<(F, H)>,
+) -> Closest<F, H> {
+    let mut best = no_closest();
+    if d.abs().max_element() == 0.0 {
+        return best;
     }
+    let mut w = walk_start(t, origin, d);
+    walk_nearest(t, &mut w, &mut best, o, d, t_max, skip, UNBOUNDED, count, test);
+    best
+}
+
+/// True when some primitive other than `skip` is hit at `0 < t < t_max` (walked to its end).
+#[allow(clippy::too_many_arguments)]
+pub fn cube_walk_any<F: Dist>(
+    t: &FlatTables,
+    origin: u32,
+    o: Vec3,
+    d: Vec3,
+    t_max: F,
+    skip: u32,
+    count: &mut WalkCount,
+    hits: impl FnMut(u32) -> bool,
+) -> bool {
+    if d.abs().max_element() == 0.0 {
+        return false;
+    }
+    let mut w = walk_start(t, origin, d);
+    walk_any(t, &mut w, o, d, t_max, skip, UNBOUNDED, count, hits) == AnyHit::Blocked
 }

@@ -69,6 +69,38 @@ impl GpuContext {
     }
 }
 
+impl GpuContext {
+    /// Whether the adapter is Mesa's lavapipe (llvmpipe), whose loop limit the kernels keep to.
+    pub fn is_lavapipe(&self) -> bool {
+        self.info.name.to_lowercase().contains("llvmpipe")
+    }
+
+    /// Waits for the queue and copies the first `bytes` of mappable `buffer`.
+    pub fn read(&self, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>> {
+        let (tx, rx) = std::sync::mpsc::channel();
+        buffer.map_async(wgpu::MapMode::Read, 0..bytes, move |r| {
+            let _ = tx.send(r);
+        });
+        self.device
+            .poll(wgpu::PollType::Wait { submission_index: None, timeout: None })
+            .map_err(|e| Error::Gpu(e.to_string()))?;
+        rx.recv().map_err(|e| Error::Gpu(e.to_string()))?.map_err(|e| Error::Gpu(e.to_string()))?;
+        let data = buffer.get_mapped_range(0..bytes).map_err(|e| Error::Gpu(format!("{e:?}")))?.to_vec();
+        buffer.unmap();
+        Ok(data)
+    }
+
+    /// A buffer the host can map to read `size` bytes copied into it.
+    pub fn readback_buffer(&self, label: &str, size: u64) -> wgpu::Buffer {
+        self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    }
+}
+
 fn desc_backends() -> Backends {
     Backends::from_env().unwrap_or(Backends::PRIMARY)
 }

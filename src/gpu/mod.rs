@@ -1,17 +1,16 @@
-//! The GPU side: device setup ([`GpuContext`]), the WGSL kernels composed per effect set
-//! ([`shader`]), the Rust twins of their structs and the scene packing ([`layout`]), the
-//! candidate tables as the kernels read them ([`tables`]), and the renderer that runs them
-//! ([`GpuRenderer`]).
+//! The GPU side, the only part of cuberay that uses wgpu (with the preview's window): device
+//! setup ([`GpuContext`]), the WGSL kernels composed per effect set ([`shaders`]) and compiled
+//! ([`kernels`]), the scene's buffers ([`buffers`]), the one dispatch schedule that `render`
+//! and the preview share ([`schedule`]), and the renderer ([`GpuRenderer`]). The structs and
+//! constants it shares with the WGSL are in [`crate::layout`].
 
+pub mod buffers;
 mod context;
-pub mod layout;
+pub mod kernels;
 mod render;
-pub mod shader;
-pub mod tables;
+pub mod schedule;
+pub mod shaders;
 
+pub use buffers::SceneBuffers;
 pub use context::GpuContext;
-pub use render::{
-    check, decode_counters, tile_points, uses_tables, GpuRenderer, Kernels, SceneBuffers, COUNTER_SLOTS,
-    MAX_DEPTH, WORKGROUP,
-};
-pub use tables::GpuTables;
+pub use render::{check, point_at, uses_tables, GpuRenderer};

@@ -11,6 +11,7 @@ use crate::scene::Scene;
 
 pub mod gltf;
 pub mod nff;
+mod polygon;
 
 /// Options that select among what a file offers.
 #[derive(Clone, Debug, Default)]

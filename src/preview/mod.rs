@@ -14,6 +14,7 @@
 //! with the same seed.
 
 pub mod controls;
+pub mod display;
 pub mod session;
 
 use std::collections::HashSet;
@@ -30,11 +31,13 @@ use winit::keyboard::{KeyCode, PhysicalKey};
 use winit::window::{Window, WindowId};
 
 use crate::error::{Error, Result};
-use crate::gpu::{GpuContext, GpuRenderer, MAX_DEPTH};
+use crate::gpu::{GpuContext, GpuRenderer};
 use crate::job::RenderOptions;
+use crate::layout::budget::MAX_DEPTH;
 use crate::output;
 use crate::scene::Scene;
 use controls::Controller;
+use display::Display;
 use session::{Session, Toggles};
 
 /// GPU time a redraw may spend on steps before it presents.
@@ -211,7 +214,7 @@ impl View {
         let limit = frames.unwrap_or(opts.spp);
         let controller = Controller::new(&scene);
         let session = Session::new(gpu.clone(), scene, opts, Toggles::default(), limit)?;
-        let display = Display::new(&gpu.ctx.device, format);
+        let display = Display::new(&gpu.ctx, format)?;
         log::info!("preview on {} ({:?}), surface {format:?}", gpu.ctx.info.name, gpu.ctx.info.backend);
         Ok(View {
             window,
@@ -525,87 +528,4 @@ fn si(v: f64) -> String {
         (v, "")
     };
     format!("{v:.2} {unit}")
-}
-
-/// The display pass: a full-window triangle whose fragments read the accumulation.
-struct Display {
-    pipeline: wgpu::RenderPipeline,
-    uniform: wgpu::Buffer,
-    encode: bool,
-}
-
-impl Display {
-    fn new(device: &wgpu::Device, format: wgpu::TextureFormat) -> Display {
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("cuberay preview display"),
-            source: wgpu::ShaderSource::Wgsl(session::SHADER.into()),
-        });
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("display"),
-            layout: None,
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: Default::default(),
-            depth_stencil: None,
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
-                targets: &[Some(format.into())],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
-        let uniform = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("display view"),
-            size: 32,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        Display { pipeline, uniform, encode: !format.is_srgb() }
-    }
-
-    fn draw(&self, ctx: &GpuContext, session: &Session, target: &wgpu::TextureView) {
-        let o = session.options();
-        let corners = o.sampling == crate::sampling::Sampling::Corners;
-        let view =
-            [o.width, o.height, session.grid().0, session.passes(), corners as u32, self.encode as u32, 0, 0];
-        ctx.queue.write_buffer(&self.uniform, 0, bytemuck::cast_slice(&view));
-        let bind = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("display"),
-            layout: &self.pipeline.get_bind_group_layout(0),
-            entries: &[
-                wgpu::BindGroupEntry { binding: 3, resource: self.uniform.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 4, resource: session.accumulation().as_entire_binding() },
-            ],
-        });
-        let mut enc = ctx.device.create_command_encoder(&Default::default());
-        {
-            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("display"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: target,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_pipeline(&self.pipeline);
-            pass.set_bind_group(0, &bind, &[]);
-            pass.draw(0..3, 0..1);
-        }
-        ctx.queue.submit([enc.finish()]);
-    }
 }

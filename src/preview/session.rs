@@ -8,36 +8,43 @@
 //! passes the accumulation holds the same samples as the headless render, summed in
 //! another order (equal up to f32 rounding).
 //!
-//! Only [`Session::set_camera`] does the work that depends on the eye (today: packing the
-//! geometry relative to the eye again; with direction-cube tables: rebuilding the eye
-//! table), and it restarts the accumulation.
+//! The tiles, steps and their pacing are the headless renderer's own schedule
+//! ([`crate::gpu::schedule`]) with adaptive pacing. Only [`Session::set_camera`] does the work
+//! that depends on the eye (packing the geometry relative to the eye again and, with the
+//! direction-cube tables, rebuilding the eye's table), and it restarts the accumulation.
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use crate::coherence::Tables;
 use crate::error::{Error, Result};
-use crate::gpu::layout::{self, Params, PointState};
-use crate::gpu::shader::Variant;
-use crate::gpu::{self, GpuRenderer, GpuTables, Kernels, SceneBuffers, MAX_DEPTH, WORKGROUP};
-use crate::job::RenderOptions;
+use crate::gpu::kernels::compute_pipeline;
+use crate::gpu::schedule::{Pacing, Progress, Schedule};
+use crate::gpu::shaders::{Kernel, Variant};
+use crate::gpu::{self, GpuRenderer, SceneBuffers};
+use crate::job::{AccelKind, RenderOptions};
+use crate::layout::budget::{table_params, tile_points, MAX_DEPTH, TESTS_PER_DISPATCH};
+use crate::layout::{job_params, pack, Params};
 use crate::output::Image;
-use crate::sampling::{self, Sampling};
+use crate::sampling::Sampling;
 use crate::scene::{Camera, Effects, Scene};
 
-/// The WGSL of the preview's own passes (accumulation and display).
-pub const SHADER: &str = include_str!("../../shaders/preview.wgsl");
-
-/// Primitive tests per dispatch the tile buffers are sized for (as the headless renderer).
-const TESTS_PER_DISPATCH: u64 = 1 << 24;
-
-/// The wall time one step should take; tiles shrink or grow towards it.
+/// The wall time one submission should take; tiles shrink or grow towards it.
 const STEP_TARGET: Duration = Duration::from_millis(30);
 
-/// The smallest tile (grid points).
-const MIN_TILE: u64 = WORKGROUP as u64;
+/// Which points of the image a finished tile holds: the `accumulate` kernel's uniform (WGSL
+/// `Tile` in `shaders/accumulate.wgsl`, keep them in sync).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Tile {
+    pub first_point: u32,
+    pub point_count: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+}
 
-/// The most `render` dispatches in one submission.
-const MAX_DISPATCHES: u32 = 16;
+/// Invocations per workgroup of the `accumulate` kernel (WGSL `ACCUMULATE_WORKGROUP`).
+pub const ACCUMULATE_WORKGROUP: u32 = 64;
 
 /// Which of the scene's effects are switched on (all at first). Refraction rays are
 /// spawned beside reflection rays: with reflection off there is no refraction either.
@@ -95,9 +102,10 @@ pub struct Session {
     toggles: Toggles,
     /// Passes after which the session is complete (at most `opts.spp`).
     limit: u32,
-    kernels: Arc<Kernels>,
+    /// The `render` kernel of the current effects and depth.
+    pipeline: Arc<wgpu::ComputePipeline>,
     /// The direction-cube tables (`--accel cube`, the default), or `None` for brute force.
-    tables: Option<GpuTables>,
+    tables: Option<Tables>,
     buffers: SceneBuffers,
     /// Params of the whole image (camera, sizes, sampling); tiles fill in the rest.
     base: Params,
@@ -106,21 +114,16 @@ pub struct Session {
     tile_uniform: wgpu::Buffer,
     accumulate: wgpu::ComputePipeline,
     accumulate_bind: wgpu::BindGroup,
-    active_read: wgpu::Buffer,
-    counters_read: wgpu::Buffer,
+    schedule: Schedule,
     /// Passes complete.
     passes: u32,
-    /// The first point of the current or next tile, and the current tile's size (0: none
-    /// started).
-    next_point: u64,
-    tile_count: u64,
-    /// Points of the next tile and dispatches per submission, adapted to [`STEP_TARGET`].
-    tile_size: u64,
-    dispatches: u32,
-    /// How long the last submission took to finish.
-    last_step: Duration,
     /// Time of the last eye-dependent update.
     pub last_eye_update: Duration,
+}
+
+/// The kernels' variant for the session's toggles and depth.
+fn variant(scene: &Scene, toggles: Toggles, max_depth: u32, accel: AccelKind) -> Variant {
+    GpuRenderer::variant(toggles.apply(scene.effects()), max_depth, accel)
 }
 
 impl Session {
@@ -134,95 +137,50 @@ impl Session {
         limit: u32,
     ) -> Result<Session> {
         gpu::check(&scene, &opts)?;
-        let cube = gpu::uses_tables(opts.accel);
-        let mut packed = layout::pack(&scene, opts.width, opts.height);
+        let mut packed = pack(&scene, opts.width, opts.height, opts.spawn);
         // Tables for every effect the scene has at any depth, so that toggling one back on
         // or deepening the trees needs none.
-        let all = Variant::for_effects(scene.effects(), MAX_DEPTH).with_cube(cube);
-        let tables = gpu.tables(&scene, opts.width, opts.height, all, &mut packed.params)?;
+        let all = GpuRenderer::variant(scene.effects(), MAX_DEPTH, opts.accel);
+        let tables = gpu.tables(&scene, &opts, all, &mut packed)?;
         gpu.check_loop_budget(&scene, tables.as_ref(), Some(MAX_DEPTH))?;
-        let variant = Variant::for_effects(toggles.apply(scene.effects()), opts.max_depth).with_cube(cube);
-        let kernels = gpu.kernels(variant)?;
-        let tile = gpu::tile_points(&scene, tables.as_ref(), TESTS_PER_DISPATCH);
-        let buffers = gpu.upload(&packed, tables.as_ref(), tile, true);
-        let corners = opts.sampling == Sampling::Corners;
-        let grid = if corners { (opts.width + 1, opts.height + 1) } else { (opts.width, opts.height) };
-        let device = &gpu.ctx.device;
+        let pipeline = gpu.kernel(Kernel::Render, variant(&scene, toggles, opts.max_depth, opts.accel))?;
+        let tile = tile_points(&scene, tables.as_ref().map(|t| &t.walks), TESTS_PER_DISPATCH);
+        let buffers = gpu.upload(&packed, tables.as_ref().map(|t| &t.flat), tile, true);
+        let grid = opts.grid();
+        let ctx = &gpu.ctx;
         let total = grid.0 as u64 * grid.1 as u64;
-        let accum = device.create_buffer(&wgpu::BufferDescriptor {
+        let accum = ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("preview accumulation"),
             size: total * 16,
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let tile_uniform = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("preview tile"),
-            size: 16,
+        let tile_uniform = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("accumulate tile"),
+            size: std::mem::size_of::<Tile>() as u64,
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("cuberay preview"),
-            source: wgpu::ShaderSource::Wgsl(SHADER.into()),
-        });
-        let accumulate = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("accumulate"),
-            layout: None,
-            module: &module,
-            entry_point: Some("accumulate"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-        let accumulate_bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("accumulate"),
-            layout: &accumulate.get_bind_group_layout(0),
-            entries: &[(0, &tile_uniform), (1, &buffers.out), (2, &accum)]
-                .map(|(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }),
-        });
-        let read_buffer = |label: &str, size: u64| {
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size,
-                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            })
-        };
-        let active_read = read_buffer("active readback", 4);
-        let counters_read = read_buffer("counters readback", (gpu::COUNTER_SLOTS * 8) as u64);
-        let seed_hash = sampling::seed_hash(opts.seed);
-        let base = Params {
-            grid_w: grid.0,
-            grid_h: grid.1,
-            spp: opts.spp,
-            lattice_g: if opts.spp > 1 { sampling::lattice_generator(opts.spp) } else { 1 },
-            seed_hash,
-            corners: corners as u32,
-            max_depth: opts.max_depth,
-            ..packed.params
-        };
+        let accumulate = compute_pipeline(ctx, Kernel::Accumulate, Variant::default(), None)?;
+        let accumulate_bind = accumulate_bind(ctx, &accumulate, &tile_uniform, &buffers, &accum);
+        let schedule = Schedule::new(ctx, total, tile, true, Pacing::Adaptive { target: STEP_TARGET }, false);
         let mut s = Session {
+            base: job_params(&opts, packed.params),
             gpu,
             limit: limit.min(opts.spp),
             scene,
             opts,
             toggles,
-            kernels,
+            pipeline,
             tables,
             buffers,
-            base,
             grid,
             accum,
             tile_uniform,
             accumulate,
             accumulate_bind,
-            active_read,
-            counters_read,
+            schedule,
             passes: 0,
-            next_point: 0,
-            tile_count: 0,
-            tile_size: tile.min(4096),
-            dispatches: 1,
-            last_step: Duration::ZERO,
             last_eye_update: Duration::ZERO,
         };
         s.restart();
@@ -283,37 +241,36 @@ impl Session {
 
     fn update_eye(&mut self) -> Result<()> {
         let (w, h) = (self.opts.width, self.opts.height);
-        let queue = &self.gpu.ctx.queue;
         let mut packed;
-        if let Some(old) = self.tables.take() {
+        if let Some(mut tables) = self.tables.take() {
             // The eye's table is rebuilt (the light and surface tables kept while they hold)
             // and uploaded with the re-centred scene.
-            packed = layout::pack(&self.scene, w, h);
-            let all = Variant::for_effects(self.scene.effects(), MAX_DEPTH).with_cube(true);
-            let (tables, eye_only) = match old.rebuild_eye(&self.scene, w, h, all) {
-                Ok(t) => t,
+            packed = pack(&self.scene, w, h, self.opts.spawn);
+            let all = GpuRenderer::variant(self.scene.effects(), MAX_DEPTH, AccelKind::Cube);
+            let params = table_params(&self.scene, w, h, all.effects(), self.opts.spawn);
+            let eye_only = match tables.rebuild_eye(&self.scene, &params) {
+                Ok(eye_only) => eye_only,
                 Err(e) => {
                     // Without tables the session falls back to brute force.
-                    let variant =
-                        Variant::for_effects(self.toggles.apply(self.scene.effects()), self.opts.max_depth);
-                    self.kernels = self.gpu.kernels(variant)?;
+                    let brute = variant(&self.scene, self.toggles, self.opts.max_depth, AccelKind::Brute);
+                    self.pipeline = self.gpu.kernel(Kernel::Render, brute)?;
                     self.buffers = self.gpu.upload(&packed, None, self.buffers.tile, true);
                     self.rebind();
                     return Err(Error::Scene(format!("cannot rebuild the candidate tables: {e}")));
                 }
             };
-            packed.params.eye_origin = tables.flat.eye_origin;
-            packed.params.fallback_origin = tables.fallback;
+            gpu::point_at(&mut packed.params, &tables.flat);
             self.gpu.check_loop_budget(&self.scene, Some(&tables), Some(MAX_DEPTH))?;
             log::debug!("tables for the new eye in {:.3} s (eye table only: {eye_only})", tables.build_s);
-            self.buffers = self.gpu.upload(&packed, Some(&tables), self.buffers.tile, true);
+            self.buffers = self.gpu.upload(&packed, Some(&tables.flat), self.buffers.tile, true);
             self.tables = Some(tables);
             self.rebind();
         } else {
             // Brute force: only the geometry moves (textures do not depend on the eye).
             let textures = std::mem::take(&mut self.scene.textures);
-            packed = layout::pack(&self.scene, w, h);
+            packed = pack(&self.scene, w, h, self.opts.spawn);
             self.scene.textures = textures;
+            let queue = &self.gpu.ctx.queue;
             if !packed.prims.is_empty() {
                 queue.write_buffer(&self.buffers.prims, 0, bytemuck::cast_slice(&packed.prims));
             }
@@ -339,12 +296,8 @@ impl Session {
 
     /// Points the accumulation pass at the current output buffer.
     fn rebind(&mut self) {
-        self.accumulate_bind = self.gpu.ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("accumulate"),
-            layout: &self.accumulate.get_bind_group_layout(0),
-            entries: &[(0, &self.tile_uniform), (1, &self.buffers.out), (2, &self.accum)]
-                .map(|(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }),
-        });
+        self.accumulate_bind =
+            accumulate_bind(&self.gpu.ctx, &self.accumulate, &self.tile_uniform, &self.buffers, &self.accum);
     }
 
     /// Switches effects on or off and sets the maximum depth; restarts the
@@ -353,9 +306,8 @@ impl Session {
         let mut opts = self.opts.clone();
         opts.max_depth = max_depth;
         gpu::check(&self.scene, &opts)?;
-        let variant = Variant::for_effects(toggles.apply(self.scene.effects()), max_depth)
-            .with_cube(self.tables.is_some());
-        self.kernels = self.gpu.kernels(variant)?;
+        let accel = if self.tables.is_some() { AccelKind::Cube } else { AccelKind::Brute };
+        self.pipeline = self.gpu.kernel(Kernel::Render, variant(&self.scene, toggles, max_depth, accel))?;
         self.toggles = toggles;
         self.opts = opts;
         self.base.max_depth = max_depth;
@@ -369,8 +321,7 @@ impl Session {
         enc.clear_buffer(&self.accum, 0, None);
         self.gpu.ctx.queue.submit([enc.finish()]);
         self.passes = 0;
-        self.next_point = 0;
-        self.tile_count = 0;
+        self.schedule.restart();
     }
 
     /// Runs steps while another one is expected to end within `budget` (at least one
@@ -378,7 +329,7 @@ impl Session {
     pub fn advance(&mut self, budget: Duration) -> Result<bool> {
         let start = Instant::now();
         let mut worked = false;
-        while !self.is_complete() && (!worked || start.elapsed() + self.last_step < budget) {
+        while !self.is_complete() && (!worked || start.elapsed() + self.schedule.last_submit() < budget) {
             self.step()?;
             worked = true;
         }
@@ -393,91 +344,36 @@ impl Session {
         Ok(())
     }
 
-    /// One dispatch of the `render` kernel over the current tile (starting it if
-    /// needed); a finished tile is added to the accumulation.
+    /// One submission of the `render` kernel over the current tile of pass `passes` (sample
+    /// `pass_sample(passes)` of the lattice); a finished tile is added to the accumulation.
     fn step(&mut self) -> Result<()> {
-        let device = &self.gpu.ctx.device;
-        let queue = &self.gpu.ctx.queue;
-        let total = self.grid.0 as u64 * self.grid.1 as u64;
+        let sample = pass_sample(self.passes, self.opts.spp);
+        let base = Params { sample_first: sample, sample_end: sample + 1, ..self.base };
+        let Progress::TileDone { first, count, pass_done } =
+            self.schedule.step(&self.gpu.ctx, &self.pipeline, &self.buffers, &base)?
+        else {
+            return Ok(());
+        };
+        let (device, queue) = (&self.gpu.ctx.device, &self.gpu.ctx.queue);
+        let tile = Tile { first_point: first as u32, point_count: count, ..Tile::default() };
+        queue.write_buffer(&self.tile_uniform, 0, bytemuck::bytes_of(&tile));
         let mut enc = device.create_command_encoder(&Default::default());
-        if self.tile_count == 0 {
-            self.tile_count = self.tile_size.min(total - self.next_point);
-            let sample = pass_sample(self.passes, self.opts.spp);
-            let p = Params {
-                first_point: self.next_point as u32,
-                point_count: self.tile_count as u32,
-                sample_first: sample,
-                sample_end: sample + 1,
-                ..self.base
-            };
-            queue.write_buffer(&self.buffers.params, 0, bytemuck::bytes_of(&p));
-            let state_bytes = std::mem::size_of::<PointState>() as u64;
-            enc.clear_buffer(&self.buffers.states, 0, Some(self.tile_count * state_bytes));
-        }
-        let count = self.tile_count as u32;
-        // Several dispatches per submission save a wait each; dispatches after a tile is
-        // done change nothing (`active` counts the last one).
-        for _ in 0..self.dispatches {
-            enc.clear_buffer(&self.buffers.active, 0, None);
+        {
             let mut pass = enc.begin_compute_pass(&Default::default());
-            pass.set_pipeline(self.kernels.render());
-            pass.set_bind_group(0, &self.buffers.bind, &[]);
-            pass.dispatch_workgroups(count.div_ceil(WORKGROUP), 1, 1);
+            pass.set_pipeline(&self.accumulate);
+            pass.set_bind_group(0, &self.accumulate_bind, &[]);
+            pass.dispatch_workgroups(count.div_ceil(ACCUMULATE_WORKGROUP), 1, 1);
         }
-        enc.copy_buffer_to_buffer(&self.buffers.active, 0, &self.active_read, 0, 4);
-        let start = Instant::now();
         queue.submit([enc.finish()]);
-        let left = u32::from_le_bytes(self.gpu.read(&self.active_read, 4)?.try_into().expect("4 bytes"));
-        let took = start.elapsed();
-        self.last_step = took;
-        log::trace!(
-            "step: {count} points x {} dispatches, {:.1} ms, {left} left",
-            self.dispatches,
-            took.as_secs_f64() * 1e3
-        );
-        // Aim at the step target: larger tiles first, then more dispatches per submission.
-        if took > STEP_TARGET * 2 {
-            if self.dispatches > 1 {
-                self.dispatches /= 2;
-            } else {
-                self.tile_size = (self.tile_size / 2).max(MIN_TILE);
-            }
-        } else if took < STEP_TARGET / 2 {
-            if self.tile_size < self.buffers.tile {
-                self.tile_size = (self.tile_size * 2).min(self.buffers.tile);
-            } else {
-                self.dispatches = (self.dispatches * 2).min(MAX_DISPATCHES);
-            }
-        }
-        if left == 0 {
-            let tile = [self.next_point as u32, count, 0, 0];
-            queue.write_buffer(&self.tile_uniform, 0, bytemuck::cast_slice(&tile));
-            let mut enc = device.create_command_encoder(&Default::default());
-            {
-                let mut pass = enc.begin_compute_pass(&Default::default());
-                pass.set_pipeline(&self.accumulate);
-                pass.set_bind_group(0, &self.accumulate_bind, &[]);
-                pass.dispatch_workgroups(count.div_ceil(64), 1, 1);
-            }
-            queue.submit([enc.finish()]);
-            self.next_point += self.tile_count;
-            self.tile_count = 0;
-            if self.next_point == total {
-                self.next_point = 0;
-                self.passes += 1;
-            }
+        if pass_done {
+            self.passes += 1;
         }
         Ok(())
     }
 
     /// Rays traced since the session started (all kinds).
     pub fn rays(&self) -> Result<u64> {
-        let bytes = (gpu::COUNTER_SLOTS * 8) as u64;
-        let mut enc = self.gpu.ctx.device.create_command_encoder(&Default::default());
-        enc.copy_buffer_to_buffer(&self.buffers.counters, 0, &self.counters_read, 0, bytes);
-        self.gpu.ctx.queue.submit([enc.finish()]);
-        let c = gpu::decode_counters(&self.gpu.read(&self.counters_read, bytes)?);
-        Ok(c.rays.iter().sum())
+        Ok(self.gpu.counters(&self.buffers)?.rays.iter().sum())
     }
 
     /// The average of the passes done as a linear image, computed as the headless
@@ -489,17 +385,12 @@ impl Session {
         let (gw, gh) = self.grid;
         let bytes = gw as u64 * gh as u64 * 16;
         let (w, h) = (self.opts.width, self.opts.height);
-        let device = &self.gpu.ctx.device;
-        let read = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("accumulation readback"),
-            size: bytes,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let mut enc = device.create_command_encoder(&Default::default());
+        let ctx = &self.gpu.ctx;
+        let read = ctx.readback_buffer("accumulation readback", bytes);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
         enc.copy_buffer_to_buffer(&self.accum, 0, &read, 0, bytes);
-        self.gpu.ctx.queue.submit([enc.finish()]);
-        let data = self.gpu.read(&read, bytes)?;
+        ctx.queue.submit([enc.finish()]);
+        let data = ctx.read(&read, bytes)?;
         let values: &[[f32; 4]] = bytemuck::cast_slice(&data);
         let at = |i: u32, j: u32, c: usize| values[(j * gw + i) as usize][c] as f64;
         let corners = self.opts.sampling == Sampling::Corners;
@@ -521,21 +412,26 @@ impl Session {
     }
 }
 
+/// The accumulation pass's bind group: the tile uniform, the kernel's output, the
+/// accumulation.
+fn accumulate_bind(
+    ctx: &gpu::GpuContext,
+    accumulate: &wgpu::ComputePipeline,
+    tile: &wgpu::Buffer,
+    buffers: &SceneBuffers,
+    accum: &wgpu::Buffer,
+) -> wgpu::BindGroup {
+    ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("accumulate"),
+        layout: &accumulate.get_bind_group_layout(0),
+        entries: &[(0, tile), (1, &buffers.out), (2, accum)]
+            .map(|(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn preview_shader_validates() {
-        let module =
-            naga::front::wgsl::parse_str(SHADER).unwrap_or_else(|e| panic!("{}", e.emit_to_string(SHADER)));
-        naga::valid::Validator::new(
-            naga::valid::ValidationFlags::all(),
-            naga::valid::Capabilities::default(),
-        )
-        .validate(&module)
-        .unwrap_or_else(|e| panic!("{}", e.emit_to_string(SHADER)));
-    }
 
     #[test]
     fn pass_order_is_a_permutation() {

@@ -62,7 +62,7 @@ impl Ray {
 
 /// Where a ray met a primitive: distance and, for triangles, the barycentric weights of
 /// vertices 1 and 2.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PrimHit {
     pub t: f64,
     pub b1: f64,

@@ -2,10 +2,12 @@
 //! the coherence tables. It is the yardstick the GPU renderer is judged against.
 //!
 //! - [`geometry`]: rays, exact-as-practical primitive intersection, robust spawn offsets;
-//! - [`accel`]: brute force and BVH behind the [`accel::Accel`] trait, which receives
-//!   each ray's origin entity so that the direction-cube tables can plug in;
-//! - [`cube`]: `--accel cube`, the reference's own intersection tests in the order and
-//!   number the direction-cube tables of [`crate::coherence`] choose;
+//! - [`accel`]: the queries every accelerator answers ([`accel::Accel`]), each told the
+//!   ray's origin entity, and the shared nearest-hit rule;
+//! - [`brute`] and [`bvh`]: brute force, and a BVH built by the `obvhs` crate;
+//! - [`tables`]: `--accel cube`, the reference's own intersection tests in the order and
+//!   number the direction-cube tables of [`crate::coherence`] choose (the only file here
+//!   that knows the tables);
 //! - [`shade`]: the Whitted shading model and the ray tree;
 //! - [`texture`]: texture sampling.
 //!
@@ -20,20 +22,44 @@ use indicatif::ProgressBar;
 use rayon::prelude::*;
 
 use crate::error::Result;
-use crate::job::{simulated_effects, RenderOptions, Rendered};
+use crate::job::{simulated_effects, AccelKind, RenderOptions, Rendered};
 use crate::output::{Aov, Image};
 use crate::sampling::{self, Sampling};
 use crate::scene::Scene;
 use crate::stats::{self, Counters, Stats};
 
 pub mod accel;
-pub mod cube;
+pub mod brute;
+pub mod bvh;
 pub mod geometry;
 pub mod shade;
+pub mod tables;
 pub mod texture;
 
+use accel::{Accel, AUTO_BRUTE_MAX};
+use brute::Brute;
+use bvh::Bvh;
 use geometry::Ray;
 use shade::Tracer;
+use tables::TableAccel;
+
+/// Builds the accelerator `kind` asks for; the direction-cube tables cover primary rays of a
+/// `width`×`height` image.
+pub fn build_accel<'a>(
+    scene: &'a Scene,
+    kind: AccelKind,
+    width: u32,
+    height: u32,
+) -> Result<Box<dyn Accel + 'a>> {
+    Ok(match kind {
+        AccelKind::Auto if scene.primitives.len() <= AUTO_BRUTE_MAX => {
+            Box::new(Brute::new(&scene.primitives))
+        }
+        AccelKind::Brute => Box::new(Brute::new(&scene.primitives)),
+        AccelKind::Auto | AccelKind::Bvh => Box::new(Bvh::new(&scene.primitives)),
+        AccelKind::Cube => Box::new(TableAccel::new(scene, width, height)?),
+    })
+}
 
 fn prepare(scene: &Scene, opts: &RenderOptions) -> Result<()> {
     opts.validate()?;
@@ -49,7 +75,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions, progress: &ProgressBar) -> Re
     prepare(scene, opts)?;
     let (w, h) = (opts.width, opts.height);
     let start = Instant::now();
-    let accel = accel::build(scene, opts.accel, w, h)?;
+    let accel = build_accel(scene, opts.accel, w, h)?;
     let preprocess_s = start.elapsed().as_secs_f64();
     let tracer = Tracer { scene, accel: accel.as_ref(), max_depth: opts.max_depth };
     let cam = &scene.camera;
@@ -128,7 +154,7 @@ pub fn render_aov(scene: &Scene, opts: &RenderOptions, aov: Aov, progress: &Prog
     prepare(scene, opts)?;
     let (w, h) = (opts.width, opts.height);
     let start = Instant::now();
-    let accel = accel::build(scene, opts.accel, w, h)?;
+    let accel = build_accel(scene, opts.accel, w, h)?;
     let preprocess_s = start.elapsed().as_secs_f64();
     let tracer = Tracer { scene, accel: accel.as_ref(), max_depth: 1 };
     let start = Instant::now();

@@ -1,5 +1,5 @@
-// Base colour textures: sRGB texels, wrap modes, nearest or bilinear; twin of
-// src/reference/texture.rs.
+// Base colour textures: sRGB texels, wrap modes, nearest or bilinear, as the CPU reference
+// samples them (src/reference/texture.rs).
 
 fn srgb_to_linear(v: u32) -> f32 {
     let c = f32(v) / 255.0;
@@ -11,10 +11,10 @@ fn srgb_to_linear(v: u32) -> f32 {
 
 fn wrap_coord(i: i32, n: i32, mode: u32) -> i32 {
     switch mode {
-        case 0u: {
+        case WRAP_REPEAT: {
             return ((i % n) + n) % n;
         }
-        case 1u: {
+        case WRAP_MIRRORED_REPEAT: {
             let m = ((i % (2 * n)) + 2 * n) % (2 * n);
             return select(m, 2 * n - 1 - m, m >= n);
         }
@@ -36,7 +36,7 @@ fn sample_texture(index: u32, uv: vec2<f32>) -> vec3<f32> {
     // Beyond 2^24 an f32 holds no fraction; every wrap mode is periodic or constant there.
     let x = clamp(uv.x * f32(t.width), -16777216.0, 16777216.0);
     let y = clamp(uv.y * f32(t.height), -16777216.0, 16777216.0);
-    if (t.flags & 16u) == 0u {
+    if (t.flags & TEX_BILINEAR) == 0u {
         return texel(t, i32(floor(x)), i32(floor(y)));
     }
     let xs = x - 0.5;

@@ -1,27 +1,7 @@
-// The preview window's own passes (src/preview/): `accumulate` adds one tile of the
-// `render` kernel's output to the whole-image accumulation, and `vs_main`/`fs_main` draw
-// the accumulation's average as the headless PNG output encodes it (clamp to [0, 1], sRGB).
+// The preview's `display` pass (src/preview/display.rs): draws the accumulation's average
+// as the headless PNG output encodes it (clamp to [0, 1], sRGB).
 
-struct Tile {
-    first_point: u32,
-    point_count: u32,
-    pad0: u32,
-    pad1: u32,
-}
-
-@group(0) @binding(0) var<uniform> tile: Tile;
-@group(0) @binding(1) var<storage, read> tile_out: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read_write> accum: array<vec4<f32>>;
-
-@compute @workgroup_size(64)
-fn accumulate(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let k = gid.x;
-    if k < tile.point_count {
-        let p = tile.first_point + k;
-        accum[p] = vec4<f32>(accum[p].xyz + tile_out[k].xyz, 1.0);
-    }
-}
-
+// What the window shows. Keep in sync with `View` in src/preview/display.rs.
 struct View {
     width: u32,
     height: u32,
@@ -36,8 +16,8 @@ struct View {
     pad1: u32,
 }
 
-@group(0) @binding(3) var<uniform> view: View;
-@group(0) @binding(4) var<storage, read> image: array<vec4<f32>>;
+@group(0) @binding(0) var<uniform> view: View;
+@group(0) @binding(1) var<storage, read> image: array<vec4<f32>>;
 
 struct VertexOut {
     @builtin(position) position: vec4<f32>,

@@ -1,175 +1,9 @@
-// The direction-cube candidate tables (`--accel cube`): line-by-line twins of
-// `cube_face_cell`, `cube_cell_range`, `cube_walk_nearest` and `cube_walk_any` in
-// src/mirror/mod.rs, over the flattened buffers of src/coherence/flat.rs. A ray looks up
-// the table of its origin entity (the eye, the light it is traced from, the primitive it
-// leaves), finds the cell of its direction, and walks the cell's list merged with the
-// origin's always-test list by increasing d_min, stopping once d_min passes the nearest
-// hit so far. A ray whose origin has no table uses the host's fallback origin, whose
-// always-test list holds every primitive (d_min 0, ascending ids): the same walk, so these
-// kernels contain no separate brute-force loop.
-
-// One origin entity; kind 0 eye, 1 light, 2 surface cluster, 3 the fallback (all primitives).
-struct GpuOrigin {
-    n: u32,
-    always_start: u32,
-    always_count: u32,
-    kind: u32,
-}
-
-// The stored window of one cube face: cells iu0..iu0+width × iv0..iv0+height, row by row
-// from cell_base.
-struct GpuFace {
-    iu0: u32,
-    iv0: u32,
-    width: u32,
-    height: u32,
-    cell_base: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
-}
-
-// A candidate: primitive id and a lower bound of its hit distance along a unit direction.
-struct GpuEntry {
-    id: u32,
-    d_min: f32,
-}
-
-// A group of primitives (coherence::groups): its camera-relative bounding sphere, widened
-// for rounding, and its members group_prims[first .. first + count].
-struct GpuGroup {
-    cx: f32,
-    cy: f32,
-    cz: f32,
-    radius: f32,
-    first: u32,
-    count: u32,
-    _pad0: u32,
-    _pad1: u32,
-}
-
-@group(0) @binding(11) var<storage, read> origins: array<GpuOrigin>;
-@group(0) @binding(12) var<storage, read> faces: array<GpuFace>;
-@group(0) @binding(13) var<storage, read> cell_start: array<u32>;
-@group(0) @binding(14) var<storage, read> entries: array<GpuEntry>;
-// Per primitive: its surface origin; per light: its light origin (NO_ORIGIN: none).
-@group(0) @binding(15) var<storage, read> prim_origin: array<u32>;
-@group(0) @binding(16) var<storage, read> light_origin: array<u32>;
-// Per primitive: m, its m×m surface patches (1: one origin for the whole primitive).
-@group(0) @binding(17) var<storage, read> prim_patches: array<u32>;
-// Primitive groups, named by entries whose id has GROUP_BIT set, and their members.
-@group(0) @binding(18) var<storage, read> groups: array<GpuGroup>;
-@group(0) @binding(19) var<storage, read> group_prims: array<u32>;
-
-const NO_ORIGIN: u32 = 0xffffffffu;
-const GROUP_BIT: u32 = 0x80000000u;
-// Relative widening of the group test (coherence::groups::GROUP_SLACK).
-const GROUP_SLACK: f32 = 1e-5;
-
-// Whether the ray may meet group `g`'s sphere at some 0 < t <= t_far: the twin of
-// `coherence::groups::group_hit`, conservative for f32 rounding.
-fn group_hit(g: GpuGroup, ray: Ray, t_far: f32) -> bool {
-    let oc = vec3<f32>(g.cx, g.cy, g.cz) - ray.o;
-    let tc = dot(oc, ray.d);
-    let rr = g.radius + GROUP_SLACK * (abs(tc) + g.radius + max3(abs(ray.o)));
-    if tc + rr < 0.0 || tc - rr > t_far {
-        return false;
-    }
-    let v = oc - tc * ray.d;
-    return dot(v, v) <= rr * rr;
-}
-
-// Origin keys (coherence::OriginKey).
-const KEY_EYE: u32 = 0u;
-const KEY_LIGHT: u32 = 1u;
-const KEY_SURFACE: u32 = 2u;
-
-// The surface patch of triangle (p0, p1, p2), split into an m×m barycentric grid, holding
-// the ray origin `at`: the twin of `triangle_patch`.
-fn triangle_patch(p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>, m: u32, at: vec3<f32>) -> u32 {
-    let e1 = p1 - p0;
-    let e2 = p2 - p0;
-    let w = at - p0;
-    let d11 = dot(e1, e1);
-    let d12 = dot(e1, e2);
-    let d22 = dot(e2, e2);
-    let w1 = dot(w, e1);
-    let w2 = dot(w, e2);
-    let den = d11 * d22 - d12 * d12;
-    let b1 = (d22 * w1 - d12 * w2) / den;
-    let b2 = (d11 * w2 - d12 * w1) / den;
-    let last = f32(m - 1u);
-    let i = u32(min(max(floor(b1 * f32(m)), 0.0), last));
-    let j = u32(min(max(floor(b2 * f32(m)), 0.0), last));
-    return min(j, m - 1u - i) * m + i;
-}
-
-// The table a ray from `key` (with light or primitive `index`, starting at `at`) uses: the
-// twin of `FlatTables::origin`, then the fallback origin where that has none.
-fn cube_origin(key: u32, index: u32, at: vec3<f32>) -> u32 {
-    var o = NO_ORIGIN;
-    switch key {
-        case KEY_EYE: {
-            o = params.eye_origin;
-        }
-        case KEY_LIGHT: {
-            if index < params.light_count {
-                o = light_origin[index];
-            }
-        }
-        default: {
-            if index < params.prim_count {
-                o = prim_origin[index];
-                let m = prim_patches[index];
-                if o != NO_ORIGIN && m > 1u {
-                    let p = prims[index];
-                    o += triangle_patch(p.a.xyz, p.b.xyz, p.c.xyz, m, at);
-                }
-            }
-        }
-    }
-    return select(o, params.fallback_origin, o == NO_ORIGIN);
-}
-
-// Face and cell of direction `d` (not zero) on a cube of n×n cells per face:
-// (face, iu, iv), the major axis taking ties in the order x, y, z.
-fn cube_face_cell(d: vec3<f32>, n: u32) -> vec3<u32> {
-    let a = abs(d);
-    var ax = 0u;
-    var m = a.x;
-    if a.y > m {
-        ax = 1u;
-        m = a.y;
-    }
-    if a.z > m {
-        ax = 2u;
-        m = a.z;
-    }
-    let major = d[ax];
-    let face = 2u * ax + select(0u, 1u, major < 0.0);
-    let u = d[(ax + 1u) % 3u] / m;
-    let v = d[(ax + 2u) % 3u] / m;
-    let nf = f32(n);
-    let iu = u32(clamp(floor((u + 1.0) * 0.5 * nf), 0.0, nf - 1.0));
-    let iv = u32(clamp(floor((v + 1.0) * 0.5 * nf), 0.0, nf - 1.0));
-    return vec3<u32>(face, iu, iv);
-}
-
-// The [begin, end) range of `entries` listing the cell of direction `d` of `origin`;
-// empty outside the face's stored window.
-fn cube_cell_range(origin: u32, d: vec3<f32>) -> vec2<u32> {
-    let org = origins[origin];
-    let fc = cube_face_cell(d, org.n);
-    let w = faces[origin * 6u + fc.x];
-    // u32 subtraction wraps, so a cell left of or below the window fails the test too.
-    let lu = fc.y - w.iu0;
-    let lv = fc.z - w.iv0;
-    if lu >= w.width || lv >= w.height {
-        return vec2<u32>(0u, 0u);
-    }
-    let c = w.cell_base + lv * w.width + lu;
-    return vec2<u32>(cell_start[c], cell_start[c + 1u]);
-}
+// The table walk: line-by-line twin of src/coherence/walk.rs (keep them in sync). A ray
+// looks up the table of its origin entity (the eye, the light it is traced from, the
+// primitive it leaves), finds the cell of its direction, and walks the cell's list merged
+// with the origin's always-test list by increasing d_min, stopping once d_min passes the
+// nearest hit so far; a long walk is spread over several steps. Then the queries the
+// shading asks, `closest` and `occluded`, in their stepped forms too.
 
 // A position in the merged walk of a cell's list (i..iend) and the always list (j..jend).
 struct Walk {
@@ -258,8 +92,7 @@ fn cube_walk_nearest(origin: u32, ray: Ray, t_max: f32, skip: u32, ray_kind: u32
 
 // The nearest hit of a ray leaving primitive `from_prim` (NO_ID: the eye).
 fn closest(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) -> Closest {
-    let key = select(KEY_SURFACE, KEY_EYE, from_prim == NO_ID);
-    return cube_walk_nearest(cube_origin(key, from_prim, ray.o), ray, t_max, skip, ray_kind);
+    return cube_walk_nearest(cube_origin(from_prim, ray.o), ray, t_max, skip, ray_kind);
 }
 
 // `closest` for the ray on top of the point's stack, in bounded steps: `done` false when
@@ -271,8 +104,7 @@ fn closest_step(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) 
         if max3(abs(ray.d)) == 0.0 {
             return Stepped(true, best);
         }
-        let key = select(KEY_SURFACE, KEY_EYE, from_prim == NO_ID);
-        w = walk_start(cube_origin(key, from_prim, ray.o), ray.d);
+        w = walk_start(cube_origin(from_prim, ray.o), ray.d);
     } else {
         let s = state.walk;
         w = Walk(s.i, s.iend, s.j, s.jend);
@@ -358,8 +190,8 @@ struct ShadowWalk {
 }
 
 fn shadow_walk(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim: u32) -> ShadowWalk {
-    let lo = cube_origin(KEY_LIGHT, light, q);
-    if lo != params.fallback_origin {
+    let lo = light_table(light);
+    if lo != NO_ORIGIN {
         let l = lights[light].position;
         let v = q - l;
         let dist = length(v);
@@ -370,7 +202,7 @@ fn shadow_walk(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_p
         return ShadowWalk(lo, ray, dist * (1.0 - SHADOW_END_REL), max3(abs(ray.d)) == 0.0);
     }
     let ray = make_ray(q, to_light);
-    return ShadowWalk(cube_origin(KEY_SURFACE, from_prim, q), ray, t_max, max3(abs(ray.d)) == 0.0);
+    return ShadowWalk(cube_origin(from_prim, q), ray, t_max, max3(abs(ray.d)) == 0.0);
 }
 
 // `occluded` when its walk has at most `params.shadow_inline` entries (groups counted

@@ -1,5 +1,7 @@
-// Shared declarations: the structs (each has one Rust twin in src/gpu/layout.rs), the
-// bindings and the per-invocation counters. Coordinates are re-centred on the camera.
+// Shared declarations of every kernel: the structs, constants and bindings shared with the
+// host, and the per-invocation counters. Coordinates are re-centred on the camera.
+// Keep in sync with src/layout/structs.rs and src/layout/counters.rs: each struct and
+// constant here has one Rust twin of the same name, and tests/twins.rs compares them.
 
 struct Params {
     cam_forward: vec3<f32>,
@@ -34,12 +36,16 @@ struct Params {
     // Shadow walks of at most this many entries are traced within the step that found the
     // hit; longer ones become jobs (shade.wgsl).
     shadow_inline: u32,
+    // The spawn offset is scale * spawn_rel + spawn_abs (geometry.wgsl, spawn_origin).
+    spawn_rel: f32,
+    spawn_abs: f32,
+    _pad0: u32,
+    _pad1: u32,
 }
 
-// One primitive. Sphere: a = (centre, radius). Triangle: a, b, c = vertices. Cylinder:
-// a = (base, base radius), b = (apex, apex radius). `attr` indexes `tri_attrs` (triangles
-// with normals or texture coordinates), `flags` bit 0 = inside only, bit 1 = has normals,
-// bit 2 = has texture coordinates.
+// One primitive (kind KIND_*). Sphere: a = (centre, radius). Triangle: a, b, c = vertices.
+// Cylinder: a = (base, base radius), b = (apex, apex radius). `attr` indexes `tri_attrs`
+// (triangles with normals or texture coordinates); `flags` holds FLAG_* bits.
 struct Prim {
     a: vec4<f32>,
     b: vec4<f32>,
@@ -72,7 +78,7 @@ struct Material {
     pad: u32,
 }
 
-// kind: 0 point, 1 spot, 2 directional. `range` 0 = unlimited.
+// kind: LIGHT_POINT, LIGHT_SPOT or LIGHT_DIRECTIONAL. `range` 0 = unlimited.
 struct Light {
     position: vec3<f32>,
     kind: u32,
@@ -86,8 +92,8 @@ struct Light {
     pad1: u32,
 }
 
-// Texel offset into `texels`, size, and flags: wrap_s (bits 0-1), wrap_t (bits 2-3),
-// bilinear (bit 4). Wrap: 0 repeat, 1 mirrored repeat, 2 clamp to edge.
+// Texel offset into `texels`, size, and flags: wrap_s (bits 0-1) and wrap_t (bits 2-3), each
+// a WRAP_* mode, and TEX_BILINEAR.
 struct TextureInfo {
     offset: u32,
     width: u32,
@@ -117,10 +123,10 @@ const STACK_SIZE: u32 = 16u;
 // Loop iterations a step spends on one walk, at most (plus the members of the last group
 // entry): lavapipe ends an invocation's loops after 65535 iterations in all, so a long
 // candidate list (or brute force's every primitive) is walked over several steps, its
-// position kept in `state.walk`.
+// position kept in `state.walk`. Twin: src/coherence/walk.rs.
 const WALK_CHUNK: u32 = 8192u;
 
-// Answers of a bounded any-hit walk.
+// Answers of a bounded any-hit walk (coherence::walk::AnyHit).
 const ANY_CLEAR: u32 = 0u;
 const ANY_BLOCKED: u32 = 1u;
 const ANY_UNFINISHED: u32 = 2u;
@@ -165,9 +171,30 @@ struct PointState {
 // [0]: grid points with work left after a step.
 @group(0) @binding(10) var<storage, read_write> points_left: array<atomic<u32>>;
 
+// Invocations per workgroup of the `render` and `aov` kernels.
+const WORKGROUP: u32 = 64u;
+
 const KIND_SPHERE: u32 = 0u;
 const KIND_TRIANGLE: u32 = 1u;
 const KIND_CYLINDER: u32 = 2u;
+
+const FLAG_INSIDE_ONLY: u32 = 1u;
+const FLAG_NORMALS: u32 = 2u;
+const FLAG_UVS: u32 = 4u;
+
+const LIGHT_POINT: u32 = 0u;
+const LIGHT_SPOT: u32 = 1u;
+const LIGHT_DIRECTIONAL: u32 = 2u;
+
+const WRAP_REPEAT: u32 = 0u;
+const WRAP_MIRRORED_REPEAT: u32 = 1u;
+const WRAP_CLAMP_TO_EDGE: u32 = 2u;
+const TEX_BILINEAR: u32 = 16u;
+
+// What the `aov` kernel writes (params.aov).
+const AOV_DEPTH: u32 = 0u;
+const AOV_NORMAL: u32 = 1u;
+const AOV_ID: u32 = 2u;
 
 const RAY_EYE: u32 = 0u;
 const RAY_SHADOW: u32 = 1u;
@@ -176,15 +203,24 @@ const RAY_REFRACT: u32 = 3u;
 const RAY_KIND_MASK: u32 = 3u;
 const RAY_SKIP_FROM: u32 = 4u;
 
-// Counter slots: rays by kind (0-3), tests by ray kind x primitive kind (4-15), eye
-// hits (16), blocked shadow rays (17), group sphere tests by ray kind (18-21). Each is
-// 64-bit in `counters` (low, high word).
-const COUNTER_COUNT: u32 = 22u;
+// Counter slots: rays by kind (C_RAYS + kind), tests by ray kind x primitive kind
+// (C_TESTS + 3 * ray kind + primitive kind), eye hits, blocked shadow rays, group sphere
+// tests by ray kind (C_BOUNDS + kind). Each is 64-bit in `counters` (low, high word).
+const C_RAYS: u32 = 0u;
+const C_TESTS: u32 = 4u;
 const C_EYE_HIT: u32 = 16u;
 const C_SHADOW_BLOCKED: u32 = 17u;
+const C_BOUNDS: u32 = 18u;
+const COUNTER_COUNT: u32 = 22u;
 
 // The largest finite f32: the open end of an unbounded ray (no infinity is used).
 const FAR: f32 = 3.4028235e38;
+
+// "No primitive".
+const NO_ID: u32 = 0xffffffffu;
+
+// Shadow rays towards a positional light end this relative distance before it (f32).
+const SHADOW_END_REL: f32 = 9.5367431640625e-7;
 
 var<private> local_counts: array<u32, COUNTER_COUNT>;
 var<workgroup> group_counts: array<atomic<u32>, COUNTER_COUNT>;
@@ -194,11 +230,11 @@ fn count(slot: u32) {
 }
 
 fn count_test(ray_kind: u32, prim_kind: u32) {
-    local_counts[4u + ray_kind * 3u + prim_kind] += 1u;
+    local_counts[C_TESTS + ray_kind * 3u + prim_kind] += 1u;
 }
 
 fn count_bound(ray_kind: u32) {
-    local_counts[18u + ray_kind] += 1u;
+    local_counts[C_BOUNDS + ray_kind] += 1u;
 }
 
 // Sums the invocations' counters per workgroup, then adds them to the 64-bit totals.
@@ -224,3 +260,9 @@ fn flush_counters(lid: u32) {
         }
     }
 }
+
+// The ray-tree walk of the current grid point, one node per step: `state` (loaded from and
+// stored back to `states` by the `render` kernel) holds the pending rays and the radiance so
+// far. Each invocation handles one node so that no invocation runs long loops (lavapipe
+// stops every loop of an invocation after 65535 iterations in all).
+var<private> state: PointState;

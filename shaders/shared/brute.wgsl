@@ -1,6 +1,6 @@
-// Brute force: every primitive for every ray (`--accel brute`); twin of
-// `crate::mirror::brute_nearest`. Same entry points as cube.wgsl (`closest`, `occluded`
-// and their stepped forms), which take the ray's origin entity although testing
+// Brute force: every primitive for every ray (`--accel brute`); `brute_nearest` is the twin
+// of src/kernel/closest.rs's (keep them in sync). The same queries as walk.wgsl (`closest`,
+// `occluded` and their stepped forms), which take the ray's origin entity although testing
 // everything needs none. The stepped forms test WALK_CHUNK primitives per step.
 
 // Tests primitives first..end for the nearest hit with 0 < t < t_max (FAR: unbounded),

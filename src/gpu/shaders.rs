@@ -1,31 +1,76 @@
-//! Composing the WGSL kernels per effect set.
+//! Composing the WGSL kernels per effect set and accelerator.
 //!
-//! The kernels live in `shaders/` (one file per stage plus shared includes) and are
-//! embedded in the binary. A tiny line-based preprocessor composes one module per
-//! [`Variant`]: `#include "file.wgsl"` pastes a file (once), and `#if NAME` / `#else` /
+//! The kernels live in `shaders/`: one file per kernel (`render.wgsl`, `aov.wgsl`, and the
+//! preview's `accumulate.wgsl` and `display.wgsl`), the kernel, its pipeline and its label
+//! sharing one name, and the code they share in `shaders/shared/`. All are embedded in the
+//! binary. A tiny line-based preprocessor composes one module per [`Kernel`] and
+//! [`Variant`]: `#include "shared/file.wgsl"` pastes a file (once), and `#if NAME` / `#else` /
 //! `#endif` (nestable) keep or drop lines by the variant's flags `SHADOWS`, `REFLECTION`,
-//! `REFRACTION`, `TEXTURES` and `EMISSION`, and `CUBE`, which picks the ray queries: the
-//! candidate-table walk of `cube.wgsl` or the brute force of `brute.wgsl` (never both). A
-//! scene without mirrors thus gets a module with no reflection code at all, not a branch
-//! that is never taken.
+//! `REFRACTION`, `TEXTURES` and `EMISSION`, and `TABLES`, which picks the ray queries: the
+//! candidate-table walk of `shared/walk.wgsl` or the brute force of `shared/brute.wgsl`
+//! (never both). A scene without mirrors thus gets a module with no reflection code at all,
+//! not a branch that is never taken.
 
 use crate::error::{Error, Result};
 use crate::scene::Effects;
 
-/// The shader sources, by the name `#include` uses.
+/// The shader sources, by their path under `shaders/`.
 const SOURCES: &[(&str, &str)] = &[
-    ("trace.wgsl", include_str!("../../shaders/trace.wgsl")),
-    ("common.wgsl", include_str!("../../shaders/common.wgsl")),
-    ("geometry.wgsl", include_str!("../../shaders/geometry.wgsl")),
-    ("brute.wgsl", include_str!("../../shaders/brute.wgsl")),
-    ("cube.wgsl", include_str!("../../shaders/cube.wgsl")),
-    ("sampling.wgsl", include_str!("../../shaders/sampling.wgsl")),
-    ("texture.wgsl", include_str!("../../shaders/texture.wgsl")),
-    ("shade.wgsl", include_str!("../../shaders/shade.wgsl")),
+    ("render.wgsl", include_str!("../../shaders/render.wgsl")),
+    ("aov.wgsl", include_str!("../../shaders/aov.wgsl")),
+    ("accumulate.wgsl", include_str!("../../shaders/accumulate.wgsl")),
+    ("display.wgsl", include_str!("../../shaders/display.wgsl")),
+    ("shared/layout.wgsl", include_str!("../../shaders/shared/layout.wgsl")),
+    ("shared/geometry.wgsl", include_str!("../../shaders/shared/geometry.wgsl")),
+    ("shared/brute.wgsl", include_str!("../../shaders/shared/brute.wgsl")),
+    ("shared/tables.wgsl", include_str!("../../shaders/shared/tables.wgsl")),
+    ("shared/walk.wgsl", include_str!("../../shaders/shared/walk.wgsl")),
+    ("shared/sampling.wgsl", include_str!("../../shaders/shared/sampling.wgsl")),
+    ("shared/texture.wgsl", include_str!("../../shaders/shared/texture.wgsl")),
+    ("shared/shade.wgsl", include_str!("../../shaders/shared/shade.wgsl")),
 ];
 
-/// The file every module starts from.
-pub const ROOT: &str = "trace.wgsl";
+/// A kernel: its file `shaders/NAME.wgsl`, its entry point(s) and its pipeline share the name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Kernel {
+    /// Advances every grid point of a tile by one ray (stepped, see `gpu::schedule`).
+    Render,
+    /// Writes depth, normal or object id from the eye ray through each pixel centre.
+    Aov,
+    /// The preview's accumulation of a finished tile.
+    Accumulate,
+    /// The preview's display pass (vertex `vs_main`, fragment `fs_main`).
+    Display,
+}
+
+impl Kernel {
+    pub const ALL: [Kernel; 4] = [Kernel::Render, Kernel::Aov, Kernel::Accumulate, Kernel::Display];
+
+    /// The kernel's name: its file stem, entry point (compute kernels) and pipeline label.
+    pub fn name(self) -> &'static str {
+        match self {
+            Kernel::Render => "render",
+            Kernel::Aov => "aov",
+            Kernel::Accumulate => "accumulate",
+            Kernel::Display => "display",
+        }
+    }
+
+    /// The kernel's file under `shaders/`.
+    pub fn file(self) -> String {
+        format!("{}.wgsl", self.name())
+    }
+}
+
+/// Which queries a kernel traces rays with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum Queries {
+    /// The direction-cube candidate tables (`--accel cube`, the default).
+    #[default]
+    Tables,
+    /// Every primitive for every ray (`--accel brute`).
+    Brute,
+}
 
 /// The code paths one compiled module contains.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
@@ -35,8 +80,8 @@ pub struct Variant {
     pub refraction: bool,
     pub textures: bool,
     pub emission: bool,
-    /// Trace the direction-cube tables (`--accel cube`) rather than every primitive.
-    pub cube: bool,
+    /// The ray queries: the candidate tables or brute force.
+    pub queries: Queries,
 }
 
 impl Variant {
@@ -50,13 +95,29 @@ impl Variant {
             refraction: e.refraction && secondary,
             textures: e.textures,
             emission: e.emission,
-            cube: false,
+            queries: Queries::Tables,
         }
     }
 
-    /// The same effects traced with the tables (`true`) or by brute force.
-    pub fn with_cube(self, cube: bool) -> Variant {
-        Variant { cube, ..self }
+    /// The same effects traced with `queries`.
+    pub fn with_queries(self, queries: Queries) -> Variant {
+        Variant { queries, ..self }
+    }
+
+    /// Whether the kernels walk the candidate tables.
+    pub fn tables(&self) -> bool {
+        self.queries == Queries::Tables
+    }
+
+    /// The effects the kernels simulate (what their tables must serve).
+    pub fn effects(&self) -> Effects {
+        Effects {
+            shadows: self.shadows,
+            reflection: self.reflection,
+            refraction: self.refraction,
+            textures: self.textures,
+            emission: self.emission,
+        }
     }
 
     /// Every one of the 64 variants; the last has every flag set.
@@ -68,7 +129,7 @@ impl Variant {
                 refraction: b & 4 != 0,
                 textures: b & 8 != 0,
                 emission: b & 16 != 0,
-                cube: b & 32 != 0,
+                queries: if b & 32 != 0 { Queries::Tables } else { Queries::Brute },
             })
             .collect()
     }
@@ -80,15 +141,15 @@ impl Variant {
             "REFRACTION" => self.refraction,
             "TEXTURES" => self.textures,
             "EMISSION" => self.emission,
-            "CUBE" => self.cube,
+            "TABLES" => self.tables(),
             _ => return None,
         })
     }
 }
 
-/// The WGSL source of `variant`.
-pub fn compose(variant: Variant) -> Result<String> {
-    compose_from(SOURCES, ROOT, variant)
+/// The WGSL source of `kernel` for `variant`.
+pub fn compose(kernel: Kernel, variant: Variant) -> Result<String> {
+    compose_from(SOURCES, &kernel.file(), variant)
 }
 
 /// Composes `root` from `sources` (name, text).
@@ -159,8 +220,8 @@ mod tests {
 
     #[test]
     fn flags_select_lines() {
-        let all = compose(Variant::all()[63]).unwrap();
-        let none = compose(Variant::default()).unwrap();
+        let all = compose(Kernel::Render, Variant::all()[63]).unwrap();
+        let none = compose(Kernel::Render, Variant::default()).unwrap();
         assert!(all.contains("fn reflect_dir") && all.contains("fn refract_dir"));
         assert!(!none.contains("fn reflect_dir") && !none.contains("fn refract_dir"));
         assert!(!none.contains("#"), "a directive leaked into the module");

@@ -1,198 +1,19 @@
-//! Direction-cube geometry in f64: cells and their bounding cones, direction bounds (cones)
-//! from an origin sphere to spheres, triangles and capsules, the cell tests (Test A to build,
-//! exact Test B to validate), and the "certain hit" (cover) tests that let a cell's list stop
-//! at the first object every ray of the cell must hit.
-//!
-//! Conventions (shared with [`crate::mirror::cube_face_cell`]): face `f = 2·ax + neg`; on that
-//! face a direction is `w[ax] = ±1, w[(ax+1)%3] = u, w[(ax+2)%3] = v` (unnormalised), and cell
-//! `(iu, iv)` spans `u ∈ [−1 + 2·iu/n, −1 + 2·(iu+1)/n]`, `v` likewise. The gnomonic projection
-//! maps great circles to lines, so a cell is a convex spherical quadrilateral.
-//!
-//! Every test is conservative in the direction that keeps rendering exact: "meets" may say yes
-//! for a cell the object cannot be seen through (costs time), never no for one it can; "covers"
-//! may say no for a covered cell, never yes for one that is not. Origins are spheres already
-//! inflated by the largest ray-spawn offset; angles are widened by `delta` so that a direction
-//! the GPU's f32 lookup puts in a neighbouring cell (or face) is still accounted for.
+//! Direction bounds in f64 from an origin sphere to each kind of target: cones to spheres
+//! (and their inner cones, which every ray of a cell certainly hits), edge functions of
+//! triangles, arcs around capsules, and the distances that give each its lower bound
+//! `d_min`. Every test is conservative in the direction that keeps rendering exact: "meets"
+//! may say yes for a cell the object cannot be seen through, never no for one it can;
+//! "covers" may say no for a covered cell, never yes for one that is not. Origins are spheres
+//! already inflated by the largest ray-spawn offset; angles are widened by `delta` so that a
+//! direction the GPU's f32 lookup puts in a neighbouring cell (or face) is still accounted
+//! for.
 
 // `!(a > b)` is deliberate: a NaN must fail these tests, not pass them.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use glam::DVec3;
 
-/// A unit vector along axis `ax` of face `face`, and the two in-face axes, as world vectors:
-/// `dir(u, v) = s·e[ax] + u·e[i1] + v·e[i2]`.
-#[inline]
-pub fn face_dir(face: usize, u: f64, v: f64) -> DVec3 {
-    let ax = face / 2;
-    let s = if face % 2 == 1 { -1.0 } else { 1.0 };
-    let mut w = [0.0; 3];
-    w[ax] = s;
-    w[(ax + 1) % 3] = u;
-    w[(ax + 2) % 3] = v;
-    DVec3::from_array(w)
-}
-
-/// The `u` (or `v`) coordinate of cell boundary `k` on an `n`-cell face.
-#[inline]
-pub fn edge_coord(k: u32, n: u32) -> f64 {
-    -1.0 + 2.0 * k as f64 / n as f64
-}
-
-/// A cell's bounding cone: unit centre direction and the cosine/sine of the largest angle to
-/// its corners. Also the four corners, unnormalised (on the face plane).
-#[derive(Clone, Copy, Debug)]
-pub struct CellCone {
-    pub m: DVec3,
-    /// Half-angle β of the bounding cone.
-    pub beta: f64,
-    pub cos_b: f64,
-    pub sin_b: f64,
-    pub corners: [DVec3; 4],
-}
-
-/// Computes the geometry of cell `(iu, iv)` on `face` of an `n`-cube.
-pub fn cell_cone(face: usize, iu: u32, iv: u32, n: u32) -> CellCone {
-    region_cone(face, [iu, iv, iu, iv], n)
-}
-
-/// The same for the block of cells `iu0..=iu1` × `iv0..=iv1` (`r = [iu0, iv0, iu1, iv1]`):
-/// a gnomonic rectangle is a convex spherical quadrilateral, so every test written for a
-/// cell holds for a block.
-pub fn region_cone(face: usize, r: [u32; 4], n: u32) -> CellCone {
-    let (u0, u1) = (edge_coord(r[0], n), edge_coord(r[2] + 1, n));
-    let (v0, v1) = (edge_coord(r[1], n), edge_coord(r[3] + 1, n));
-    let m = face_dir(face, 0.5 * (u0 + u1), 0.5 * (v0 + v1)).normalize();
-    let corners =
-        [face_dir(face, u0, v0), face_dir(face, u1, v0), face_dir(face, u1, v1), face_dir(face, u0, v1)];
-    let cos_b = corners.iter().map(|c| m.dot(c.normalize())).fold(1.0, f64::min).clamp(-1.0, 1.0);
-    CellCone { m, beta: cos_b.acos(), cos_b, sin_b: (1.0 - cos_b * cos_b).max(0.0).sqrt(), corners }
-}
-
-/// A cone of directions: unit axis and half-angle `theta` in [0, π].
-#[derive(Clone, Copy, Debug)]
-pub struct Cone {
-    pub axis: DVec3,
-    pub theta: f64,
-    pub cos_t: f64,
-    pub sin_t: f64,
-    /// Range `[lo, hi]` of each component `w_i` over the cap.
-    range: [[f64; 2]; 3],
-}
-
-impl Cone {
-    pub fn new(axis: DVec3, theta: f64) -> Cone {
-        let theta = theta.clamp(0.0, std::f64::consts::PI);
-        let (cos_t, sin_t) = (theta.cos(), theta.sin());
-        // w·e_i over the cap: [cos(min(π, α+θ)), cos(max(0, α−θ))], α = angle(axis, e_i),
-        // expanded as cosα·cosθ ∓ sinα·sinθ.
-        let range = [0, 1, 2].map(|i| {
-            let c = axis[i].clamp(-1.0, 1.0);
-            let s = (1.0 - c * c).max(0.0).sqrt();
-            let lo = if c <= -cos_t { -1.0 } else { c * cos_t - s * sin_t };
-            let hi = if c >= cos_t { 1.0 } else { c * cos_t + s * sin_t };
-            [lo.max(-1.0), hi.min(1.0)]
-        });
-        Cone { axis, theta, cos_t, sin_t, range }
-    }
-
-    /// Test A: true when the angle between the axis and the cell's centre is at most θ + β,
-    /// which holds whenever the cap meets the cell (conservative).
-    #[inline]
-    pub fn meets(&self, cell: &CellCone) -> bool {
-        if self.theta + cell.beta >= std::f64::consts::PI {
-            return true;
-        }
-        // cos(θ + β) = cosθ·cosβ − sinθ·sinβ
-        self.axis.dot(cell.m) >= self.cos_t * cell.cos_b - self.sin_t * cell.sin_b
-    }
-
-    /// True when the whole cell lies inside the cap (angle(axis, m) + β ≤ θ).
-    #[inline]
-    pub fn contains(&self, cell: &CellCone) -> bool {
-        if self.theta >= std::f64::consts::PI {
-            return true;
-        }
-        if cell.cos_b < self.cos_t {
-            return false; // β > θ
-        }
-        // cos(θ − β) = cosθ·cosβ + sinθ·sinβ
-        self.axis.dot(cell.m) >= self.cos_t * cell.cos_b + self.sin_t * cell.sin_b
-    }
-
-    /// Test B: exact cap/cell intersection (for validation). The cap meets the spherical
-    /// quadrilateral iff a corner is inside the cap, the axis is inside the cell, or an edge
-    /// arc comes within θ of the axis.
-    pub fn meets_exact(&self, cell: &CellCone) -> bool {
-        let c: Vec<DVec3> = cell.corners.iter().map(|c| c.normalize()).collect();
-        if c.iter().any(|ck| self.axis.dot(*ck) >= self.cos_t) {
-            return true;
-        }
-        if self.theta >= std::f64::consts::FRAC_PI_2 {
-            // The complement cap is convex: all corners outside it means the cell is outside.
-            return false;
-        }
-        // Axis inside the cell: on the inner side of all four edge planes.
-        let inside = (0..4).all(|k| {
-            let nk = c[k].cross(c[(k + 1) % 4]);
-            let nk = if nk.dot(cell.m) < 0.0 { -nk } else { nk };
-            nk.dot(self.axis) >= 0.0
-        });
-        if inside {
-            return true;
-        }
-        (0..4).any(|k| {
-            let (a, b) = (c[k], c[(k + 1) % 4]);
-            let n = a.cross(b).normalize();
-            let s = self.axis.dot(n);
-            if s.abs() > self.sin_t {
-                return false;
-            }
-            let p = self.axis - s * n;
-            if p.length_squared() == 0.0 {
-                return true;
-            }
-            let p = p.normalize();
-            a.cross(p).dot(n) >= 0.0 && p.cross(b).dot(n) >= 0.0
-        })
-    }
-
-    /// Conservative bounding rectangle `[u0, u1] × [v0, v1]` of the cap on `face`, or `None`
-    /// when the cap does not reach the face's pyramid.
-    pub fn face_rect(&self, face: usize) -> Option<[f64; 4]> {
-        let ax = face / 2;
-        let (i1, i2) = ((ax + 1) % 3, (ax + 2) % 3);
-        let [lo, hi] = self.range[ax];
-        // Range of s·w[ax] over the cap.
-        let (k_lo, k_hi) = if face % 2 == 1 { (-hi, -lo) } else { (lo, hi) };
-        // The face's pyramid is where s·w[ax] ≥ |w[i1]|, |w[i2]|, so it needs s·w[ax] > 0.
-        if k_hi <= 0.0 {
-            return None;
-        }
-        if k_lo <= 1e-9 {
-            // The cap reaches the plane w[ax] = 0: no useful bound on the ratios.
-            return Some([-1.0, 1.0, -1.0, 1.0]);
-        }
-        let [l1, h1] = self.range[i1];
-        let [l2, h2] = self.range[i2];
-        let lo = |l: f64| if l < 0.0 { l / k_lo } else { l / k_hi };
-        let hi = |h: f64| if h > 0.0 { h / k_lo } else { h / k_hi };
-        let r = [lo(l1).max(-1.0), hi(h1).min(1.0), lo(l2).max(-1.0), hi(h2).min(1.0)];
-        if r[0] > r[1] || r[2] > r[3] {
-            return None;
-        }
-        Some(r)
-    }
-}
-
-/// The cell index range `[lo, hi]` (inclusive) covering coordinates `[a, b]`, widened by one
-/// cell on each side for rounding.
-#[inline]
-pub fn cell_span(a: f64, b: f64, n: u32) -> (u32, u32) {
-    let nf = n as f64;
-    let lo = (((a + 1.0) * 0.5 * nf).floor() - 1.0).clamp(0.0, nf - 1.0) as u32;
-    let hi = (((b + 1.0) * 0.5 * nf).floor() + 1.0).clamp(0.0, nf - 1.0) as u32;
-    (lo, hi)
-}
+use super::cells::{CellCone, Cone};
 
 /// The direction bound from an origin sphere to a sphere (or to a bounding sphere): a cone
 /// widened by `delta`, or `None` when the spheres overlap or touch (every direction).
@@ -454,84 +275,9 @@ pub fn sphere_inner_cone(ca: DVec3, ra: f64, cb: DVec3, rb: f64, delta: f64) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn rng(seed: &mut u64) -> f64 {
-        *seed ^= *seed << 13;
-        *seed ^= *seed >> 7;
-        *seed ^= *seed << 17;
-        (*seed >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    fn unit(seed: &mut u64) -> DVec3 {
-        loop {
-            let v = DVec3::new(rng(seed) * 2.0 - 1.0, rng(seed) * 2.0 - 1.0, rng(seed) * 2.0 - 1.0);
-            if v.length_squared() > 1e-3 && v.length_squared() <= 1.0 {
-                return v.normalize();
-            }
-        }
-    }
-
-    /// Test A contains Test B, and Test B contains every sampled direction of the cell
-    /// that lies in the cap.
-    #[test]
-    fn test_a_contains_test_b_contains_samples() {
-        let mut s = 0x9e3779b97f4a7c15u64;
-        let n = 8;
-        let mut b_only = 0;
-        let mut a_count = 0;
-        let mut b_count = 0;
-        for _ in 0..200 {
-            let cone = Cone::new(unit(&mut s), rng(&mut s) * 1.2);
-            for face in 0..6 {
-                for iv in 0..n {
-                    for iu in 0..n {
-                        let cell = cell_cone(face, iu, iv, n);
-                        let a = cone.meets(&cell);
-                        let b = cone.meets_exact(&cell);
-                        a_count += a as u32;
-                        b_count += b as u32;
-                        if b && !a {
-                            b_only += 1;
-                        }
-                        if !b {
-                            // Sample the cell: no direction may be in the cap.
-                            for _ in 0..6 {
-                                let u = edge_coord(iu, n) + rng(&mut s) * 2.0 / n as f64;
-                                let v = edge_coord(iv, n) + rng(&mut s) * 2.0 / n as f64;
-                                let w = face_dir(face, u, v).normalize();
-                                assert!(cone.axis.dot(w) < cone.cos_t + 1e-12, "Test B missed a direction");
-                            }
-                        }
-                    }
-                }
-            }
-        }
-        assert_eq!(b_only, 0, "Test A missed cells Test B found");
-        assert!(a_count >= b_count && b_count > 0);
-    }
-
-    #[test]
-    fn face_rect_contains_cap_cells() {
-        let mut s = 12345u64;
-        let n = 16;
-        for _ in 0..300 {
-            let cone = Cone::new(unit(&mut s), rng(&mut s) * 1.5);
-            for face in 0..6 {
-                let rect = cone.face_rect(face);
-                for iv in 0..n {
-                    for iu in 0..n {
-                        let cell = cell_cone(face, iu, iv, n);
-                        if cone.meets_exact(&cell) {
-                            let r = rect.expect("face with a cap cell has a rectangle");
-                            let (lu, hu) = cell_span(r[0], r[1], n);
-                            let (lv, hv) = cell_span(r[2], r[3], n);
-                            assert!(lu <= iu && iu <= hu && lv <= iv && iv <= hv, "cell outside rect");
-                        }
-                    }
-                }
-            }
-        }
-    }
+    use crate::coherence::cells::{cell_cone, edge_coord, face_dir};
+    use crate::coherence::cube::cube_face_cell;
+    use crate::coherence::testutil::{rng, unit};
 
     /// Rays from random points of the origin sphere toward random points of the triangle
     /// meet the edge bound in their cell; covered cells are really hit by sampled rays.
@@ -551,7 +297,7 @@ mod tests {
                 let (a, b) = if a + b > 1.0 { (1.0 - a, 1.0 - b) } else { (a, b) };
                 let q = v[0] + a * (v[1] - v[0]) + b * (v[2] - v[0]);
                 let w = (q - p).normalize();
-                let [face, iu, iv] = crate::mirror::cube_face_cell(w.as_vec3(), n);
+                let [face, iu, iv] = cube_face_cell(w.as_vec3(), n);
                 let cell = cell_cone(face as usize, iu, iv, n);
                 assert!(te.meets(&cell, 1e-6), "edge bound missed a hitting direction");
             }
@@ -607,7 +353,7 @@ mod tests {
                 let p = c + unit(&mut s) * r * rng(&mut s).sqrt();
                 let q = p0 + (p1 - p0) * rng(&mut s) + unit(&mut s) * rad * rng(&mut s).sqrt();
                 let w = (q - p).normalize();
-                let [face, iu, iv] = crate::mirror::cube_face_cell(w.as_vec3(), n);
+                let [face, iu, iv] = cube_face_cell(w.as_vec3(), n);
                 assert!(arc.meets(&cell_cone(face as usize, iu, iv, n)));
             }
         }

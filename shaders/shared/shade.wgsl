@@ -1,10 +1,8 @@
-// Whitted shading and the ray tree of one eye ray; twin of src/reference/shade.rs.
+// Whitted shading and the ray tree of one eye ray, as the CPU reference shades
+// (src/reference/shade.rs, written independently in f64).
 // The ray tree is walked with an explicit stack of pending rays (secondary rays, and
 // shadow rays whose walks are long), each carrying the weight its radiance contributes
 // with.
-
-// Shadow rays towards a positional light end this relative distance before it (f32).
-const SHADOW_END_REL: f32 = 9.5367431640625e-7;
 
 struct Incidence {
     ok: bool,
@@ -17,8 +15,8 @@ struct Incidence {
 fn incidence(l: Light, p: vec3<f32>) -> Incidence {
     var inc: Incidence;
     inc.ok = false;
-    inc.positional = l.kind != 2u;
-    if l.kind == 2u {
+    inc.positional = l.kind != LIGHT_DIRECTIONAL;
+    if l.kind == LIGHT_DIRECTIONAL {
         inc.dir = -l.direction;
         inc.radiance = l.radiance;
         inc.ok = max3(l.radiance) > 0.0;
@@ -38,7 +36,7 @@ fn incidence(l: Light, p: vec3<f32>) -> Incidence {
         let q = d / l.range;
         scale *= clamp(1.0 - q * q * q * q, 0.0, 1.0);
     }
-    if l.kind == 1u {
+    if l.kind == LIGHT_SPOT {
         let a = clamp((dot(l.direction, -inc.dir) - l.cos_outer) / l.span, 0.0, 1.0);
         scale *= a * a;
     }
@@ -61,7 +59,7 @@ fn base_color(m: Material, s: Surface) -> vec3<f32> {
 // the ray leaves along), else NO_ID.
 fn leave_skip(id: u32, dir: vec3<f32>, ng: vec3<f32>) -> u32 {
     let p = prims[id];
-    if p.kind == KIND_TRIANGLE || (p.kind == KIND_SPHERE && (p.flags & 1u) == 0u && dot(dir, ng) > 0.0) {
+    if p.kind == KIND_TRIANGLE || (p.kind == KIND_SPHERE && (p.flags & FLAG_INSIDE_ONLY) == 0u && dot(dir, ng) > 0.0) {
         return id;
     }
     return NO_ID;
@@ -114,7 +112,7 @@ fn shade_local(id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>) -> 
 // Where a shadow ray from `o` towards light `li` ends: just before a positional light.
 fn shadow_t_max(li: u32, o: vec3<f32>) -> f32 {
     let light = lights[li];
-    if light.kind != 2u {
+    if light.kind != LIGHT_DIRECTIONAL {
         return length(light.position - o) * (1.0 - SHADOW_END_REL);
     }
     return FAR;
@@ -151,7 +149,7 @@ fn push_shadow_rays(id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>
             state.sp += 1u;
             continue;
         }
-        count(RAY_SHADOW);
+        count(C_RAYS + RAY_SHADOW);
         if r == ANY_BLOCKED {
             count(C_SHADOW_BLOCKED);
         } else {
@@ -169,7 +167,7 @@ fn shadow_step(job: Pending) {
         return;
     }
     state.sp -= 1u;
-    count(RAY_SHADOW);
+    count(C_RAYS + RAY_SHADOW);
     if r == ANY_BLOCKED {
         count(C_SHADOW_BLOCKED);
     } else {
@@ -212,12 +210,6 @@ fn refract_dir(d: vec3<f32>, n: vec3<f32>, ng: vec3<f32>, entering: bool, ior: f
 }
 #endif
 
-// The ray-tree walk of the current grid point, one node per call: `state` (loaded from
-// and stored back to `states` by the kernel) holds the pending rays and the radiance so
-// far. Each kernel invocation handles one node so that no invocation runs long loops
-// (lavapipe stops every loop of an invocation after 65535 iterations in all).
-var<private> state: PointState;
-
 // Traces the ray on top of the stack (a long table walk over several calls) and, once its
 // nearest hit is known, pops it and pushes the rays its hit spawns.
 fn trace_step() {
@@ -238,7 +230,7 @@ fn trace_step() {
     }
     let h = stepped.c;
     state.sp -= 1u;
-    count(kind);
+    count(C_RAYS + kind);
     if !h.found {
         state.color += job.weight * params.background;
         return;

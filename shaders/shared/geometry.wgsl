@@ -1,4 +1,6 @@
-// Rays and primitive intersection in f32; twins of src/reference/geometry.rs.
+// Rays and primitive intersection in f32, the surface at a hit and the spawn offset. Keep in
+// sync with their Rust twins of the same names in src/kernel/geometry.rs, closest.rs and
+// spawn.rs.
 
 struct Ray {
     o: vec3<f32>,
@@ -46,10 +48,7 @@ fn hit_at(t: f32) -> PrimHit {
     return PrimHit(true, t, 0.0, 0.0);
 }
 
-// "No primitive".
-const NO_ID: u32 = 0xffffffffu;
-
-// A nearest-hit answer (`closest` in brute.wgsl or cube.wgsl): the primitive and its hit.
+// A nearest-hit answer (`closest` in brute.wgsl or walk.wgsl): the primitive and its hit.
 struct Closest {
     found: bool,
     prim: u32,
@@ -227,12 +226,12 @@ fn intersect_cylinder(base: vec4<f32>, apex: vec4<f32>, inside_only: bool, ray: 
 }
 
 fn intersect_prim(p: Prim, ray: Ray, t_max: f32) -> PrimHit {
-    let inside_only = (p.flags & 1u) != 0u;
+    let inside_only = (p.flags & FLAG_INSIDE_ONLY) != 0u;
     switch p.kind {
-        case 0u: {
+        case KIND_SPHERE: {
             return intersect_sphere(p.a.xyz, p.a.w, inside_only, ray, t_max);
         }
-        case 1u: {
+        case KIND_TRIANGLE: {
             return intersect_triangle(p.a.xyz, p.b.xyz, p.c.xyz, ray, t_max);
         }
         default: {
@@ -264,18 +263,18 @@ fn surface(prim: Prim, ray: Ray, h: PrimHit) -> Surface {
     s.uv = vec2<f32>(0.0);
     let scale_ray = max3(abs(ray.o)) + h.t;
     switch prim.kind {
-        case 0u: {
+        case KIND_SPHERE: {
             s.p = ray.o + ray.d * h.t;
             s.ng = normalize(s.p - prim.a.xyz);
             s.ns = s.ng;
             s.scale = max(max(max3(abs(s.p)), scale_ray), max3(abs(prim.a.xyz)) + prim.a.w);
         }
-        case 1u: {
+        case KIND_TRIANGLE: {
             let b0 = 1.0 - h.b1 - h.b2;
             s.p = prim.a.xyz * b0 + prim.b.xyz * h.b1 + prim.c.xyz * h.b2;
             s.ng = normalize(cross(prim.b.xyz - prim.a.xyz, prim.c.xyz - prim.a.xyz));
             s.ns = s.ng;
-            if (prim.flags & 2u) != 0u {
+            if (prim.flags & FLAG_NORMALS) != 0u {
                 let at = tri_attrs[prim.attr];
                 let n = at.n0.xyz * b0 + at.n1.xyz * h.b1 + at.n2.xyz * h.b2;
                 let len = length(n);
@@ -284,7 +283,7 @@ fn surface(prim: Prim, ray: Ray, h: PrimHit) -> Surface {
                     s.ns = select(sn, -sn, dot(sn, s.ng) < 0.0);
                 }
             }
-            if (prim.flags & 4u) != 0u {
+            if (prim.flags & FLAG_UVS) != 0u {
                 let at = tri_attrs[prim.attr];
                 s.uv = at.uv01.xy * b0 + at.uv01.zw * h.b1 + at.uv2.xy * h.b2;
                 s.has_uv = true;
@@ -308,13 +307,11 @@ fn surface(prim: Prim, ray: Ray, h: PrimHit) -> Surface {
     return s;
 }
 
-// Relative size of the spawn offset in f32: 2⁻¹⁶ of the magnitude of the numbers behind
-// the hit point, about 128 f32 rounding units of that magnitude.
-const SPAWN_OFFSET_REL: f32 = 1.52587890625e-5;
-
 // The origin of a ray leaving surface `s` towards `dir`: the hit point moved along the
-// geometric normal to the side `dir` goes to.
+// geometric normal to the side `dir` goes to, by `s.scale * params.spawn_rel +
+// params.spawn_abs` (the render's spawn policy; by default 2⁻¹⁶ of the magnitude of the
+// numbers behind the hit point, about 128 f32 rounding units of that magnitude).
 fn spawn_origin(s: Surface, dir: vec3<f32>) -> vec3<f32> {
     let side = select(-s.ng, s.ng, dot(dir, s.ng) >= 0.0);
-    return s.p + side * (s.scale * SPAWN_OFFSET_REL);
+    return s.p + side * (s.scale * params.spawn_rel + params.spawn_abs);
 }

@@ -1,0 +1,45 @@
+// The `aov` kernel: traces the eye ray through each pixel centre of one tile and writes the
+// distance to its first hit, the shading normal or the object id (params.aov).
+#include "shared/layout.wgsl"
+#include "shared/geometry.wgsl"
+#if TABLES
+#include "shared/tables.wgsl"
+#include "shared/walk.wgsl"
+#else
+#include "shared/brute.wgsl"
+#endif
+#include "shared/sampling.wgsl"
+
+@compute @workgroup_size(WORKGROUP)
+fn aov(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let k = gid.x;
+    if k < params.point_count {
+        let point = params.first_point + k;
+        let i = point % params.grid_w;
+        let j = point / params.grid_w;
+        let ray = camera_ray(vec2<f32>(f32(i) + 0.5, f32(j) + 0.5));
+        count(C_RAYS + RAY_EYE);
+        let h = closest(ray, FAR, RAY_EYE, NO_ID, NO_ID);
+        var v = vec4<f32>(0.0);
+        if h.found {
+            count(C_EYE_HIT);
+            let prim = prims[h.prim];
+            let s = surface(prim, ray, h.hit);
+            switch params.aov {
+                case AOV_DEPTH: {
+                    v = vec4<f32>(vec3<f32>(h.hit.t), 1.0);
+                }
+                case AOV_NORMAL: {
+                    v = vec4<f32>(select(-s.ns, s.ns, dot(ray.d, s.ng) < 0.0), 1.0);
+                }
+                default: {
+                    v = vec4<f32>(vec3<f32>(f32(h.prim)), 1.0);
+                }
+            }
+        } else if params.aov == AOV_ID {
+            v = vec4<f32>(-1.0, -1.0, -1.0, 0.0);
+        }
+        out_color[k] = v;
+    }
+    flush_counters(lid);
+}

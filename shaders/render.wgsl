@@ -1,0 +1,46 @@
+// The `render` kernel: advances the ray trees of one tile of grid points (pixels, or pixel
+// corners with SPD sampling) by one ray each and writes each point's radiance so far. The
+// host (src/gpu/schedule.rs) repeats steps until no point has work left.
+#include "shared/layout.wgsl"
+#include "shared/geometry.wgsl"
+#if TABLES
+#include "shared/tables.wgsl"
+#include "shared/walk.wgsl"
+#else
+#include "shared/brute.wgsl"
+#endif
+#include "shared/sampling.wgsl"
+#if TEXTURES
+#include "shared/texture.wgsl"
+#endif
+#include "shared/shade.wgsl"
+
+// One step of every grid point of the tile: start the next sample (of
+// sample_first..sample_end; `state.sample` counts those started) when the point's tree
+// is done, trace one pending ray, and write the radiance summed so far. The host repeats
+// steps until no point has work left (`points_left[0]` stays 0).
+@compute @workgroup_size(WORKGROUP)
+fn render(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let k = gid.x;
+    if k < params.point_count {
+        let point = params.first_point + k;
+        state = states[k];
+        if state.sp == 0u && params.sample_first + state.sample < params.sample_end {
+            let i = point % params.grid_w;
+            let j = point / params.grid_w;
+            let eye = camera_ray(sample_position(i, j, params.sample_first + state.sample));
+            state.stack[0] = Pending(eye.o, RAY_EYE, eye.d, 1u, vec3<f32>(1.0), NO_ID);
+            state.sp = 1u;
+            state.sample += 1u;
+        }
+        if state.sp > 0u {
+            trace_step();
+        }
+        if state.sp > 0u || params.sample_first + state.sample < params.sample_end {
+            atomicAdd(&points_left[0], 1u);
+        }
+        states[k] = state;
+        out_color[k] = vec4<f32>(state.color, 1.0);
+    }
+    flush_counters(lid);
+}

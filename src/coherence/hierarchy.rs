@@ -1,0 +1,228 @@
+//! The bounding-sphere hierarchy over targets (median splits) that the builder walks nearest
+//! first to cull hidden targets, and the spatial clustering of surface primitives into
+//! origins, and the spheres a ray can start inside (which must list themselves).
+
+use glam::DVec3;
+
+use super::bounds::{point_segment_distance, point_triangle_distance};
+use super::targets::{Shape, Target};
+
+/// Splits `ids` into spatially coherent groups of at most `k` (median split along the
+/// longest axis of the centres).
+pub fn cluster(ids: &[u32], centers: &[DVec3], k: usize) -> Vec<Vec<u32>> {
+    let mut out = Vec::new();
+    let mut stack = vec![ids.to_vec()];
+    while let Some(mut g) = stack.pop() {
+        if g.len() <= k.max(1) {
+            if !g.is_empty() {
+                out.push(g);
+            }
+            continue;
+        }
+        let (lo, hi) = g.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &i| {
+            (lo.min(centers[i as usize]), hi.max(centers[i as usize]))
+        });
+        let ext = hi - lo;
+        let ax = if ext.x >= ext.y && ext.x >= ext.z {
+            0
+        } else if ext.y >= ext.z {
+            1
+        } else {
+            2
+        };
+        // Split at a multiple of k so that clusters come out full.
+        let half = g.len().div_ceil(2).div_ceil(k) * k;
+        let half = half.min(g.len() - 1).max(1);
+        g.select_nth_unstable_by(half, |a, b| centers[*a as usize][ax].total_cmp(&centers[*b as usize][ax]));
+        let right = g.split_off(half);
+        stack.push(right);
+        stack.push(g);
+    }
+    out
+}
+
+/// Bounding sphere of a set of targets: centre of their boxes, radius to the farthest
+/// point (vertices for triangles).
+pub fn bounding_sphere(ids: &[u32], targets: &[Target]) -> (DVec3, f64) {
+    let (lo, hi) = ids.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &i| {
+        let t = &targets[i as usize];
+        (lo.min(t.center - DVec3::splat(t.radius)), hi.max(t.center + DVec3::splat(t.radius)))
+    });
+    let c = (lo + hi) * 0.5;
+    let r = ids
+        .iter()
+        .map(|&i| {
+            let t = &targets[i as usize];
+            match t.shape {
+                Shape::Triangle { v } => v.iter().map(|p| (*p - c).length()).fold(0.0, f64::max),
+                _ => (t.center - c).length() + t.radius,
+            }
+        })
+        .fold(0.0, f64::max);
+    (c, r)
+}
+
+/// A node of the bounding-sphere hierarchy over targets.
+#[derive(Clone, Copy, Debug)]
+pub struct Node {
+    pub center: DVec3,
+    pub radius: f64,
+    /// Leaf: `first..first+count` of [`Bvh::order`]; inner: `count == 0`, children at
+    /// `first` and `first + 1`.
+    pub first: u32,
+    pub count: u32,
+}
+
+/// Bounding-sphere hierarchy (median splits, leaves of at most 4 targets).
+#[derive(Clone, Debug)]
+pub struct Bvh {
+    pub nodes: Vec<Node>,
+    pub order: Vec<u32>,
+}
+
+impl Bvh {
+    pub fn build(targets: &[Target]) -> Bvh {
+        const LEAF: usize = 4;
+        let mut order: Vec<u32> = (0..targets.len() as u32).collect();
+        let mut nodes = Vec::with_capacity(2 * targets.len() / LEAF + 1);
+        if targets.is_empty() {
+            return Bvh { nodes, order };
+        }
+        nodes.push(Node { center: DVec3::ZERO, radius: 0.0, first: 0, count: 0 });
+        // (node index, range start, range end)
+        let mut stack = vec![(0usize, 0usize, targets.len())];
+        while let Some((ni, a, b)) = stack.pop() {
+            let (c, r) = bounding_sphere(&order[a..b], targets);
+            if b - a <= LEAF {
+                nodes[ni] = Node { center: c, radius: r, first: a as u32, count: (b - a) as u32 };
+                continue;
+            }
+            let (lo, hi) = order[a..b].iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &i| {
+                (lo.min(targets[i as usize].center), hi.max(targets[i as usize].center))
+            });
+            let ext = hi - lo;
+            let ax = if ext.x >= ext.y && ext.x >= ext.z {
+                0
+            } else if ext.y >= ext.z {
+                1
+            } else {
+                2
+            };
+            let mid = (b - a) / 2;
+            order[a..b].select_nth_unstable_by(mid, |x, y| {
+                targets[*x as usize].center[ax].total_cmp(&targets[*y as usize].center[ax])
+            });
+            let left = nodes.len();
+            nodes.push(Node { center: DVec3::ZERO, radius: 0.0, first: 0, count: 0 });
+            nodes.push(Node { center: DVec3::ZERO, radius: 0.0, first: 0, count: 0 });
+            nodes[ni] = Node { center: c, radius: r, first: left as u32, count: 0 };
+            stack.push((left, a, a + mid));
+            stack.push((left + 1, a + mid, b));
+        }
+        Bvh { nodes, order }
+    }
+}
+
+/// Makes spheres self-listing when a ray can start inside them: `points`
+/// (the eye, lights) or another primitive lie strictly inside. Tangent neighbours do not count.
+pub fn mark_enclosing(targets: &mut [Target], bvh: &Bvh, points: &[DVec3]) {
+    let inside: Vec<bool> = (0..targets.len())
+        .map(|i| {
+            let Shape::Sphere { c, r } = targets[i].shape else { return false };
+            if targets[i].self_list {
+                return false;
+            }
+            let strictly = r * (1.0 - 1e-6);
+            if points.iter().any(|p| (*p - c).length() < strictly) {
+                return true;
+            }
+            let mut stack = vec![0usize];
+            while let Some(n) = stack.pop() {
+                let node = bvh.nodes[n];
+                if (node.center - c).length() >= strictly + node.radius {
+                    continue;
+                }
+                if node.count == 0 {
+                    stack.push(node.first as usize);
+                    stack.push(node.first as usize + 1);
+                    continue;
+                }
+                for &j in &bvh.order[node.first as usize..(node.first + node.count) as usize] {
+                    if j as usize == i {
+                        continue;
+                    }
+                    let d = match targets[j as usize].shape {
+                        Shape::Sphere { c: cj, r: rj } => (cj - c).length() - rj,
+                        Shape::Triangle { v } => point_triangle_distance(c, &v),
+                        Shape::Capsule { p0, p1, rad } => point_segment_distance(c, p0, p1) - rad,
+                    };
+                    if d < strictly {
+                        return true;
+                    }
+                }
+            }
+            false
+        })
+        .collect();
+    for (t, inside) in targets.iter_mut().zip(inside) {
+        t.self_list |= inside;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn clusters_partition_the_ids() {
+        let centers: Vec<DVec3> =
+            (0..103).map(|i| DVec3::new((i * 37 % 101) as f64, (i % 7) as f64, 0.0)).collect();
+        let ids: Vec<u32> = (0..103).collect();
+        for k in [1, 2, 5, 16, 200] {
+            let cl = cluster(&ids, &centers, k);
+            let mut all: Vec<u32> = cl.iter().flatten().copied().collect();
+            all.sort();
+            assert_eq!(all, ids);
+            assert!(cl.iter().all(|c| !c.is_empty() && c.len() <= k));
+        }
+    }
+
+    #[test]
+    fn bvh_spheres_contain_their_targets() {
+        let targets: Vec<Target> = (0..57)
+            .map(|i| {
+                let c = DVec3::new((i * 13 % 17) as f64, (i * 7 % 5) as f64, (i % 3) as f64);
+                Target {
+                    shape: Shape::Sphere { c, r: 0.5 },
+                    center: c,
+                    radius: 0.5,
+                    self_list: false,
+                    occluder: true,
+                }
+            })
+            .collect();
+        let bvh = Bvh::build(&targets);
+        // Every target of a subtree lies inside the subtree's root sphere.
+        fn subtree(bvh: &Bvh, n: usize, out: &mut Vec<u32>) {
+            let node = bvh.nodes[n];
+            if node.count == 0 {
+                subtree(bvh, node.first as usize, out);
+                subtree(bvh, node.first as usize + 1, out);
+            } else {
+                out.extend_from_slice(&bvh.order[node.first as usize..(node.first + node.count) as usize]);
+            }
+        }
+        let mut seen = vec![false; targets.len()];
+        for n in 0..bvh.nodes.len() {
+            let mut ids = Vec::new();
+            subtree(&bvh, n, &mut ids);
+            let node = bvh.nodes[n];
+            for i in ids {
+                let t = &targets[i as usize];
+                assert!((t.center - node.center).length() + t.radius <= node.radius + 1e-9);
+                seen[i as usize] = true;
+            }
+        }
+        assert!(seen.iter().all(|s| *s));
+    }
+}

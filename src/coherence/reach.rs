@@ -1,0 +1,96 @@
+//! How long a walk of the flattened tables can be: the longest merged list (cell + always) a
+//! nearest-hit walk, an eye ray's walk and a shadow walk may meet, in loop iterations (a group
+//! entry counts its members too), and whether any ray of a render falls back to walking every
+//! primitive. The GPU's loop budget and tile size are set from these.
+
+use super::flat::{FlatTables, OriginKind, GROUP_BIT, NO_ORIGIN};
+use crate::scene::{Effects, Scene};
+
+/// Bounds on the walks of one set of tables.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct WalkBounds {
+    /// Loop iterations of the longest walk of a nearest-hit query, of an eye ray, of a
+    /// shadow ray.
+    pub worst_closest: u64,
+    pub worst_eye: u64,
+    pub worst_shadow: u64,
+    /// Mean entries per stored cell (a rough cost of one walk, for the tile size).
+    pub mean_list: f64,
+    /// Whether some ray of the render walks the fallback origin (every primitive).
+    pub fallback_reachable: bool,
+}
+
+/// Loop iterations a walk over `entries[a..b]` may take: one per entry, plus the members of
+/// each group entry.
+fn walk_cost(flat: &FlatTables, a: u32, b: u32) -> u64 {
+    flat.entries[a as usize..b as usize]
+        .iter()
+        .map(|e| match e.id & GROUP_BIT {
+            0 => 1,
+            _ => 1 + flat.groups[(e.id & !GROUP_BIT) as usize].count as u64,
+        })
+        .sum()
+}
+
+/// Whether a ray of a render with `effects` can come from an entity without a table: the eye
+/// of a non-empty scene, a positional light's shadow rays, the secondary rays of a
+/// reflecting or transmitting primitive, or (for lights without a table) the shadow rays of
+/// any primitive.
+fn fallback_reachable(scene: &Scene, flat: &FlatTables, effects: Effects) -> bool {
+    let missing = |id: usize| flat.prim_origin[id] == NO_ORIGIN;
+    if flat.eye_origin == NO_ORIGIN && !scene.primitives.is_empty() {
+        return true;
+    }
+    if effects.shadows && flat.light_origin.contains(&NO_ORIGIN) && (0..scene.primitives.len()).any(missing) {
+        return true;
+    }
+    if effects.reflection {
+        return scene.primitives.iter().enumerate().any(|(i, p)| {
+            let m = &scene.materials[p.material() as usize];
+            (m.reflects() || m.transmits()) && missing(i)
+        });
+    }
+    false
+}
+
+impl WalkBounds {
+    /// The bounds of `flat`, built for `scene` and a render with `effects`.
+    pub fn of(scene: &Scene, flat: &FlatTables, effects: Effects) -> WalkBounds {
+        let mut b =
+            WalkBounds { fallback_reachable: fallback_reachable(scene, flat, effects), ..Default::default() };
+        for (o, org) in flat.origins.iter().enumerate() {
+            if org.kind == OriginKind::Fallback as u32 {
+                continue;
+            }
+            let mut longest = 0u64;
+            for f in &flat.faces[o * 6..o * 6 + 6] {
+                for c in f.cell_base..f.cell_base + f.width * f.height {
+                    let len = walk_cost(flat, flat.cell_start[c as usize], flat.cell_start[c as usize + 1]);
+                    longest = longest.max(len);
+                }
+            }
+            let list = longest + walk_cost(flat, org.always_start, org.always_start + org.always_count);
+            if org.kind == OriginKind::Eye as u32 {
+                b.worst_eye = b.worst_eye.max(list);
+            }
+            if org.kind == OriginKind::Light as u32 {
+                b.worst_shadow = b.worst_shadow.max(list);
+            } else {
+                b.worst_closest = b.worst_closest.max(list);
+            }
+        }
+        // Shadow rays from a light without a table use the surface tables.
+        if flat.light_origin.contains(&NO_ORIGIN) {
+            b.worst_shadow = b.worst_shadow.max(b.worst_closest);
+        }
+        let n = scene.primitives.len() as u64;
+        if b.fallback_reachable {
+            b.worst_closest = b.worst_closest.max(n);
+            b.worst_eye = b.worst_eye.max(n);
+            b.worst_shadow = b.worst_shadow.max(n);
+        }
+        let fallback = flat.origins.get(flat.fallback_origin as usize).map_or(0, |o| o.always_count as usize);
+        b.mean_list = (flat.entries.len() - fallback) as f64 / flat.cells().max(1) as f64;
+        b
+    }
+}

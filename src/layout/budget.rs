@@ -1,0 +1,127 @@
+//! What one kernel step may do: lavapipe's software compiler ends every loop of an invocation
+//! once all of its loops have run 65535 iterations in total (a safety limit in Mesa's
+//! gallivm), and real GPUs kill dispatches that run for seconds. So a step walks at most
+//! [`WALK_CHUNK`] entries of one list, traces the short shadow walks of a hit inline
+//! ([`shadow_inline`]), and a tile holds a bounded number of grid points ([`tile_points`]).
+//! [`check_loop_budget`] refuses a render whose steps could still pass the limit, rather than
+//! letting it come out silently wrong.
+
+use crate::coherence::groups::GROUP_SIZE;
+use crate::coherence::reach::WalkBounds;
+use crate::coherence::walk::WALK_CHUNK;
+use crate::coherence::BuildParams;
+use crate::error::{Error, Result};
+use crate::kernel::spawn::SpawnPolicy;
+use crate::scene::{Effects, Scene};
+
+use super::counters::COUNTER_COUNT;
+use super::structs::{STACK_SIZE, WORKGROUP};
+
+/// The deepest ray tree the kernels' stack holds (`STACK_SIZE` pending rays).
+pub const MAX_DEPTH: u32 = STACK_SIZE as u32;
+
+/// Mesa's llvmpipe limit on the loop iterations of one invocation (all loops together).
+pub const LAVAPIPE_LOOP_LIMIT: u64 = 65535;
+
+/// Rough budget of primitive tests per eye sample and dispatch, which sets the tile size.
+pub const TESTS_PER_DISPATCH: u64 = 1 << 24;
+
+/// The most grid points per dispatch: bounds the point states' memory (832 bytes each).
+pub const MAX_TILE: u64 = 1 << 16;
+
+/// Loop iterations per intersection test: a cylinder test loops over its two roots.
+fn per_test(scene: &Scene) -> u64 {
+    if scene.counts().cylinders > 0 {
+        3
+    } else {
+        1
+    }
+}
+
+/// Shadow walks of at most this many entries are traced within the step that found the hit
+/// (`Params::shadow_inline`): as many as keep a step, with one whole walk and every light's
+/// inline walk (each entry possibly a group of `GROUP_SIZE`), within lavapipe's loop limit.
+/// Longer walks become jobs on the ray stack, one step each at least.
+pub fn shadow_inline(scene: &Scene) -> u32 {
+    let per_test = per_test(scene);
+    let lights = scene.lights.len() as u64;
+    let group = GROUP_SIZE as u64;
+    let step = per_test * (WALK_CHUNK as u64 + group) + lights + COUNTER_COUNT as u64 + 16;
+    (LAVAPIPE_LOOP_LIMIT.saturating_sub(step) / (lights.max(1) * per_test * (1 + group))) as u32
+}
+
+/// Checks that no kernel step can pass lavapipe's loop limit; were one to need more, the
+/// result would be silently wrong, so it is an error instead.
+///
+/// `walks`: the tables' bounds, or `None` for brute force. `max_depth`: `Some(d)` for the
+/// stepped `render` kernel with ray trees up to depth `d`. Each of its steps walks one list
+/// (a ray's, or a shadow job's) for at most [`WALK_CHUNK`] iterations, brute force included,
+/// leaving the rest to later steps, plus the shadow walks of at most [`shadow_inline`]
+/// entries that a hit traces at once; only when the ray stack can fill up (`d +` lights
+/// over `STACK_SIZE`) may a hit trace all its shadow rays at once, each walking its whole
+/// list. `None`: the `aov` kernel, which walks an eye ray's whole list in one go.
+pub fn check_loop_budget(scene: &Scene, walks: Option<&WalkBounds>, max_depth: Option<u32>) -> Result<()> {
+    let c = scene.counts();
+    let lights = scene.lights.len() as u64;
+    let per_test = per_test(scene);
+    let brute = (c.spheres + c.triangles + 3 * c.cylinders) as u64;
+    let (closest, shadow, eye) = match walks {
+        Some(t) => (per_test * t.worst_closest, per_test * t.worst_shadow, per_test * t.worst_eye),
+        None => (brute, brute, brute),
+    };
+    let what = if walks.is_some() { "the longest candidate lists" } else { "brute force" };
+    let steps = match max_depth {
+        Some(d) => {
+            let group = GROUP_SIZE as u64;
+            let chunk = per_test * (WALK_CHUNK as u64 + group);
+            // The eye ray is depth 1, so secondary rays take at most `d` slots.
+            let inline = if d as u64 + lights > STACK_SIZE as u64 {
+                lights * shadow
+            } else {
+                lights * shadow.min(per_test * shadow_inline(scene) as u64 * (1 + group))
+            };
+            closest.max(shadow).min(chunk) + inline
+        }
+        None => eye,
+    };
+    let worst = steps + lights + COUNTER_COUNT as u64 + 16;
+    if worst > LAVAPIPE_LOOP_LIMIT {
+        return Err(Error::Options(format!(
+            "{what} over {} primitives and {lights} lights need up to {worst} loop iterations per \
+             ray on lavapipe, which stops at {LAVAPIPE_LOOP_LIMIT}; render this scene with --backend cpu",
+            scene.primitives.len()
+        )));
+    }
+    Ok(())
+}
+
+/// Grid points per tile for about `tests` primitive tests per dispatch: one step of a
+/// point tests the candidates of its ray and of a shadow ray per light (brute force: every
+/// primitive; with the tables, a rough mean).
+pub fn tile_points(scene: &Scene, walks: Option<&WalkBounds>, tests: u64) -> u64 {
+    let per_ray = match walks {
+        Some(t) => t.mean_list.ceil() as u64 + 1,
+        None => scene.primitives.len() as u64,
+    };
+    let work = per_ray * (1 + scene.lights.len() as u64);
+    let tile = (tests / work.max(1)).clamp(256, MAX_TILE);
+    tile.div_ceil(WORKGROUP as u64) * WORKGROUP as u64
+}
+
+/// How the kernels' tables are built: for the render's image and spawn policy, and only for
+/// the rays kernels with `effects` trace.
+pub fn table_params(
+    scene: &Scene,
+    width: u32,
+    height: u32,
+    effects: Effects,
+    spawn: SpawnPolicy,
+) -> BuildParams {
+    let effects = Effects {
+        shadows: effects.shadows,
+        reflection: effects.reflection,
+        refraction: effects.refraction,
+        ..scene.effects()
+    };
+    BuildParams { image: Some((width, height)), spawn, effects: Some(effects), ..BuildParams::default() }
+}

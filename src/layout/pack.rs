@@ -1,0 +1,194 @@
+//! Packing a [`Scene`] into the kernels' buffers ([`Packed`]): primitives, triangle
+//! attributes, materials, lights and textures, and the camera part of [`Params`]. The scene
+//! is re-centred on the camera in f64 before the conversion to f32, so that scenes far from
+//! the origin keep their precision near the eye.
+
+use glam::DVec3;
+
+use super::budget::shadow_inline;
+use super::structs::*;
+use crate::job::RenderOptions;
+use crate::kernel::spawn::SpawnPolicy;
+use crate::sampling::{self, Sampling};
+use crate::scene::{LightKind, Primitive, Projection, Scene, Wrap};
+
+fn v3(v: DVec3) -> [f32; 3] {
+    [v.x as f32, v.y as f32, v.z as f32]
+}
+
+fn v4(v: DVec3, w: f64) -> [f32; 4] {
+    [v.x as f32, v.y as f32, v.z as f32, w as f32]
+}
+
+/// A scene packed for the GPU, re-centred on the camera's eye.
+pub struct Packed {
+    pub prims: Vec<Prim>,
+    pub tri_attrs: Vec<TriAttr>,
+    pub materials: Vec<Material>,
+    pub lights: Vec<Light>,
+    pub texture_infos: Vec<TextureInfo>,
+    /// RGBA8 texels, R in the low byte.
+    pub texels: Vec<u32>,
+    /// The camera part of [`Params`], with background, ambient and counts.
+    pub params: Params,
+}
+
+/// Packs `scene` for a `width`×`height` image whose rays spawn under `spawn`, subtracting the
+/// eye position (in f64) from every position.
+pub fn pack(scene: &Scene, width: u32, height: u32, spawn: SpawnPolicy) -> Packed {
+    let eye = scene.camera.eye;
+    let mut tri_attrs = Vec::new();
+    let prims = scene
+        .primitives
+        .iter()
+        .map(|p| match p {
+            Primitive::Sphere(s) => Prim {
+                a: v4(s.center - eye, s.radius),
+                kind: KIND_SPHERE,
+                material: s.material,
+                flags: if s.inside_only { FLAG_INSIDE_ONLY } else { 0 },
+                ..Prim::default()
+            },
+            Primitive::Triangle(t) => {
+                let mut flags = 0;
+                let mut attr = 0;
+                if t.n.is_some() || t.uv.is_some() {
+                    let mut a = TriAttr::default();
+                    if let Some(n) = t.n {
+                        flags |= FLAG_NORMALS;
+                        a.n0 = v4(n[0], 0.0);
+                        a.n1 = v4(n[1], 0.0);
+                        a.n2 = v4(n[2], 0.0);
+                    }
+                    if let Some(uv) = t.uv {
+                        flags |= FLAG_UVS;
+                        a.uv01 = [uv[0].x as f32, uv[0].y as f32, uv[1].x as f32, uv[1].y as f32];
+                        a.uv2 = [uv[2].x as f32, uv[2].y as f32, 0.0, 0.0];
+                    }
+                    attr = tri_attrs.len() as u32;
+                    tri_attrs.push(a);
+                }
+                Prim {
+                    a: v4(t.p[0] - eye, 0.0),
+                    b: v4(t.p[1] - eye, 0.0),
+                    c: v4(t.p[2] - eye, 0.0),
+                    kind: KIND_TRIANGLE,
+                    material: t.material,
+                    flags,
+                    attr,
+                }
+            }
+            Primitive::Cylinder(c) => Prim {
+                a: v4(c.base - eye, c.base_radius),
+                b: v4(c.apex - eye, c.apex_radius),
+                kind: KIND_CYLINDER,
+                material: c.material,
+                flags: if c.inside_only { FLAG_INSIDE_ONLY } else { 0 },
+                ..Prim::default()
+            },
+        })
+        .collect();
+    let materials = scene
+        .materials
+        .iter()
+        .map(|m| Material {
+            color: v3(m.color),
+            kd: m.kd as f32,
+            mirror: v3(m.mirror),
+            ks: m.ks as f32,
+            emission: v3(m.emission),
+            shine: m.shine as f32,
+            transmittance: m.transmittance as f32,
+            ior: m.ior as f32,
+            texture: m.base_color_texture.map_or(0, |t| t.texture + 1),
+            pad: 0,
+        })
+        .collect();
+    let lights = scene
+        .lights
+        .iter()
+        .map(|l| {
+            let (kind, cos_outer, span) = match l.kind {
+                LightKind::Point => (LIGHT_POINT, 0.0, 1.0),
+                LightKind::Spot { inner_cone, outer_cone } => {
+                    let co = outer_cone.cos();
+                    (LIGHT_SPOT, co, (inner_cone.cos() - co).max(1e-3))
+                }
+                LightKind::Directional => (LIGHT_DIRECTIONAL, 0.0, 1.0),
+            };
+            Light {
+                position: v3(l.position - eye),
+                kind,
+                direction: v3(l.direction),
+                range: l.range.unwrap_or(0.0) as f32,
+                radiance: v3(l.color * l.intensity),
+                inverse_square: l.inverse_square as u32,
+                cos_outer: cos_outer as f32,
+                span: span as f32,
+                pad0: 0,
+                pad1: 0,
+            }
+        })
+        .collect();
+    let mut texels = Vec::new();
+    let texture_infos = scene
+        .textures
+        .iter()
+        .map(|t| {
+            let wrap = |w: Wrap| match w {
+                Wrap::Repeat => WRAP_REPEAT,
+                Wrap::MirroredRepeat => WRAP_MIRRORED_REPEAT,
+                Wrap::ClampToEdge => WRAP_CLAMP_TO_EDGE,
+            };
+            let info = TextureInfo {
+                offset: texels.len() as u32,
+                width: t.width,
+                height: t.height,
+                flags: wrap(t.wrap_s) | wrap(t.wrap_t) << 2 | if t.linear { TEX_BILINEAR } else { 0 },
+            };
+            texels.extend(t.texels.iter().map(|c| u32::from_le_bytes(*c)));
+            info
+        })
+        .collect();
+
+    let cam = &scene.camera;
+    // screen_offsets is affine in (x, y): its scale is the difference of unit steps.
+    let (x0, _) = cam.screen_offsets(0.0, 0.0, width, height);
+    let (x1, _) = cam.screen_offsets(1.0, 0.0, width, height);
+    let params = Params {
+        cam_forward: v3(cam.forward),
+        cam_scale: (x1 - x0) as f32,
+        cam_right: v3(cam.right),
+        half_w: width as f32 * 0.5,
+        cam_up: v3(cam.up),
+        half_h: height as f32 * 0.5,
+        background: v3(scene.background),
+        ortho: matches!(cam.projection, Projection::Orthographic { .. }) as u32,
+        ambient: v3(scene.ambient),
+        prim_count: scene.primitives.len() as u32,
+        light_count: scene.lights.len() as u32,
+        shadow_inline: shadow_inline(scene),
+        spawn_rel: spawn.rel_abs().0,
+        spawn_abs: spawn.rel_abs().1,
+        ..Params::default()
+    };
+    Packed { prims, tri_attrs, materials, lights, texture_infos, texels, params }
+}
+
+/// `base` (the scene's part of the params, from [`pack`]) with what a render job sets: the
+/// grid of eye-ray points, the sample lattice and seed, the depth, and samples `0..spp`.
+pub fn job_params(opts: &RenderOptions, base: Params) -> Params {
+    let (grid_w, grid_h) = opts.grid();
+    Params {
+        grid_w,
+        grid_h,
+        spp: opts.spp,
+        lattice_g: if opts.spp > 1 { sampling::lattice_generator(opts.spp) } else { 1 },
+        seed_hash: sampling::seed_hash(opts.seed),
+        corners: (opts.sampling == Sampling::Corners) as u32,
+        max_depth: opts.max_depth,
+        sample_first: 0,
+        sample_end: opts.spp,
+        ..base
+    }
+}

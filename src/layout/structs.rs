@@ -1,0 +1,209 @@
+//! The Rust twins of the structs and constants in `shaders/shared/layout.wgsl` (keep them in
+//! sync): one `#[repr(C)]` bytemuck struct per WGSL struct, with the same name and fields,
+//! and one constant per WGSL constant. `tests/twins.rs` reads the WGSL through naga and
+//! compares every layout and value. The table structs (`GpuOrigin`, `GpuFace`, `GpuEntry`,
+//! `GpuGroup`) are twinned in [`crate::coherence::flat`].
+
+use bytemuck::{Pod, Zeroable};
+
+/// Kernel parameters (WGSL `Params`, a uniform; keep in sync with `shaders/shared/layout.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct Params {
+    pub cam_forward: [f32; 3],
+    pub cam_scale: f32,
+    pub cam_right: [f32; 3],
+    pub half_w: f32,
+    pub cam_up: [f32; 3],
+    pub half_h: f32,
+    pub background: [f32; 3],
+    pub ortho: u32,
+    pub ambient: [f32; 3],
+    pub prim_count: u32,
+    pub grid_w: u32,
+    pub grid_h: u32,
+    pub first_point: u32,
+    pub point_count: u32,
+    pub spp: u32,
+    pub lattice_g: u32,
+    pub seed_hash: u32,
+    pub corners: u32,
+    pub max_depth: u32,
+    pub light_count: u32,
+    /// 0 depth, 1 normal, 2 object id (the `aov` entry point).
+    pub aov: u32,
+    /// `render` starts samples `sample_first..sample_end` of the `spp`-sample lattice.
+    pub sample_first: u32,
+    pub sample_end: u32,
+    /// `--accel cube`: the eye's origin and the fallback origin (every primitive).
+    pub eye_origin: u32,
+    pub fallback_origin: u32,
+    /// Shadow walks of at most this many entries are traced within the step that found the
+    /// hit; longer ones become jobs on the ray stack ([`super::budget::shadow_inline`]).
+    pub shadow_inline: u32,
+    /// The spawn offset is `scale·spawn_rel + spawn_abs` ([`crate::kernel::spawn`]).
+    pub spawn_rel: f32,
+    pub spawn_abs: f32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+}
+
+/// One primitive (WGSL `Prim`, keep in sync): sphere `a` = (centre, radius); triangle `a`, `b`,
+/// `c` = vertices; cylinder `a` = (base, base radius), `b` = (apex, apex radius). `kind` is a
+/// `KIND_*` code, `flags` a set of `FLAG_*` bits, `attr` indexes the [`TriAttr`]s.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct Prim {
+    pub a: [f32; 4],
+    pub b: [f32; 4],
+    pub c: [f32; 4],
+    pub kind: u32,
+    pub material: u32,
+    pub flags: u32,
+    pub attr: u32,
+}
+
+/// Per-vertex normals and texture coordinates of a triangle (WGSL `TriAttr`, keep in sync).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct TriAttr {
+    pub n0: [f32; 4],
+    pub n1: [f32; 4],
+    pub n2: [f32; 4],
+    pub uv01: [f32; 4],
+    pub uv2: [f32; 4],
+}
+
+/// A material (WGSL `Material`, keep in sync).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct Material {
+    pub color: [f32; 3],
+    pub kd: f32,
+    pub mirror: [f32; 3],
+    pub ks: f32,
+    pub emission: [f32; 3],
+    pub shine: f32,
+    pub transmittance: f32,
+    pub ior: f32,
+    /// Texture index + 1; 0 = none.
+    pub texture: u32,
+    pub pad: u32,
+}
+
+/// A light (WGSL `Light`, keep in sync); positions relative to the eye.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct Light {
+    pub position: [f32; 3],
+    /// `LIGHT_POINT`, `LIGHT_SPOT` or `LIGHT_DIRECTIONAL`.
+    pub kind: u32,
+    pub direction: [f32; 3],
+    /// 0 = unlimited.
+    pub range: f32,
+    /// Colour × intensity.
+    pub radiance: [f32; 3],
+    pub inverse_square: u32,
+    pub cos_outer: f32,
+    pub span: f32,
+    pub pad0: u32,
+    pub pad1: u32,
+}
+
+/// Where a texture's texels are and how it is sampled (WGSL `TextureInfo`, keep in sync).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct TextureInfo {
+    pub offset: u32,
+    pub width: u32,
+    pub height: u32,
+    /// wrap_s (bits 0-1), wrap_t (bits 2-3), each a `WRAP_*` code, and [`TEX_BILINEAR`].
+    pub flags: u32,
+}
+
+/// A pending ray of a grid point's ray tree (WGSL `Pending`, keep in sync); a shadow job keeps
+/// its light in `depth` and what the light adds unless blocked in `weight`. `kind` is a
+/// `RAY_*` kind, with [`RAY_SKIP_FROM`] set when `from_prim` need not be tested.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct Pending {
+    pub o: [f32; 3],
+    pub kind: u32,
+    pub d: [f32; 3],
+    pub depth: u32,
+    pub weight: [f32; 3],
+    pub from_prim: u32,
+}
+
+/// Pending rays per grid point (WGSL `STACK_SIZE`).
+pub const STACK_SIZE: usize = 16;
+
+/// A table walk interrupted between steps (WGSL `WalkState`, keep in sync).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct WalkState {
+    pub i: u32,
+    pub iend: u32,
+    pub j: u32,
+    pub jend: u32,
+    pub prim: u32,
+    pub t: f32,
+    pub b1: f32,
+    pub b2: f32,
+}
+
+/// A grid point's progress between kernel steps (WGSL `PointState`, keep in sync); all zero
+/// at the start.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct PointState {
+    pub color: [f32; 3],
+    pub sp: u32,
+    pub sample: u32,
+    /// 1 while the top ray's nearest-hit walk continues in the next step.
+    pub walking: u32,
+    pub pad1: u32,
+    pub pad2: u32,
+    pub walk: WalkState,
+    pub stack: [Pending; STACK_SIZE],
+}
+
+/// Invocations per workgroup of the `render` and `aov` kernels (WGSL `WORKGROUP`).
+pub const WORKGROUP: u32 = 64;
+
+/// [`Prim::kind`] codes (WGSL `KIND_*`); they also index the test counters.
+pub const KIND_SPHERE: u32 = 0;
+pub const KIND_TRIANGLE: u32 = 1;
+pub const KIND_CYLINDER: u32 = 2;
+
+/// [`Prim::flags`] bits (WGSL `FLAG_*`): a sphere or cylinder seen only from inside, a
+/// triangle with shading normals, with texture coordinates.
+pub const FLAG_INSIDE_ONLY: u32 = 1;
+pub const FLAG_NORMALS: u32 = 2;
+pub const FLAG_UVS: u32 = 4;
+
+/// [`Light::kind`] codes (WGSL `LIGHT_*`).
+pub const LIGHT_POINT: u32 = 0;
+pub const LIGHT_SPOT: u32 = 1;
+pub const LIGHT_DIRECTIONAL: u32 = 2;
+
+/// Texture wrap modes in [`TextureInfo::flags`] (WGSL `WRAP_*`), and the bilinear bit.
+pub const WRAP_REPEAT: u32 = 0;
+pub const WRAP_MIRRORED_REPEAT: u32 = 1;
+pub const WRAP_CLAMP_TO_EDGE: u32 = 2;
+pub const TEX_BILINEAR: u32 = 16;
+
+/// [`Params::aov`] codes (WGSL `AOV_*`): what the `aov` kernel writes.
+pub const AOV_DEPTH: u32 = 0;
+pub const AOV_NORMAL: u32 = 1;
+pub const AOV_ID: u32 = 2;
+
+/// Ray kinds (WGSL `RAY_*`): [`Pending::kind`] and the counter slots' order.
+pub const RAY_EYE: u32 = 0;
+pub const RAY_SHADOW: u32 = 1;
+pub const RAY_REFLECT: u32 = 2;
+pub const RAY_REFRACT: u32 = 3;
+/// The kind bits of [`Pending::kind`].
+pub const RAY_KIND_MASK: u32 = 3;
+/// Set in [`Pending::kind`] when the ray need not test the primitive it leaves.
+pub const RAY_SKIP_FROM: u32 = 4;

@@ -1,0 +1,115 @@
+//! The preview's display pass (`shaders/display.wgsl`): a full-window triangle whose fragments
+//! read the accumulation and encode its average as the headless PNG output does.
+
+use super::session::Session;
+use crate::error::Result;
+use crate::gpu::kernels::shader_module;
+use crate::gpu::shaders::{Kernel, Variant};
+use crate::gpu::GpuContext;
+use crate::sampling::Sampling;
+
+/// What the window shows: the display pass's uniform (WGSL `View` in
+/// `shaders/display.wgsl`, keep them in sync).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct View {
+    pub width: u32,
+    pub height: u32,
+    pub grid_w: u32,
+    /// Samples accumulated per grid point (0: nothing to show yet).
+    pub samples: u32,
+    /// 1: the accumulation holds pixel corners (SPD sampling); a pixel averages four.
+    pub corners: u32,
+    /// 1: the target is not an sRGB format, so the shader encodes; 0: the hardware does.
+    pub encode: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+}
+
+/// The display pass: a full-window triangle whose fragments read the accumulation.
+pub struct Display {
+    pipeline: wgpu::RenderPipeline,
+    uniform: wgpu::Buffer,
+    encode: bool,
+}
+
+impl Display {
+    pub fn new(ctx: &GpuContext, format: wgpu::TextureFormat) -> Result<Display> {
+        let device = &ctx.device;
+        let module = shader_module(ctx, Kernel::Display, Variant::default())?;
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("display"),
+            layout: None,
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: Default::default(),
+            depth_stencil: None,
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[Some(format.into())],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let uniform = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("display view"),
+            size: std::mem::size_of::<View>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        Ok(Display { pipeline, uniform, encode: !format.is_srgb() })
+    }
+
+    /// Draws the session's accumulation into `target`.
+    pub fn draw(&self, ctx: &GpuContext, session: &Session, target: &wgpu::TextureView) {
+        let o = session.options();
+        let view = View {
+            width: o.width,
+            height: o.height,
+            grid_w: session.grid().0,
+            samples: session.passes(),
+            corners: (o.sampling == Sampling::Corners) as u32,
+            encode: self.encode as u32,
+            ..View::default()
+        };
+        ctx.queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&view));
+        let bind = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("display"),
+            layout: &self.pipeline.get_bind_group_layout(0),
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: self.uniform.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: session.accumulation().as_entire_binding() },
+            ],
+        });
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("display"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: target,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &bind, &[]);
+            pass.draw(0..3, 0..1);
+        }
+        ctx.queue.submit([enc.finish()]);
+    }
+}

@@ -1,0 +1,38 @@
+//! Brute force: every primitive for every ray.
+
+use super::accel::{count, test_closest, Accel, Hit, RayOrigin, ShadowQuery};
+use super::geometry::{intersect, Ray};
+use crate::scene::Primitive;
+use crate::stats::TestCounts;
+
+/// Tests every primitive for every ray.
+pub struct Brute<'a> {
+    prims: &'a [Primitive],
+}
+
+impl<'a> Brute<'a> {
+    pub fn new(prims: &'a [Primitive]) -> Self {
+        Brute { prims }
+    }
+}
+
+impl Accel for Brute<'_> {
+    fn name(&self) -> &'static str {
+        "brute"
+    }
+
+    fn closest(&self, ray: &Ray, _origin: RayOrigin, t_max: f64, tests: &mut TestCounts) -> Option<Hit> {
+        let mut best = None;
+        for id in 0..self.prims.len() as u32 {
+            test_closest(self.prims, id, ray, t_max, &mut best, tests);
+        }
+        best
+    }
+
+    fn occluded(&self, q: &ShadowQuery, tests: &mut TestCounts) -> bool {
+        self.prims.iter().any(|p| {
+            count(p, tests);
+            intersect(p, &q.ray, q.t_max).is_some()
+        })
+    }
+}

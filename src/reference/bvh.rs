@@ -1,0 +1,246 @@
+//! A BVH built by the `obvhs` crate and traversed here in f64, nearest child first.
+
+use glam::{DVec3, Vec3A};
+use obvhs::{aabb::Aabb as BvhAabb, bvh2::Bvh2, Boundable, BvhBuildParams};
+
+use super::accel::{count, test_closest, Accel, Hit, RayOrigin, ShadowQuery};
+use super::geometry::{intersect, Ray};
+use crate::scene::{Aabb, Primitive};
+use crate::stats::TestCounts;
+
+/// A primitive's box for the BVH builder: f64 bounds padded slightly and rounded outward
+/// to f32, so the f32 box contains the f64 primitive.
+struct PrimBox(BvhAabb);
+
+impl Boundable for PrimBox {
+    fn aabb(&self) -> BvhAabb {
+        self.0
+    }
+}
+
+/// The neighbouring f32 of a finite `f` towards +∞ (`up`) or −∞.
+fn f32_step(f: f32, up: bool) -> f32 {
+    if f == 0.0 {
+        let tiny = f32::from_bits(1);
+        return if up { tiny } else { -tiny };
+    }
+    let bits = f.to_bits();
+    // Moving away from zero increases the magnitude bits.
+    f32::from_bits(if (f > 0.0) == up { bits + 1 } else { bits - 1 })
+}
+
+/// The largest f32 not above `x`.
+fn f32_down(x: f64) -> f32 {
+    let f = x as f32;
+    if f as f64 > x {
+        f32_step(f, false)
+    } else {
+        f
+    }
+}
+
+/// The smallest f32 not below `x`.
+fn f32_up(x: f64) -> f32 {
+    let f = x as f32;
+    if (f as f64) < x {
+        f32_step(f, true)
+    } else {
+        f
+    }
+}
+
+fn outward_box(b: &Aabb) -> BvhAabb {
+    // The primitive bounds are computed in f64 with a few roundings (cylinders take
+    // square roots): pad them by a relative 1e-9 before rounding outward to f32.
+    let pad = (b.max - b.min).max_element().max(b.min.abs().max(b.max.abs()).max_element()) * 1e-9;
+    let lo = b.min - DVec3::splat(pad);
+    let hi = b.max + DVec3::splat(pad);
+    BvhAabb {
+        min: Vec3A::new(f32_down(lo.x), f32_down(lo.y), f32_down(lo.z)),
+        max: Vec3A::new(f32_up(hi.x), f32_up(hi.y), f32_up(hi.z)),
+    }
+}
+
+/// One BVH node in f64, copied from the crate's f32 node (the conversion is exact).
+#[derive(Clone, Copy, Debug)]
+struct Node {
+    min: DVec3,
+    max: DVec3,
+    /// Inner node: 0. Leaf: number of primitives.
+    count: u32,
+    /// Inner node: index of the first of two consecutive children. Leaf: index of the
+    /// first primitive in `order`.
+    first: u32,
+}
+
+/// A binary BVH: built by `obvhs` (PLOC with reinsertion, leaves collapsed by SAH),
+/// traversed here in f64, nearest child first.
+pub struct Bvh<'a> {
+    prims: &'a [Primitive],
+    nodes: Vec<Node>,
+    /// Primitive ids in leaf order.
+    order: Vec<u32>,
+}
+
+/// The ray's reciprocal direction, for slab tests.
+struct SlabRay {
+    origin: DVec3,
+    inv: DVec3,
+}
+
+/// Slack on the far slab distance (Ize 2013): the f64 slab arithmetic may round the exit
+/// distance down by a few ulps; growing it keeps the box test conservative.
+const SLAB_SLACK: f64 = 1.0 + 8.0 * f64::EPSILON;
+
+impl SlabRay {
+    fn new(ray: &Ray) -> SlabRay {
+        SlabRay { origin: ray.origin, inv: ray.dir.recip() }
+    }
+
+    /// Entry distance of the ray into the box within [0, t_max], or `None`.
+    #[inline]
+    fn enter(&self, n: &Node, t_max: f64) -> Option<f64> {
+        let mut t0 = 0.0f64;
+        let mut t1 = t_max;
+        for i in 0..3 {
+            let inv = self.inv[i];
+            if inv.is_infinite() {
+                // Parallel to the slab: inside it or never.
+                if self.origin[i] < n.min[i] || self.origin[i] > n.max[i] {
+                    return None;
+                }
+                continue;
+            }
+            let a = (n.min[i] - self.origin[i]) * inv;
+            let b = (n.max[i] - self.origin[i]) * inv;
+            let (near, far) = if a <= b { (a, b) } else { (b, a) };
+            t0 = t0.max(near);
+            t1 = t1.min(far * SLAB_SLACK);
+            if t0 > t1 {
+                return None;
+            }
+        }
+        Some(t0)
+    }
+}
+
+impl<'a> Bvh<'a> {
+    pub fn new(prims: &'a [Primitive]) -> Self {
+        if prims.is_empty() {
+            return Bvh { prims, nodes: Vec::new(), order: Vec::new() };
+        }
+        let boxes: Vec<PrimBox> = prims.iter().map(|p| PrimBox(outward_box(&p.bounds()))).collect();
+        let params = BvhBuildParams::medium_build();
+        let bvh: Bvh2 = obvhs::bvh2::builder::build_bvh2(&boxes, params, &mut Default::default());
+        let nodes = bvh
+            .nodes
+            .iter()
+            .map(|n| Node {
+                min: DVec3::new(n.aabb.min.x as f64, n.aabb.min.y as f64, n.aabb.min.z as f64),
+                max: DVec3::new(n.aabb.max.x as f64, n.aabb.max.y as f64, n.aabb.max.z as f64),
+                count: n.prim_count,
+                first: n.first_index,
+            })
+            .collect();
+        Bvh { prims, nodes, order: bvh.primitive_indices }
+    }
+
+    /// Visits the leaves the ray may reach, nearest box first, while `t_max()` bounds the
+    /// search. `leaf` returns false to stop.
+    #[inline]
+    fn traverse(&self, ray: &Ray, t_max: &dyn Fn() -> f64, leaf: &mut dyn FnMut(&[u32]) -> bool) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        let slab = SlabRay::new(ray);
+        let root = &self.nodes[0];
+        if slab.enter(root, t_max()).is_none() {
+            return;
+        }
+        let mut stack: Vec<(u32, f64)> = Vec::with_capacity(64);
+        stack.push((0, 0.0));
+        while let Some((index, t_enter)) = stack.pop() {
+            let limit = t_max();
+            if t_enter > limit {
+                continue;
+            }
+            let node = &self.nodes[index as usize];
+            if node.count > 0 {
+                let range = node.first as usize..(node.first + node.count) as usize;
+                if !leaf(&self.order[range]) {
+                    return;
+                }
+                continue;
+            }
+            let (l, r) = (node.first, node.first + 1);
+            let tl = slab.enter(&self.nodes[l as usize], limit);
+            let tr = slab.enter(&self.nodes[r as usize], limit);
+            match (tl, tr) {
+                (Some(a), Some(b)) => {
+                    // Push the farther child first so that the nearer one is visited next.
+                    if a <= b {
+                        stack.push((r, b));
+                        stack.push((l, a));
+                    } else {
+                        stack.push((l, a));
+                        stack.push((r, b));
+                    }
+                }
+                (Some(a), None) => stack.push((l, a)),
+                (None, Some(b)) => stack.push((r, b)),
+                (None, None) => {}
+            }
+        }
+    }
+}
+
+impl Accel for Bvh<'_> {
+    fn name(&self) -> &'static str {
+        "bvh"
+    }
+
+    fn closest(&self, ray: &Ray, _origin: RayOrigin, t_max: f64, tests: &mut TestCounts) -> Option<Hit> {
+        let best = std::cell::Cell::new(None::<Hit>);
+        // Boxes entered exactly at the best distance are still visited (ties).
+        let limit = || best.get().map_or(t_max, |b| b.hit.t);
+        self.traverse(ray, &limit, &mut |ids| {
+            let mut b = best.get();
+            for &id in ids {
+                test_closest(self.prims, id, ray, t_max, &mut b, tests);
+            }
+            best.set(b);
+            true
+        });
+        best.get()
+    }
+
+    fn occluded(&self, q: &ShadowQuery, tests: &mut TestCounts) -> bool {
+        let mut blocked = false;
+        let t_max = q.t_max;
+        self.traverse(&q.ray, &|| t_max, &mut |ids| {
+            for &id in ids {
+                let p = &self.prims[id as usize];
+                count(p, tests);
+                if intersect(p, &q.ray, t_max).is_some() {
+                    blocked = true;
+                    return false;
+                }
+            }
+            true
+        });
+        blocked
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn outward_rounding_to_f32() {
+        for x in [0.1f64, -0.1, 1e-30, -1e-30, 0.0, 3.0, -7.25, 1e7 + 0.3] {
+            assert!((f32_down(x) as f64) <= x && (f32_up(x) as f64) >= x, "{x}");
+            assert!(f32_up(x) as f64 - f32_down(x) as f64 <= (x.abs() * 2.5e-7).max(1e-44), "{x}");
+        }
+    }
+}

@@ -1,0 +1,147 @@
+//! `--accel cube` on the CPU: the reference renderer's queries answered through the
+//! direction-cube candidate tables of [`crate::coherence`], walked by the one walker
+//! ([`crate::coherence::walk`], the twin of the WGSL walk, in steps of [`WALK_CHUNK`] as the
+//! GPU walks) with the reference's own f64 intersection tests. This is the only file of the
+//! reference that knows the tables.
+//!
+//! The tables decide only *which* primitives are tested and in what order; every test is the
+//! reference's own, so a conservative table gives exactly the images of `--accel brute`. A
+//! shadow ray towards a point or spot light is looked up light-buffer style, in the light's
+//! table along the direction from the light to the shaded point, but each candidate is tested
+//! with the reference's own shadow ray (from the point towards the light): the segment it
+//! covers lies on the light's ray through the point, so the light's cell lists every
+//! primitive that can block it, and the answer is brute force's. Rays whose origin has no
+//! table walk the fallback origin, which lists every primitive: brute force in id order.
+
+use glam::{DVec3, Vec3};
+
+use super::accel::{count, Accel, Hit, RayOrigin, ShadowQuery};
+use super::geometry::{intersect, PrimHit, Ray};
+use crate::coherence::walk::{walk_any, walk_nearest, walk_start, AnyHit, WALK_CHUNK};
+use crate::coherence::{self, BuildParams, FlatTables, OriginKey, Tables, WalkCount};
+use crate::error::Result;
+use crate::kernel::closest::no_closest;
+use crate::scene::{Primitive, Scene};
+use crate::stats::TestCounts;
+
+/// The tables of one scene, built for one image size.
+pub struct TableAccel<'a> {
+    prims: &'a [Primitive],
+    tables: Tables,
+    /// The camera's eye: table lookups take points relative to it.
+    eye: DVec3,
+}
+
+impl<'a> TableAccel<'a> {
+    /// Builds the tables `scene` calls for, with the eye table covering a `width`×`height`
+    /// image.
+    pub fn new(scene: &'a Scene, width: u32, height: u32) -> Result<TableAccel<'a>> {
+        let params = BuildParams { image: Some((width, height)), ..BuildParams::default() };
+        let tables = coherence::build(scene, &params)?;
+        Ok(TableAccel { prims: &scene.primitives, tables, eye: scene.camera.eye })
+    }
+
+    /// The tables as built (for statistics).
+    pub fn tables(&self) -> &Tables {
+        &self.tables
+    }
+
+    fn flat(&self) -> &FlatTables {
+        &self.tables.flat
+    }
+
+    /// A point in the walkers' camera-relative f32 frame.
+    fn at(&self, p: DVec3) -> Vec3 {
+        (p - self.eye).as_vec3()
+    }
+
+    /// The table key of a ray from `origin` starting at `p`.
+    fn key(&self, origin: RayOrigin, p: DVec3) -> OriginKey {
+        match origin {
+            RayOrigin::Eye => OriginKey::Eye,
+            RayOrigin::Light(i) => OriginKey::Light(i as usize),
+            RayOrigin::Surface(id) => OriginKey::Surface(id, self.at(p)),
+        }
+    }
+
+    /// Whether `ray` (reaching `t_max`) meets something in the list of `origin`'s cell for
+    /// direction `d` from `at`, each candidate tested with the reference's shadow ray `test_ray`.
+    fn any_hit(
+        &self,
+        origin: u32,
+        at: Vec3,
+        d: Vec3,
+        reach: f64,
+        test_ray: &ShadowQuery,
+        tests: &mut TestCounts,
+    ) -> bool {
+        let flat = self.flat();
+        let mut walked = WalkCount::default();
+        let mut w = walk_start(flat, origin, d);
+        let mut hits = |id: u32| {
+            let prim = &self.prims[id as usize];
+            count(prim, tests);
+            intersect(prim, &test_ray.ray, test_ray.t_max).is_some()
+        };
+        let answer = loop {
+            match walk_any(flat, &mut w, at, d, reach, u32::MAX, WALK_CHUNK, &mut walked, &mut hits) {
+                AnyHit::Unfinished => continue,
+                a => break a,
+            }
+        };
+        tests.bound += walked.bounds as u64;
+        answer == AnyHit::Blocked
+    }
+}
+
+impl Accel for TableAccel<'_> {
+    fn name(&self) -> &'static str {
+        "cube"
+    }
+
+    fn closest(&self, ray: &Ray, origin: RayOrigin, t_max: f64, tests: &mut TestCounts) -> Option<Hit> {
+        let flat = self.flat();
+        let d = ray.dir.as_vec3().normalize();
+        let o = flat.cube_origin(self.key(origin, ray.origin));
+        let at = self.at(ray.origin);
+        let mut walked = WalkCount::default();
+        let mut best = no_closest::<f64, PrimHit>();
+        let mut w = walk_start(flat, o, d);
+        let mut test = |id: u32| {
+            let prim = &self.prims[id as usize];
+            count(prim, tests);
+            intersect(prim, ray, t_max).map(|h| (h.t, h))
+        };
+        // In steps, as the GPU walks, each resuming where the last stopped.
+        while !walk_nearest(
+            flat,
+            &mut w,
+            &mut best,
+            at,
+            d,
+            t_max,
+            u32::MAX,
+            WALK_CHUNK,
+            &mut walked,
+            &mut test,
+        ) {}
+        tests.bound += walked.bounds as u64;
+        best.found.then_some(Hit { prim: best.prim, hit: best.hit })
+    }
+
+    fn occluded(&self, q: &ShadowQuery, tests: &mut TestCounts) -> bool {
+        let flat = self.flat();
+        if let (Some(l), Some(lp)) = (flat.table_of(OriginKey::Light(q.light as usize)), q.light_position) {
+            // From the light through the point: candidates nearer than the point.
+            let to_point = q.ray.origin - lp;
+            let reach = to_point.length();
+            if reach > 0.0 {
+                let d = (to_point / reach).as_vec3();
+                return self.any_hit(l, self.at(lp), d, reach, q, tests);
+            }
+        }
+        let o = flat.cube_origin(self.key(RayOrigin::Surface(q.object), q.ray.origin));
+        let d = q.ray.dir.as_vec3().normalize();
+        self.any_hit(o, self.at(q.ray.origin), d, q.t_max, q, tests)
+    }
+}

@@ -1,0 +1,345 @@
+//! Every struct and constant the WGSL shares with the host has one Rust twin of the same
+//! name, and they agree: the composed kernels are read through naga and compared with the
+//! Rust side field by field (name, offset, size, type) and constant by constant (value). A
+//! WGSL constant, or a struct a binding uses, without a twin fails too, as does a twin whose
+//! WGSL side is gone. No GPU is needed.
+
+use std::any::type_name;
+use std::collections::BTreeMap;
+use std::mem::{offset_of, size_of};
+
+use cuberay::coherence::flat::{GpuEntry, GpuFace, GpuGroup, GpuOrigin, GROUP_BIT, NO_ORIGIN};
+use cuberay::coherence::groups::GROUP_SLACK;
+use cuberay::coherence::walk::{AnyHit, WALK_CHUNK};
+use cuberay::gpu::shaders::{compose, Kernel, Variant};
+use cuberay::kernel::{FAR, NO_ID, SHADOW_END_REL};
+use cuberay::layout::counters::*;
+use cuberay::layout::*;
+use cuberay::preview::display::View;
+use cuberay::preview::session::{Tile, ACCUMULATE_WORKGROUP};
+
+/// One field of a struct: name, offset, size and type (in WGSL's spelling).
+#[derive(Debug, PartialEq)]
+struct Field {
+    name: String,
+    offset: usize,
+    size: usize,
+    ty: String,
+}
+
+/// A struct's layout.
+#[derive(Debug, PartialEq)]
+struct Layout {
+    size: usize,
+    fields: Vec<Field>,
+}
+
+/// The WGSL spelling of a Rust field type: scalars, `[f32; 3]` as `vec3<f32>`, arrays and
+/// structs by their last path segment.
+fn wgsl_type(rust: &str) -> String {
+    let short = |s: &str| s.rsplit("::").next().unwrap().to_string();
+    match rust {
+        "f32" | "u32" | "i32" => rust.to_string(),
+        "[f32; 2]" => "vec2<f32>".into(),
+        "[f32; 3]" => "vec3<f32>".into(),
+        "[f32; 4]" => "vec4<f32>".into(),
+        _ if rust.starts_with('[') => {
+            let inner = &rust[1..rust.len() - 1];
+            let (t, n) = inner.rsplit_once("; ").expect("an array type");
+            format!("array<{}, {n}>", wgsl_type(t))
+        }
+        _ => short(rust),
+    }
+}
+
+fn field<T, F>(name: &str, offset: usize, _get: fn(&T) -> &F) -> Field {
+    Field { name: name.into(), offset, size: size_of::<F>(), ty: wgsl_type(type_name::<F>()) }
+}
+
+/// The Rust twin's layout, its fields listed in WGSL order (their types come from the
+/// struct itself).
+macro_rules! twin {
+    ($t:ident { $($f:ident),* $(,)? }) => {
+        (stringify!($t), Layout {
+            size: size_of::<$t>(),
+            fields: vec![$(field::<$t, _>(stringify!($f), offset_of!($t, $f), |s: &$t| &s.$f)),*],
+        })
+    };
+}
+
+/// Every shared struct's Rust twin.
+fn rust_structs() -> BTreeMap<&'static str, Layout> {
+    BTreeMap::from([
+        twin!(Params {
+            cam_forward,
+            cam_scale,
+            cam_right,
+            half_w,
+            cam_up,
+            half_h,
+            background,
+            ortho,
+            ambient,
+            prim_count,
+            grid_w,
+            grid_h,
+            first_point,
+            point_count,
+            spp,
+            lattice_g,
+            seed_hash,
+            corners,
+            max_depth,
+            light_count,
+            aov,
+            sample_first,
+            sample_end,
+            eye_origin,
+            fallback_origin,
+            shadow_inline,
+            spawn_rel,
+            spawn_abs,
+            _pad0,
+            _pad1,
+        }),
+        twin!(Prim { a, b, c, kind, material, flags, attr }),
+        twin!(TriAttr { n0, n1, n2, uv01, uv2 }),
+        twin!(Material { color, kd, mirror, ks, emission, shine, transmittance, ior, texture, pad }),
+        twin!(Light {
+            position,
+            kind,
+            direction,
+            range,
+            radiance,
+            inverse_square,
+            cos_outer,
+            span,
+            pad0,
+            pad1
+        }),
+        twin!(TextureInfo { offset, width, height, flags }),
+        twin!(Pending { o, kind, d, depth, weight, from_prim }),
+        twin!(WalkState { i, iend, j, jend, prim, t, b1, b2 }),
+        twin!(PointState { color, sp, sample, walking, pad1, pad2, walk, stack }),
+        twin!(GpuOrigin { n, always_start, always_count, kind }),
+        twin!(GpuFace { iu0, iv0, width, height, cell_base, _pad0, _pad1, _pad2 }),
+        twin!(GpuEntry { id, d_min }),
+        twin!(GpuGroup { cx, cy, cz, radius, first, count, _pad0, _pad1 }),
+        twin!(Tile { first_point, point_count, pad0, pad1 }),
+        twin!(View { width, height, grid_w, samples, corners, encode, pad0, pad1 }),
+    ])
+}
+
+/// A constant's value.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Value {
+    U32(u32),
+    F32(f32),
+}
+
+/// Every shared constant's Rust twin.
+fn rust_constants() -> BTreeMap<&'static str, Value> {
+    use Value::*;
+    BTreeMap::from([
+        ("STACK_SIZE", U32(STACK_SIZE as u32)),
+        ("WALK_CHUNK", U32(WALK_CHUNK)),
+        ("ANY_CLEAR", U32(AnyHit::Clear as u32)),
+        ("ANY_BLOCKED", U32(AnyHit::Blocked as u32)),
+        ("ANY_UNFINISHED", U32(AnyHit::Unfinished as u32)),
+        ("WORKGROUP", U32(WORKGROUP)),
+        ("KIND_SPHERE", U32(KIND_SPHERE)),
+        ("KIND_TRIANGLE", U32(KIND_TRIANGLE)),
+        ("KIND_CYLINDER", U32(KIND_CYLINDER)),
+        ("FLAG_INSIDE_ONLY", U32(FLAG_INSIDE_ONLY)),
+        ("FLAG_NORMALS", U32(FLAG_NORMALS)),
+        ("FLAG_UVS", U32(FLAG_UVS)),
+        ("LIGHT_POINT", U32(LIGHT_POINT)),
+        ("LIGHT_SPOT", U32(LIGHT_SPOT)),
+        ("LIGHT_DIRECTIONAL", U32(LIGHT_DIRECTIONAL)),
+        ("WRAP_REPEAT", U32(WRAP_REPEAT)),
+        ("WRAP_MIRRORED_REPEAT", U32(WRAP_MIRRORED_REPEAT)),
+        ("WRAP_CLAMP_TO_EDGE", U32(WRAP_CLAMP_TO_EDGE)),
+        ("TEX_BILINEAR", U32(TEX_BILINEAR)),
+        ("AOV_DEPTH", U32(AOV_DEPTH)),
+        ("AOV_NORMAL", U32(AOV_NORMAL)),
+        ("AOV_ID", U32(AOV_ID)),
+        ("RAY_EYE", U32(RAY_EYE)),
+        ("RAY_SHADOW", U32(RAY_SHADOW)),
+        ("RAY_REFLECT", U32(RAY_REFLECT)),
+        ("RAY_REFRACT", U32(RAY_REFRACT)),
+        ("RAY_KIND_MASK", U32(RAY_KIND_MASK)),
+        ("RAY_SKIP_FROM", U32(RAY_SKIP_FROM)),
+        ("C_RAYS", U32(C_RAYS)),
+        ("C_TESTS", U32(C_TESTS)),
+        ("C_EYE_HIT", U32(C_EYE_HIT)),
+        ("C_SHADOW_BLOCKED", U32(C_SHADOW_BLOCKED)),
+        ("C_BOUNDS", U32(C_BOUNDS)),
+        ("COUNTER_COUNT", U32(COUNTER_COUNT)),
+        ("FAR", F32(FAR)),
+        ("NO_ID", U32(NO_ID)),
+        ("SHADOW_END_REL", F32(SHADOW_END_REL)),
+        ("NO_ORIGIN", U32(NO_ORIGIN)),
+        ("GROUP_BIT", U32(GROUP_BIT)),
+        ("GROUP_SLACK", F32(GROUP_SLACK)),
+        ("ACCUMULATE_WORKGROUP", U32(ACCUMULATE_WORKGROUP)),
+    ])
+}
+
+/// Every kernel, with every flag set (every shared file included), through naga.
+fn modules() -> Vec<(Kernel, naga::Module)> {
+    Kernel::ALL
+        .iter()
+        .map(|&k| {
+            let v = if matches!(k, Kernel::Render | Kernel::Aov) {
+                Variant::all()[63]
+            } else {
+                Variant::default()
+            };
+            let src = compose(k, v).unwrap_or_else(|e| panic!("{k:?}: {e}"));
+            let m = naga::front::wgsl::parse_str(&src)
+                .unwrap_or_else(|e| panic!("{k:?}: {}", e.emit_to_string(&src)));
+            (k, m)
+        })
+        .collect()
+}
+
+fn wgsl_type_of(m: &naga::Module, ty: naga::Handle<naga::Type>) -> String {
+    use naga::{ScalarKind, TypeInner};
+    let scalar = |s: naga::Scalar| match (s.kind, s.width) {
+        (ScalarKind::Float, 4) => "f32".to_string(),
+        (ScalarKind::Uint, 4) => "u32".to_string(),
+        (ScalarKind::Sint, 4) => "i32".to_string(),
+        other => format!("{other:?}"),
+    };
+    let t = &m.types[ty];
+    match &t.inner {
+        TypeInner::Scalar(s) => scalar(*s),
+        TypeInner::Vector { size, scalar: s } => format!("vec{}<{}>", *size as u8, scalar(*s)),
+        TypeInner::Array { base, size: naga::ArraySize::Constant(n), .. } => {
+            format!("array<{}, {n}>", wgsl_type_of(m, *base))
+        }
+        TypeInner::Struct { .. } => t.name.clone().unwrap_or_default(),
+        other => format!("{other:?}"),
+    }
+}
+
+/// The layouts of the WGSL structs of `m`, by name.
+fn wgsl_structs(m: &naga::Module) -> BTreeMap<String, Layout> {
+    let mut layouter = naga::proc::Layouter::default();
+    layouter.update(m.to_ctx()).unwrap();
+    let mut out = BTreeMap::new();
+    for (handle, ty) in m.types.iter() {
+        let (naga::TypeInner::Struct { members, .. }, Some(name)) = (&ty.inner, &ty.name) else { continue };
+        let fields = members
+            .iter()
+            .map(|mb| Field {
+                name: mb.name.clone().unwrap_or_default(),
+                offset: mb.offset as usize,
+                size: layouter[mb.ty].size as usize,
+                ty: wgsl_type_of(m, mb.ty),
+            })
+            .collect();
+        out.insert(name.clone(), Layout { size: layouter[handle].size as usize, fields });
+    }
+    out
+}
+
+/// The values of the WGSL constants of `m`, by name.
+fn wgsl_constants(m: &naga::Module) -> BTreeMap<String, Value> {
+    m.constants
+        .iter()
+        .filter_map(|(_, c)| {
+            let value = match m.global_expressions[c.init] {
+                naga::Expression::Literal(naga::Literal::U32(v)) => Value::U32(v),
+                naga::Expression::Literal(naga::Literal::F32(v)) => Value::F32(v),
+                ref e => panic!("constant {:?} is not a u32 or f32 literal: {e:?}", c.name),
+            };
+            Some((c.name.clone()?, value))
+        })
+        .collect()
+}
+
+/// Structs the WGSL keeps to itself (never in a buffer the host writes or reads).
+const WGSL_ONLY_STRUCTS: &[&str] = &[
+    "Ray",
+    "PrimHit",
+    "Closest",
+    "Stepped",
+    "Surface",
+    "Incidence",
+    "Lit",
+    "Refracted",
+    "Walk",
+    "ShadowWalk",
+    "VertexOut",
+];
+
+#[test]
+fn every_shared_struct_has_the_layout_of_its_rust_twin() {
+    let rust = rust_structs();
+    let mut seen = Vec::new();
+    for (k, m) in modules() {
+        for (name, wgsl) in wgsl_structs(&m) {
+            if WGSL_ONLY_STRUCTS.contains(&name.as_str()) {
+                continue;
+            }
+            let twin = rust
+                .get(name.as_str())
+                .unwrap_or_else(|| panic!("{k:?}: WGSL struct {name} has no Rust twin"));
+            assert_eq!(&wgsl, twin, "{k:?}: struct {name}: WGSL (left) and Rust (right) differ");
+            seen.push(name);
+        }
+        // Every struct a binding uses is shared.
+        for (_, var) in m.global_variables.iter() {
+            if var.binding.is_none() {
+                continue;
+            }
+            let mut ty = &m.types[var.ty];
+            if let naga::TypeInner::Array { base, .. } = ty.inner {
+                ty = &m.types[base];
+            }
+            if let (naga::TypeInner::Struct { .. }, Some(name)) = (&ty.inner, &ty.name) {
+                assert!(
+                    rust.contains_key(name.as_str()),
+                    "{k:?}: binding {:?} uses {name}, which has no Rust twin",
+                    var.name
+                );
+            }
+        }
+    }
+    for name in rust.keys() {
+        assert!(seen.iter().any(|s| s == name), "Rust twin {name} has no WGSL struct");
+    }
+}
+
+#[test]
+fn every_shared_constant_has_the_value_of_its_rust_twin() {
+    let rust = rust_constants();
+    let mut seen = Vec::new();
+    for (k, m) in modules() {
+        for (name, value) in wgsl_constants(&m) {
+            let twin = rust
+                .get(name.as_str())
+                .unwrap_or_else(|| panic!("{k:?}: WGSL constant {name} has no Rust twin"));
+            assert_eq!(value, *twin, "{k:?}: constant {name}: WGSL (left) and Rust (right) differ");
+            seen.push(name);
+        }
+    }
+    for name in rust.keys() {
+        assert!(seen.iter().any(|s| s == name), "Rust twin {name} has no WGSL constant");
+    }
+}
+
+#[test]
+fn workgroup_sizes_are_the_shared_constants() {
+    for (k, m) in modules() {
+        for e in &m.entry_points {
+            let want = match k {
+                Kernel::Render | Kernel::Aov => WORKGROUP,
+                Kernel::Accumulate => ACCUMULATE_WORKGROUP,
+                Kernel::Display => continue,
+            };
+            assert_eq!(e.workgroup_size, [want, 1, 1], "{k:?}: entry point {}", e.name);
+        }
+    }
+}
