@@ -8,12 +8,23 @@
 //!                        └──────────────reference (CPU, f64)──────────────────────────────────▶ image
 //! ```
 //!
+//! Layers, each using only those before it: [`scene`] ← [`load`]; [`scene`] ← [`kernel`] ←
+//! [`coherence`] ← [`layout`] ← [`gpu`] ← [`preview`]; the CPU [`reference`](mod@reference) beside them.
+//! [`job`], [`sampling`], [`stats`], [`output`] and [`error`] are shared by both backends.
+//!
 //! - [`scene`]: the plain-data scene model both renderers read;
 //! - [`load`]: NFF and glTF loaders that produce a validated [`scene::Scene`];
-//! - [`info`]: the summary `cuberay info` prints;
-//! - [`coherence`]: the direction-cube candidate tables, flattened for the GPU, and their CPU walker;
-//! - [`mirror`]: f32 Rust twins of the WGSL functions (cell lookup, intersections, table walk);
-//! - [`preview`]: the interactive window that refines a render progressively.
+//! - [`job`]: what to render ([`job::RenderOptions`]) and what a render returns;
+//! - [`sampling`]: where eye rays go through the image;
+//! - [`kernel`]: the kernels' f32 arithmetic on the CPU (twins of the WGSL geometry);
+//! - [`coherence`]: the direction-cube candidate tables, flattened, and their one walker;
+//! - [`layout`]: the `#[repr(C)]` twins of the WGSL structs and constants, the packed scene;
+//! - [`gpu`]: the WGSL kernels through wgpu;
+//! - [`preview`]: the interactive window that refines a render progressively;
+//! - [`reference`](mod@reference): the independent CPU renderer in f64;
+//! - [`stats`], [`output`], [`compare`], [`info`]: statistics, image files, image
+//!   comparison, scene summaries;
+//! - [`error`]: the library's one error type.
 
 pub mod coherence;
 pub mod compare;

@@ -4,6 +4,7 @@
 //! tangent and nested spheres, huge ground polygons), and SPD scenes traced with every ray
 //! checked.
 
+#[macro_use]
 mod common;
 
 use glam::{DVec3, Vec3};
@@ -745,45 +746,48 @@ fn memory_budget_is_respected() {
     }
 }
 
-#[test]
-fn spd_scenes_every_ray_agrees_with_brute_force() {
-    // Small SPD databases at 24×24 corners, depth 5, every eye, shadow, reflection and
-    // refraction ray checked against brute force.
-    // Surface lists name primitive groups from their default length, and again from two
-    // entries.
-    let cases = ["balls_s1", "gears_s1", "mount_s1", "rings_s1", "teapot_s1", "tetra_s1", "tree_s1"]
-        .into_iter()
-        .map(|n| (n, coherence::groups::GROUP_MIN_LIST))
-        .chain([("gears_s1", 2), ("teapot_s1", 2), ("balls_s1", 2)]);
-    for (name, group_min_list) in cases {
-        let path = common::shared(&format!("spd/nff/{name}.nff"));
-        let scene = cuberay::load::load(&path, &Default::default()).unwrap().scene;
-        let params =
-            BuildParams { eye_n: Some(64), light_cells: 1 << 12, group_min_list, ..BuildParams::default() };
-        let tables = coherence::build(&scene, &params).unwrap();
-        if group_min_list == 2 {
-            let named = tables.flat.entries.iter().filter(|e| e.id & coherence::flat::GROUP_BIT != 0).count();
-            assert!(named > 0 && !tables.flat.groups.is_empty(), "{name}: no list names a group");
-        }
-        tables.flat.check(scene.primitives.len()).unwrap();
-        let r = bench::trace_counts(
-            &scene,
-            &tables,
-            bench::BenchParams { width: 24, height: 24, corners: true, max_depth: 5, verify_every: 1 },
-        );
-        assert_eq!(r.mismatches, 0, "{name}: {r:?}");
-        assert!(r.verified >= 625, "{name}: {r:?}");
-        if group_min_list == 2 {
-            assert!(r.reflect.bounds + r.refract.bounds > 0, "{name}: no group was tested");
-        }
-        assert_eq!(r.eye.rays, 625);
-        assert_eq!(
-            r.eye.untabled + r.reflect.untabled + r.refract.untabled,
-            0,
-            "{name}: rays without a table"
-        );
+/// A small SPD database at 24×24 corners, depth 5, every eye, shadow, reflection and
+/// refraction ray checked against brute force; surface lists name primitive groups from
+/// `group_min_list` entries.
+fn spd_every_ray_agrees_with_brute_force(name: &str, group_min_list: usize) {
+    let path = common::shared(&format!("spd/nff/{name}.nff"));
+    let scene = cuberay::load::load(&path, &Default::default()).unwrap().scene;
+    let params =
+        BuildParams { eye_n: Some(64), light_cells: 1 << 12, group_min_list, ..BuildParams::default() };
+    let tables = coherence::build(&scene, &params).unwrap();
+    if group_min_list == 2 {
+        let named = tables.flat.entries.iter().filter(|e| e.id & coherence::flat::GROUP_BIT != 0).count();
+        assert!(named > 0 && !tables.flat.groups.is_empty(), "{name}: no list names a group");
     }
+    tables.flat.check(scene.primitives.len()).unwrap();
+    let r = bench::trace_counts(
+        &scene,
+        &tables,
+        bench::BenchParams { width: 24, height: 24, corners: true, max_depth: 5, verify_every: 1 },
+    );
+    assert_eq!(r.mismatches, 0, "{name}: {r:?}");
+    assert!(r.verified >= 625, "{name}: {r:?}");
+    if group_min_list == 2 {
+        assert!(r.reflect.bounds + r.refract.bounds > 0, "{name}: no group was tested");
+    }
+    assert_eq!(r.eye.rays, 625);
+    assert_eq!(r.eye.untabled + r.reflect.untabled + r.refract.untabled, 0, "{name}: rays without a table");
 }
+
+// The SPD databases at size 1 with the default grouping, and three of them with every
+// surface list of two or more entries grouped.
+cases!(spd_every_ray_agrees_with_brute_force: super::spd_every_ray_agrees_with_brute_force {
+    balls => ("balls_s1", cuberay::coherence::groups::GROUP_MIN_LIST),
+    gears => ("gears_s1", cuberay::coherence::groups::GROUP_MIN_LIST),
+    mount => ("mount_s1", cuberay::coherence::groups::GROUP_MIN_LIST),
+    rings => ("rings_s1", cuberay::coherence::groups::GROUP_MIN_LIST),
+    teapot => ("teapot_s1", cuberay::coherence::groups::GROUP_MIN_LIST),
+    tetra => ("tetra_s1", cuberay::coherence::groups::GROUP_MIN_LIST),
+    tree => ("tree_s1", cuberay::coherence::groups::GROUP_MIN_LIST),
+    gears_grouped => ("gears_s1", 2),
+    teapot_grouped => ("teapot_s1", 2),
+    balls_grouped => ("balls_s1", 2),
+});
 
 #[test]
 fn mirror_floor_patches_match_brute_force() {

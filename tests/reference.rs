@@ -1,6 +1,7 @@
 //! Tests of the CPU reference renderer: analytic scenes whose pixels are known in closed
 //! form, sampling and statistics, brute force against the BVH, and the `render` command.
 
+#[macro_use]
 mod common;
 
 use std::path::{Path, PathBuf};
@@ -490,28 +491,24 @@ fn a_failed_render_writes_nothing() {
 // ---------------------------------------------------------------------------------------
 // SPD scenes (read from the shared scenes folder; the tests fail when it is missing)
 
-const CANONICAL: [&str; 7] = ["balls", "gears", "mount", "rings", "teapot", "tetra", "tree"];
-
 fn load_spd(name: &str) -> Scene {
     let path = common::shared(&format!("spd/nff/{name}.nff"));
     cuberay::load::load(&path, &Default::default()).unwrap_or_else(|e| panic!("{e}")).scene
 }
 
-/// Every SPD database at size 1, small and at SPD depth with corner sampling: finite
-/// pixels and consistent statistics.
-#[test]
-fn spd_small_sizes_render_without_nan() {
-    let names = CANONICAL.iter().chain(["jacks", "shells", "lattice", "sombrero"].iter());
-    for name in names {
-        let s = load_spd(&format!("{name}_s1"));
-        let mut o = opts(24, 24);
-        o.sampling = Sampling::Corners;
-        let r = run(&s, &o);
-        check_stats(&r);
-        assert_eq!(r.stats.rays.eye, 25 * 25, "{name}");
-        assert!(r.stats.rays.eye_hit > 0, "{name}: nothing hit");
-    }
+/// An SPD database at size 1, small and at SPD depth with corner sampling: finite pixels
+/// and consistent statistics.
+fn spd_size_1_renders_without_nan(name: &str) {
+    let s = load_spd(&format!("{name}_s1"));
+    let mut o = opts(24, 24);
+    o.sampling = Sampling::Corners;
+    let r = run(&s, &o);
+    check_stats(&r);
+    assert_eq!(r.stats.rays.eye, 25 * 25, "{name}");
+    assert!(r.stats.rays.eye_hit > 0, "{name}: nothing hit");
 }
+spd_cases!(spd_size_1_renders_without_nan: super::spd_size_1_renders_without_nan =>
+    [balls, gears, jacks, lattice, mount, rings, shells, sombrero, teapot, tetra, tree]);
 
 /// Mean luminance over `k`×`k` blocks of an 8-bit sRGB image.
 fn block_luminance(img: &image::RgbImage, k: u32) -> Vec<f64> {
@@ -548,11 +545,16 @@ fn correlation(a: &[f64], b: &[f64]) -> f64 {
 /// for pixel, but their layout can: at 64×64, our render's luminance must correlate
 /// clearly with the reference's, and better than its own mirror image does (a mirrored
 /// camera moves the teapot's spout to the other side, the tree's shadows, the gears...).
-#[test]
-fn spd_renders_match_the_orientation_of_the_reference_images() {
-    let sizes =
-        [("balls", 4), ("gears", 4), ("mount", 6), ("rings", 7), ("teapot", 12), ("tetra", 6), ("tree", 11)];
-    for (name, size) in sizes {
+fn spd_render_matches_the_orientation_of_its_reference_image(name: &str) {
+    let size = match name {
+        "balls" | "gears" => 4,
+        "mount" | "tetra" => 6,
+        "rings" => 7,
+        "tree" => 11,
+        "teapot" => 12,
+        _ => unreachable!("{name} is not a canonical SPD scene"),
+    };
+    {
         let s = load_spd(&format!("{name}_s{size}"));
         let reference =
             image::open(common::shared(&format!("spd/doc/reference_images/{name}.png"))).unwrap().into_rgb8();
@@ -569,6 +571,9 @@ fn spd_renders_match_the_orientation_of_the_reference_images() {
         assert!(a > m + 0.05, "{name}: the mirror image matches the reference as well ({a:.3} vs {m:.3})");
     }
 }
+spd_cases!(spd_renders_match_the_orientation_of_the_reference_images:
+    super::spd_render_matches_the_orientation_of_its_reference_image =>
+    [balls, gears, mount, rings, teapot, tetra, tree]);
 
 /// A tiny NFF file: a mirror sphere on a matte square under one light.
 const TINY_NFF: &str = "\
@@ -649,17 +654,9 @@ fn render_command_writes_images_and_statistics() {
     assert_eq!(files_in(dir.path()).len(), 3, "a temporary file was left behind");
 }
 
-/// glTF sample models with textures, emission, punctual lights and transmission render
-/// with finite pixels, and the effects they call for are simulated.
-#[test]
-fn gltf_models_render_without_nan() {
-    let models = [
-        ("Box/Box.gltf", "shadows"),
-        ("BoxTextured/BoxTextured.gltf", "textures"),
-        ("CornellBox/CornellBox.glb", "emission"),
-        ("LightsPunctualLamp/LightsPunctualLamp.gltf", "refraction"),
-    ];
-    for (file, effect) in models {
+/// A glTF sample model renders with finite pixels, and the effect it calls for is simulated.
+fn gltf_model_renders_without_nan(file: &str, effect: &str) {
+    {
         let path = common::shared(&format!("gltf/{file}"));
         let s = cuberay::load::load(&path, &Default::default()).unwrap_or_else(|e| panic!("{e}")).scene;
         let r = run(&s, &opts(24, 24));
@@ -668,3 +665,9 @@ fn gltf_models_render_without_nan() {
         assert!(r.stats.effects.contains(&effect), "{file}: {:?}", r.stats.effects);
     }
 }
+cases!(gltf_models_render_without_nan: super::gltf_model_renders_without_nan {
+    box_shadows => ("Box/Box.gltf", "shadows"),
+    box_textured => ("BoxTextured/BoxTextured.gltf", "textures"),
+    cornell_box_emission => ("CornellBox/CornellBox.glb", "emission"),
+    lights_punctual_lamp_refraction => ("LightsPunctualLamp/LightsPunctualLamp.gltf", "refraction"),
+});

@@ -26,7 +26,7 @@
 //! - [`cube`]: the direction-cube lookup (face, cell, candidate range);
 //! - [`walk`]: the walker (twin of `shaders/shared/walk.wgsl`);
 //! - [`stats`]: what `cuberay info --tables` prints;
-//! - [`bench`]: test counts per ray kind over a scene's primary rays and their ray trees.
+//! - [`bench`](mod@bench): test counts per ray kind over a scene's primary rays and their ray trees.
 //!
 //! # The method
 //! Each origin entity (the eye, each point light, each cluster of reflecting or transmitting

@@ -19,7 +19,7 @@ const MAX_PATCHES: u32 = 1024;
 /// A large reflecting or transmitting triangle (an SPD ground polygon under a mirror finish)
 /// is a poor origin: its bounding sphere holds the objects standing on it, so they would be
 /// candidates with `d_min = 0` in every cell. Such a triangle is split by a barycentric grid
-/// into patches about [`PATCH_SCALE`] median target radii across, each an origin of its own.
+/// into patches about `PATCH_SCALE` median target radii across, each an origin of its own.
 pub fn patch_counts(surface_ids: &[u32], targets: &[Target]) -> Vec<u32> {
     let mut m = vec![1u32; targets.len()];
     if targets.is_empty() {

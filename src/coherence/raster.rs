@@ -61,7 +61,7 @@ impl Cells {
     }
 
     /// Hierarchical rasterisation of a bound into the windows: blocks the bound misses are
-    /// dropped, blocks of at most [`BULK`] cells wholly inside it are emitted at once (one
+    /// dropped, blocks of at most `BULK` cells wholly inside it are emitted at once (one
     /// `d_min` and cover test for the block), others are split down to single cells.
     /// `emit(cells, block)` receives the local cell indices of the block; it returns false to
     /// stop the rasterisation (then `raster` returns false).

@@ -1,6 +1,6 @@
 //! The flat GPU layout, without wgpu: the `#[repr(C)]` twins of every WGSL struct and
 //! constant shared with the host ([`structs`], [`counters`]), the scene packed into them
-//! ([`pack`]), and the limits one kernel step keeps to ([`budget`]).
+//! ([`pack`](mod@pack)), and the limits one kernel step keeps to ([`budget`]).
 
 pub mod budget;
 pub mod counters;

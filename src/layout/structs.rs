@@ -6,7 +6,8 @@
 
 use bytemuck::{Pod, Zeroable};
 
-/// Kernel parameters (WGSL `Params`, a uniform; keep in sync with `shaders/shared/layout.wgsl`).
+/// Kernel parameters (WGSL `Params`, a uniform; keep in sync with
+/// `shaders/shared/layout.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct Params {
@@ -48,9 +49,10 @@ pub struct Params {
     pub _pad1: u32,
 }
 
-/// One primitive (WGSL `Prim`, keep in sync): sphere `a` = (centre, radius); triangle `a`, `b`,
-/// `c` = vertices; cylinder `a` = (base, base radius), `b` = (apex, apex radius). `kind` is a
-/// `KIND_*` code, `flags` a set of `FLAG_*` bits, `attr` indexes the [`TriAttr`]s.
+/// One primitive (WGSL `Prim`, keep in sync with `shaders/shared/layout.wgsl`): sphere `a` =
+/// (centre, radius); triangle `a`, `b`, `c` = vertices; cylinder `a` = (base, base radius), `b`
+/// = (apex, apex radius). `kind` is a `KIND_*` code, `flags` a set of `FLAG_*` bits, `attr`
+/// indexes the [`TriAttr`]s.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct Prim {
@@ -63,7 +65,8 @@ pub struct Prim {
     pub attr: u32,
 }
 
-/// Per-vertex normals and texture coordinates of a triangle (WGSL `TriAttr`, keep in sync).
+/// Per-vertex normals and texture coordinates of a triangle (WGSL `TriAttr`, keep in sync with
+/// `shaders/shared/layout.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct TriAttr {
@@ -74,7 +77,7 @@ pub struct TriAttr {
     pub uv2: [f32; 4],
 }
 
-/// A material (WGSL `Material`, keep in sync).
+/// A material (WGSL `Material`, keep in sync with `shaders/shared/layout.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct Material {
@@ -91,7 +94,8 @@ pub struct Material {
     pub pad: u32,
 }
 
-/// A light (WGSL `Light`, keep in sync); positions relative to the eye.
+/// A light (WGSL `Light`, keep in sync with `shaders/shared/layout.wgsl`); positions relative
+/// to the eye.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct Light {
@@ -110,7 +114,8 @@ pub struct Light {
     pub pad1: u32,
 }
 
-/// Where a texture's texels are and how it is sampled (WGSL `TextureInfo`, keep in sync).
+/// Where a texture's texels are and how it is sampled (WGSL `TextureInfo`, keep in sync with
+/// `shaders/shared/layout.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct TextureInfo {
@@ -121,9 +126,10 @@ pub struct TextureInfo {
     pub flags: u32,
 }
 
-/// A pending ray of a grid point's ray tree (WGSL `Pending`, keep in sync); a shadow job keeps
-/// its light in `depth` and what the light adds unless blocked in `weight`. `kind` is a
-/// `RAY_*` kind, with [`RAY_SKIP_FROM`] set when `from_prim` need not be tested.
+/// A pending ray of a grid point's ray tree (WGSL `Pending`, keep in sync with
+/// `shaders/shared/layout.wgsl`); a shadow job keeps its light in `depth` and what the light
+/// adds unless blocked in `weight`. `kind` is a `RAY_*` kind, with [`RAY_SKIP_FROM`] set when
+/// `from_prim` need not be tested.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct Pending {
@@ -138,7 +144,8 @@ pub struct Pending {
 /// Pending rays per grid point (WGSL `STACK_SIZE`).
 pub const STACK_SIZE: usize = 16;
 
-/// A table walk interrupted between steps (WGSL `WalkState`, keep in sync).
+/// A table walk interrupted between steps (WGSL `WalkState`, keep in sync with
+/// `shaders/shared/layout.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct WalkState {
@@ -152,8 +159,8 @@ pub struct WalkState {
     pub b2: f32,
 }
 
-/// A grid point's progress between kernel steps (WGSL `PointState`, keep in sync); all zero
-/// at the start.
+/// A grid point's progress between kernel steps (WGSL `PointState`, keep in sync with
+/// `shaders/shared/layout.wgsl`); all zero at the start.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct PointState {

@@ -6,7 +6,7 @@
 
 use glam::DVec3;
 
-use super::geometry::{intersect, PrimHit, Ray};
+use super::geometry::{intersect, Intersection, Ray};
 use crate::scene::Primitive;
 use crate::stats::TestCounts;
 
@@ -15,7 +15,7 @@ use crate::stats::TestCounts;
 pub enum RayOrigin {
     /// A primary ray from the camera.
     Eye,
-    /// A ray from light `i` (index into [`Scene::lights`]).
+    /// A ray from light `i` (index into [`Scene::lights`](crate::scene::Scene::lights)).
     Light(u32),
     /// A ray leaving the surface of primitive `id`.
     Surface(u32),
@@ -23,9 +23,9 @@ pub enum RayOrigin {
 
 /// A nearest-hit answer: the primitive and where it was hit.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Hit {
+pub struct NearestHit {
     pub prim: u32,
-    pub hit: PrimHit,
+    pub hit: Intersection,
 }
 
 /// A shadow query: is anything between the surface point and the light?
@@ -36,13 +36,13 @@ pub struct ShadowQuery {
     pub t_max: f64,
     /// The primitive the point lies on.
     pub object: u32,
-    /// Index of the light in [`Scene::lights`].
+    /// Index of the light in [`Scene::lights`](crate::scene::Scene::lights).
     pub light: u32,
     /// The light's position, `None` for directional lights.
     pub light_position: Option<DVec3>,
 }
 
-/// The largest scene [`AccelKind::Auto`] traces by brute force.
+/// The largest scene [`AccelKind::Auto`](crate::job::AccelKind::Auto) traces by brute force.
 pub const AUTO_BRUTE_MAX: usize = 16;
 
 /// Nearest-hit and any-hit queries over a scene's primitives.
@@ -51,7 +51,8 @@ pub trait Accel: Sync {
     fn name(&self) -> &'static str;
 
     /// The nearest hit with `0 < t < t_max`, ties to the lower primitive id.
-    fn closest(&self, ray: &Ray, origin: RayOrigin, t_max: f64, tests: &mut TestCounts) -> Option<Hit>;
+    fn closest(&self, ray: &Ray, origin: RayOrigin, t_max: f64, tests: &mut TestCounts)
+        -> Option<NearestHit>;
 
     /// True when some primitive is hit by the shadow ray before `t_max`.
     fn occluded(&self, query: &ShadowQuery, tests: &mut TestCounts) -> bool;
@@ -73,7 +74,7 @@ pub fn test_closest(
     id: u32,
     ray: &Ray,
     t_max: f64,
-    best: &mut Option<Hit>,
+    best: &mut Option<NearestHit>,
     tests: &mut TestCounts,
 ) {
     let prim = &prims[id as usize];
@@ -86,7 +87,7 @@ pub fn test_closest(
             Some(b) => h.t < b.hit.t || (h.t == b.hit.t && id < b.prim),
         };
         if better {
-            *best = Some(Hit { prim: id, hit: h });
+            *best = Some(NearestHit { prim: id, hit: h });
         }
     }
 }

@@ -1,6 +1,6 @@
 //! Brute force: every primitive for every ray.
 
-use super::accel::{count, test_closest, Accel, Hit, RayOrigin, ShadowQuery};
+use super::accel::{count, test_closest, Accel, NearestHit, RayOrigin, ShadowQuery};
 use super::geometry::{intersect, Ray};
 use crate::scene::Primitive;
 use crate::stats::TestCounts;
@@ -21,7 +21,13 @@ impl Accel for Brute<'_> {
         "brute"
     }
 
-    fn closest(&self, ray: &Ray, _origin: RayOrigin, t_max: f64, tests: &mut TestCounts) -> Option<Hit> {
+    fn closest(
+        &self,
+        ray: &Ray,
+        _origin: RayOrigin,
+        t_max: f64,
+        tests: &mut TestCounts,
+    ) -> Option<NearestHit> {
         let mut best = None;
         for id in 0..self.prims.len() as u32 {
             test_closest(self.prims, id, ray, t_max, &mut best, tests);

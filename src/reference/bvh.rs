@@ -3,7 +3,7 @@
 use glam::{DVec3, Vec3A};
 use obvhs::{aabb::Aabb as BvhAabb, bvh2::Bvh2, Boundable, BvhBuildParams};
 
-use super::accel::{count, test_closest, Accel, Hit, RayOrigin, ShadowQuery};
+use super::accel::{count, test_closest, Accel, NearestHit, RayOrigin, ShadowQuery};
 use super::geometry::{intersect, Ray};
 use crate::scene::{Aabb, Primitive};
 use crate::stats::TestCounts;
@@ -199,8 +199,14 @@ impl Accel for Bvh<'_> {
         "bvh"
     }
 
-    fn closest(&self, ray: &Ray, _origin: RayOrigin, t_max: f64, tests: &mut TestCounts) -> Option<Hit> {
-        let best = std::cell::Cell::new(None::<Hit>);
+    fn closest(
+        &self,
+        ray: &Ray,
+        _origin: RayOrigin,
+        t_max: f64,
+        tests: &mut TestCounts,
+    ) -> Option<NearestHit> {
+        let best = std::cell::Cell::new(None::<NearestHit>);
         // Boxes entered exactly at the best distance are still visited (ties).
         let limit = || best.get().map_or(t_max, |b| b.hit.t);
         self.traverse(ray, &limit, &mut |ids| {

@@ -63,24 +63,24 @@ impl Ray {
 /// Where a ray met a primitive: distance and, for triangles, the barycentric weights of
 /// vertices 1 and 2.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct PrimHit {
+pub struct Intersection {
     pub t: f64,
     pub b1: f64,
     pub b2: f64,
 }
 
-impl PrimHit {
-    fn at(t: f64) -> PrimHit {
-        PrimHit { t, b1: 0.0, b2: 0.0 }
+impl Intersection {
+    fn at(t: f64) -> Intersection {
+        Intersection { t, b1: 0.0, b2: 0.0 }
     }
 }
 
 /// Intersects `ray` with `prim` for `0 < t < t_max`; the nearest such hit.
-pub fn intersect(prim: &Primitive, ray: &Ray, t_max: f64) -> Option<PrimHit> {
+pub fn intersect(prim: &Primitive, ray: &Ray, t_max: f64) -> Option<Intersection> {
     match prim {
-        Primitive::Sphere(s) => intersect_sphere(s, ray, t_max).map(PrimHit::at),
+        Primitive::Sphere(s) => intersect_sphere(s, ray, t_max).map(Intersection::at),
         Primitive::Triangle(t) => intersect_triangle(t, ray, t_max),
-        Primitive::Cylinder(c) => intersect_cylinder(c, ray, t_max).map(PrimHit::at),
+        Primitive::Cylinder(c) => intersect_cylinder(c, ray, t_max).map(Intersection::at),
     }
 }
 
@@ -117,7 +117,7 @@ pub fn intersect_sphere(s: &Sphere, ray: &Ray, t_max: f64) -> Option<f64> {
 }
 
 /// Ray/triangle, Woop, Benthin and Wald's watertight test; both sides are hit.
-pub fn intersect_triangle(tri: &Triangle, ray: &Ray, t_max: f64) -> Option<PrimHit> {
+pub fn intersect_triangle(tri: &Triangle, ray: &Ray, t_max: f64) -> Option<Intersection> {
     let (kx, ky, kz, s) = (ray.kx, ray.ky, ray.kz, ray.shear);
     // Vertices relative to the ray origin, sheared so that the ray runs along +z.
     let a = tri.p[0] - ray.origin;
@@ -154,7 +154,7 @@ pub fn intersect_triangle(tri: &Triangle, ray: &Ray, t_max: f64) -> Option<PrimH
     if !(t > 0.0 && t < t_max) {
         return None;
     }
-    Some(PrimHit { t, b1: v * inv, b2: w * inv })
+    Some(Intersection { t, b1: v * inv, b2: w * inv })
 }
 
 /// The local frame of a cylinder or cone: unit axis, length and the slope of the radius.
@@ -232,7 +232,7 @@ fn cone_normal(axis: DVec3, slope: f64, radial: DVec3) -> DVec3 {
 
 /// The surface at a hit.
 #[derive(Clone, Copy, Debug)]
-pub struct Surface {
+pub struct SurfacePoint {
     /// The hit point (triangles: from the barycentrics, not from o + t·d).
     pub p: DVec3,
     /// Unit geometric normal, "outward": sphere and cylinder away from the axis or centre,
@@ -248,14 +248,14 @@ pub struct Surface {
 }
 
 /// The surface data of a hit found by [`intersect`].
-pub fn surface(prim: &Primitive, ray: &Ray, hit: &PrimHit) -> Surface {
+pub fn surface(prim: &Primitive, ray: &Ray, hit: &Intersection) -> SurfacePoint {
     let scale_of = |p: DVec3| p.abs().max_element().max(ray.origin.abs().max_element()) + hit.t;
     match prim {
         Primitive::Sphere(s) => {
             let p = ray.at(hit.t);
             let ng = (p - s.center).normalize();
             let scale = scale_of(p).max(s.center.abs().max_element() + s.radius);
-            Surface { p, ng, ns: ng, uv: None, scale }
+            SurfacePoint { p, ng, ns: ng, uv: None, scale }
         }
         Primitive::Cylinder(c) => {
             let p = ray.at(hit.t);
@@ -265,7 +265,7 @@ pub fn surface(prim: &Primitive, ray: &Ray, hit: &PrimHit) -> Surface {
             let ng = cone_normal(f.axis, f.slope, radial);
             let extent = c.base.abs().max_element().max(c.apex.abs().max_element());
             let scale = scale_of(p).max(extent);
-            Surface { p, ng, ns: ng, uv: None, scale }
+            SurfacePoint { p, ng, ns: ng, uv: None, scale }
         }
         Primitive::Triangle(t) => {
             let b0 = 1.0 - hit.b1 - hit.b2;
@@ -291,7 +291,7 @@ pub fn surface(prim: &Primitive, ray: &Ray, hit: &PrimHit) -> Surface {
             };
             let uv = t.uv.map(|uv| uv[0] * b0 + uv[1] * hit.b1 + uv[2] * hit.b2);
             let extent = t.p.iter().map(|q| q.abs().max_element()).fold(0.0, f64::max);
-            Surface { p, ng, ns, uv, scale: scale_of(p).max(extent) }
+            SurfacePoint { p, ng, ns, uv, scale: scale_of(p).max(extent) }
         }
     }
 }
@@ -302,13 +302,13 @@ pub fn surface(prim: &Primitive, ray: &Ray, hit: &PrimHit) -> Surface {
 pub const SPAWN_OFFSET_REL: f64 = 1.0 / 4_294_967_296.0;
 
 /// The distance a secondary ray's origin is moved off the surface.
-pub fn spawn_offset(s: &Surface) -> f64 {
+pub fn spawn_offset(s: &SurfacePoint) -> f64 {
     s.scale * SPAWN_OFFSET_REL
 }
 
 /// The origin of a ray leaving surface `s` in direction `dir`: the hit point moved along
 /// the geometric normal, to the side `dir` goes to.
-pub fn spawn_origin(s: &Surface, dir: DVec3) -> DVec3 {
+pub fn spawn_origin(s: &SurfacePoint, dir: DVec3) -> DVec3 {
     let side = if dir.dot(s.ng) >= 0.0 { s.ng } else { -s.ng };
     s.p + side * spawn_offset(s)
 }
@@ -445,7 +445,7 @@ mod tests {
         let k = cyl(1.0, 0.5, false);
         let t = intersect_cylinder(&k, &r, f64::INFINITY).unwrap();
         assert!((t - 4.25).abs() < 1e-12, "{t}");
-        let h = PrimHit::at(t);
+        let h = Intersection::at(t);
         let s = surface(&Primitive::Cylinder(k), &r, &h);
         // Normal leans up (towards the apex) as the cone narrows.
         let expect = DVec3::new(1.0, 0.0, 0.25).normalize();

@@ -30,7 +30,7 @@
 
 use glam::DVec3;
 
-use super::accel::{Accel, Hit, RayOrigin, ShadowQuery};
+use super::accel::{Accel, NearestHit, RayOrigin, ShadowQuery};
 use super::geometry::{spawn_origin, surface, Ray};
 use super::texture;
 use crate::scene::{Light, LightKind, Material, Scene};
@@ -136,7 +136,7 @@ impl Tracer<'_> {
         }
     }
 
-    fn shade(&self, ray: &Ray, h: &Hit, depth: u32, c: &mut Counters) -> DVec3 {
+    fn shade(&self, ray: &Ray, h: &NearestHit, depth: u32, c: &mut Counters) -> DVec3 {
         let scene = self.scene;
         let prim = &scene.primitives[h.prim as usize];
         let m = &scene.materials[prim.material() as usize];

@@ -15,8 +15,8 @@
 
 use glam::{DVec3, Vec3};
 
-use super::accel::{count, Accel, Hit, RayOrigin, ShadowQuery};
-use super::geometry::{intersect, PrimHit, Ray};
+use super::accel::{count, Accel, NearestHit, RayOrigin, ShadowQuery};
+use super::geometry::{intersect, Intersection, Ray};
 use crate::coherence::walk::{walk_any, walk_nearest, walk_start, AnyHit, WALK_CHUNK};
 use crate::coherence::{self, BuildParams, FlatTables, OriginKey, Tables, WalkCount};
 use crate::error::Result;
@@ -99,13 +99,19 @@ impl Accel for TableAccel<'_> {
         "cube"
     }
 
-    fn closest(&self, ray: &Ray, origin: RayOrigin, t_max: f64, tests: &mut TestCounts) -> Option<Hit> {
+    fn closest(
+        &self,
+        ray: &Ray,
+        origin: RayOrigin,
+        t_max: f64,
+        tests: &mut TestCounts,
+    ) -> Option<NearestHit> {
         let flat = self.flat();
         let d = ray.dir.as_vec3().normalize();
         let o = flat.cube_origin(self.key(origin, ray.origin));
         let at = self.at(ray.origin);
         let mut walked = WalkCount::default();
-        let mut best = no_closest::<f64, PrimHit>();
+        let mut best = no_closest::<f64, Intersection>();
         let mut w = walk_start(flat, o, d);
         let mut test = |id: u32| {
             let prim = &self.prims[id as usize];
@@ -126,7 +132,7 @@ impl Accel for TableAccel<'_> {
             &mut test,
         ) {}
         tests.bound += walked.bounds as u64;
-        best.found.then_some(Hit { prim: best.prim, hit: best.hit })
+        best.found.then_some(NearestHit { prim: best.prim, hit: best.hit })
     }
 
     fn occluded(&self, q: &ShadowQuery, tests: &mut TestCounts) -> bool {

@@ -37,3 +37,63 @@ pub fn shared(rel: &str) -> PathBuf {
 pub fn cuberay() -> std::process::Command {
     std::process::Command::new(env!("CARGO_BIN_EXE_cuberay"))
 }
+
+/// Writes the images of a failed comparison (`name.LABEL.png` for each image, and the FLIP
+/// heat map when given) into the tests' scratch folder and returns where they went, for the
+/// failure message.
+pub fn save_failure(
+    name: &str,
+    images: &[(&str, &cuberay::output::Image)],
+    flip: Option<(&[u8], u32, u32)>,
+) -> String {
+    let safe: String =
+        name.chars().map(|c| if c.is_ascii_alphanumeric() || c == '_' { c } else { '-' }).collect();
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("failures");
+    std::fs::create_dir_all(&dir).expect("the failure folder");
+    let mut written = Vec::new();
+    for (label, image) in images {
+        let p = dir.join(format!("{safe}.{label}.png"));
+        // AOV images are linear data: save them as EXR.
+        let p = if image.has_alpha { p.with_extension("exr") } else { p };
+        cuberay::output::write(image, &p).expect("a failure image");
+        written.push(p);
+    }
+    if let Some((rgb, w, h)) = flip {
+        let p = dir.join(format!("{safe}.flip.png"));
+        cuberay::output::write_rgb8(w, h, rgb.to_vec(), &p).expect("the FLIP map");
+        written.push(p);
+    }
+    written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")
+}
+
+/// One test per case, in a module of the cases' name: a failure names its case and hides no
+/// other. `cases!(module: function { test_name => (arguments...), ... })`.
+#[macro_export]
+macro_rules! cases {
+    ($module:ident: $case:path { $($name:ident => ($($arg:expr),* $(,)?)),* $(,)? }) => {
+        mod $module {
+            $(
+                #[test]
+                fn $name() {
+                    $case($($arg),*)
+                }
+            )*
+        }
+    };
+}
+
+/// One test per SPD database: `spd_cases!(module: function => [balls, gears, ...])` calls
+/// `function("balls")` in the test `module::balls`, and so on.
+#[macro_export]
+macro_rules! spd_cases {
+    ($module:ident: $case:path => [$($db:ident),* $(,)?]) => {
+        mod $module {
+            $(
+                #[test]
+                fn $db() {
+                    $case(stringify!($db))
+                }
+            )*
+        }
+    };
+}
