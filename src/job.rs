@@ -5,6 +5,8 @@
 //! It sits beside the renderers, not inside either: the GPU renderer, the preview and the
 //! CPU reference all read it, and none of them imports another.
 
+use glam::DVec3;
+
 use crate::error::{Error, Result};
 use crate::kernel::spawn::SpawnPolicy;
 use crate::output::Image;
@@ -112,6 +114,31 @@ impl RenderOptions {
         set.max_depth = 1;
         set
     }
+}
+
+/// The image of a render from its grid of eye-ray points (one summed RGB per point, as the
+/// kernels leave them): each pixel the mean of its four corners with SPD sampling, else its
+/// sum over `samples` samples divided by `samples` (in f64).
+pub fn grid_image(opts: &RenderOptions, values: &[[f32; 4]], samples: u32) -> Image {
+    let (w, h) = (opts.width, opts.height);
+    let gw = opts.grid().0;
+    let corners = opts.sampling == Sampling::Corners;
+    let at = |i: u32, j: u32| {
+        let p = values[(j * gw + i) as usize];
+        DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
+    };
+    let mut image = Image::new(w, h, false);
+    for j in 0..h {
+        for i in 0..w {
+            let v = if corners {
+                (at(i, j) + at(i + 1, j) + at(i, j + 1) + at(i + 1, j + 1)) * 0.25
+            } else {
+                at(i, j) / samples as f64
+            };
+            image.pixels[(j * w + i) as usize] = [v.x as f32, v.y as f32, v.z as f32, 1.0];
+        }
+    }
+    image
 }
 
 /// A rendered image and its statistics.

@@ -58,15 +58,15 @@ fn kernels_are_compiled_once_per_effect_set() {
     let opts = RenderOptions::new(8, 6);
     r.render(&scene, &opts, &hidden()).unwrap();
     r.render(&scene, &opts, &hidden()).unwrap();
-    assert_eq!(r.compiled_variants(), 1);
+    assert_eq!(r.compiled_kernels(), 1);
     // The AOV pass traces eye rays only: a module (and tables) without effects.
     r.render_aov(&scene, &opts, Aov::Id, &hidden()).unwrap();
     r.render_aov(&scene, &opts, Aov::Depth, &hidden()).unwrap();
-    assert_eq!(r.compiled_variants(), 2);
+    assert_eq!(r.compiled_kernels(), 2);
     // Depth 1 needs neither reflection nor refraction: another module.
     let shallow = RenderOptions { max_depth: 1, ..opts.clone() };
     r.render(&scene, &shallow, &hidden()).unwrap();
-    assert_eq!(r.compiled_variants(), 3);
+    assert_eq!(r.compiled_kernels(), 3);
 }
 
 /// Renders on both backends and checks agreement: FLIP mean, finite pixels, and ray

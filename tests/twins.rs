@@ -10,7 +10,7 @@ use std::mem::{offset_of, size_of};
 
 use cuberay::coherence::flat::{GpuEntry, GpuFace, GpuGroup, GpuOrigin, GROUP_BIT, NO_ORIGIN};
 use cuberay::coherence::groups::GROUP_SLACK;
-use cuberay::coherence::walk::{AnyHit, WALK_CHUNK};
+use cuberay::coherence::walk::{AnyHit, UNBOUNDED, WALK_CHUNK};
 use cuberay::gpu::shaders::{compose, Kernel, Variant};
 use cuberay::kernel::{FAR, NO_ID, SHADOW_END_REL};
 use cuberay::layout::counters::*;
@@ -143,6 +143,7 @@ fn rust_constants() -> BTreeMap<&'static str, Value> {
     BTreeMap::from([
         ("STACK_SIZE", U32(STACK_SIZE as u32)),
         ("WALK_CHUNK", U32(WALK_CHUNK)),
+        ("UNBOUNDED", U32(UNBOUNDED)),
         ("ANY_CLEAR", U32(AnyHit::Clear as u32)),
         ("ANY_BLOCKED", U32(AnyHit::Blocked as u32)),
         ("ANY_UNFINISHED", U32(AnyHit::Unfinished as u32)),

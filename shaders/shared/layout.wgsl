@@ -126,6 +126,10 @@ const STACK_SIZE: u32 = 16u;
 // position kept in `state.walk`. Twin: src/coherence/walk.rs.
 const WALK_CHUNK: u32 = 8192u;
 
+// The budget of a walk that runs to its end in one go (the `aov` kernel, inline shadow
+// walks).
+const UNBOUNDED: u32 = 0xffffffffu;
+
 // Answers of a bounded any-hit walk (coherence::walk::AnyHit).
 const ANY_CLEAR: u32 = 0u;
 const ANY_BLOCKED: u32 = 1u;

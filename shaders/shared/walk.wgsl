@@ -86,7 +86,7 @@ fn cube_walk_nearest(origin: u32, ray: Ray, t_max: f32, skip: u32, ray_kind: u32
         return best;
     }
     var w = walk_start(origin, ray.d);
-    walk_nearest(&w, &best, ray, t_max, skip, ray_kind, 0xffffffffu);
+    walk_nearest(&w, &best, ray, t_max, skip, ray_kind, UNBOUNDED);
     return best;
 }
 
@@ -175,7 +175,7 @@ fn cube_walk_any(origin: u32, ray: Ray, t_max: f32, skip: u32) -> bool {
         return false;
     }
     var w = walk_start(origin, ray.d);
-    return walk_any(&w, ray, t_max, skip, 0xffffffffu) == ANY_BLOCKED;
+    return walk_any(&w, ray, t_max, skip, UNBOUNDED) == ANY_BLOCKED;
 }
 
 // The walk that answers whether light `light` is blocked from `q`, the spawn origin on
@@ -216,7 +216,7 @@ fn occluded_short(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, fro
     if (w.iend - w.i) + (w.jend - w.j) > params.shadow_inline {
         return ANY_UNFINISHED;
     }
-    return walk_any(&w, sw.ray, sw.t_max, skip, 0xffffffffu);
+    return walk_any(&w, sw.ray, sw.t_max, skip, UNBOUNDED);
 }
 
 // Whether light `light` is blocked from `q` (see `shadow_walk`), in one go.

@@ -12,7 +12,6 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::params::ShadowMode;
 use super::tables::Tables;
 use super::walk::{cube_walk_any, cube_walk_nearest, OriginKey, WalkCount};
 use crate::kernel::closest::{brute_nearest, test_prim, Closest};
@@ -222,10 +221,9 @@ impl Tracer<'_> {
             }
             let q = spawn(to_light);
             let skip = self.leave_skip(id, to_light, ng);
-            let use_light =
-                lk != LightKind::Directional && self.tables.shadow_mode == ShadowMode::LightBuffer;
-            if use_light {
-                // Light-buffer style, as the kernels trace it: from the light towards the point.
+            // As the kernels choose (`shadow_walk`): a light with a table of its own is traced
+            // from the light towards the point, any other from the point.
+            if self.tables.flat.table_of(OriginKey::Light(li)).is_some() {
                 let v = q - lp;
                 let dist = v.length();
                 if dist > 0.0 {

@@ -1,10 +1,11 @@
 //! The flattened tables: plain `#[repr(C)]` buffers for the GPU, and their layout.
 //!
-//! Four storage buffers (each at most 128 MiB, wgpu's default `max_storage_buffer_binding_size`)
-//! and two small index buffers:
+//! Nine storage buffers, each at most 128 MiB (wgpu's default
+//! `max_storage_buffer_binding_size`):
 //!
 //! ```text
-//! origins:    array<GpuOrigin>      one per origin entity (eye, light, surface cluster)
+//! origins:    array<GpuOrigin>      one per origin entity (eye, light, surface cluster,
+//!                                   and the fallback origin last)
 //! faces:      array<GpuFace>        six per origin, at origin·6 + face
 //! cell_start: array<u32>            one per stored cell, plus one: cell c lists
 //!                                   entries[cell_start[c] .. cell_start[c+1]]

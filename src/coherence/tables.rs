@@ -117,6 +117,7 @@ impl Tables {
         self.built[0] = build_origin(&def, &ctx);
         self.defs[0] = def;
         self.flat = flat_tables(&self.built, &self.defs, scene, &targets, &ctx.groups)?;
+        self.flat.check(targets.len())?;
         self.walks = WalkBounds::of(scene, &self.flat, params.effects.unwrap_or_else(|| scene.effects()));
         self.eye_image = params.eye_image(scene);
         self.build_s = start.elapsed().as_secs_f64();

@@ -8,7 +8,10 @@
 //! names (`walk_start`, `walk_next`, `walk_done`, `walk_nearest`, `walk_any`,
 //! `cube_walk_nearest`, `cube_walk_any`) and the same step budget, so that a walk may stop
 //! after `budget` loop iterations and resume where it stopped, as the GPU's stepped kernel
-//! does ([`WALK_CHUNK`] per step). It is generic over the distance type and the hit payload
+//! does ([`WALK_CHUNK`] per step). The rest of `walk.wgsl` (`closest`, `closest_step`,
+//! `shadow_walk`, `occluded*`) is the kernels' own: it keeps a walk's position in the point
+//! state between steps and picks the ray a shadow query walks, which the CPU callers do for
+//! themselves. It is generic over the distance type and the hit payload
 //! ([`Closest`]): the GPU-side tests walk it with the f32 intersection twins, the CPU
 //! reference's `--accel cube` with its own f64 tests. Both look cells up with the f32
 //! direction, as the GPU does; the tables are widened for that.
@@ -26,7 +29,7 @@ use crate::kernel::closest::{consider, no_closest, Closest, Dist};
 /// `WALK_CHUNK`, keep them in sync).
 pub const WALK_CHUNK: u32 = 8192;
 
-/// The budget of a walk that runs to its end in one go.
+/// The budget of a walk that runs to its end in one go (WGSL `UNBOUNDED`).
 pub const UNBOUNDED: u32 = u32::MAX;
 
 /// A ray's origin entity: what its table is keyed by.

@@ -57,17 +57,16 @@ pub fn upload(
     let attrs = storage("tri_attrs", bytemuck::cast_slice(&packed.tri_attrs), none);
     let infos = storage("texture_infos", bytemuck::cast_slice(&packed.texture_infos), none);
     let texels = storage("texels", bytemuck::cast_slice(&packed.texels), none);
-    let flat = tables;
     let table = |label: &str, bytes: Option<&[u8]>| storage(label, bytes.unwrap_or(&[]), none);
-    let origins = table("origins", flat.map(|f| bytemuck::cast_slice(&f.origins)));
-    let faces = table("faces", flat.map(|f| bytemuck::cast_slice(&f.faces)));
-    let cell_start = table("cell_start", flat.map(|f| bytemuck::cast_slice(&f.cell_start)));
-    let entries = table("entries", flat.map(|f| bytemuck::cast_slice(&f.entries)));
-    let prim_origin = table("prim_origin", flat.map(|f| bytemuck::cast_slice(&f.prim_origin)));
-    let light_origin = table("light_origin", flat.map(|f| bytemuck::cast_slice(&f.light_origin)));
-    let prim_patches = table("prim_patches", flat.map(|f| bytemuck::cast_slice(&f.prim_patches)));
-    let groups = table("groups", flat.map(|f| bytemuck::cast_slice(&f.groups)));
-    let group_prims = table("group_prims", flat.map(|f| bytemuck::cast_slice(&f.group_prims)));
+    let origins = table("origins", tables.map(|f| bytemuck::cast_slice(&f.origins)));
+    let faces = table("faces", tables.map(|f| bytemuck::cast_slice(&f.faces)));
+    let cell_start = table("cell_start", tables.map(|f| bytemuck::cast_slice(&f.cell_start)));
+    let entries = table("entries", tables.map(|f| bytemuck::cast_slice(&f.entries)));
+    let prim_origin = table("prim_origin", tables.map(|f| bytemuck::cast_slice(&f.prim_origin)));
+    let light_origin = table("light_origin", tables.map(|f| bytemuck::cast_slice(&f.light_origin)));
+    let prim_patches = table("prim_patches", tables.map(|f| bytemuck::cast_slice(&f.prim_patches)));
+    let groups = table("groups", tables.map(|f| bytemuck::cast_slice(&f.groups)));
+    let group_prims = table("group_prims", tables.map(|f| bytemuck::cast_slice(&f.group_prims)));
     let params = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("params"),
         size: std::mem::size_of::<Params>() as u64,

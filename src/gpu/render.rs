@@ -9,7 +9,6 @@
 
 use std::time::Instant;
 
-use glam::DVec3;
 use indicatif::ProgressBar;
 
 use super::buffers::{upload, SceneBuffers};
@@ -19,7 +18,7 @@ use super::shaders::{Kernel, Queries, Variant};
 use super::GpuContext;
 use crate::coherence::{self, FlatTables, Tables};
 use crate::error::{Error, Result};
-use crate::job::{simulated_effects, AccelKind, RenderOptions, Rendered};
+use crate::job::{grid_image, simulated_effects, AccelKind, RenderOptions, Rendered};
 use crate::layout::budget::{self, check_loop_budget, table_params, MAX_DEPTH, TESTS_PER_DISPATCH};
 use crate::layout::counters::{decode_counters, COUNTER_BYTES};
 use crate::layout::{job_params, pack, Packed, AOV_DEPTH, AOV_ID, AOV_NORMAL};
@@ -64,7 +63,7 @@ impl GpuRenderer {
     }
 
     /// How many kernel pipelines have been compiled so far (each kernel and variant once).
-    pub fn compiled_variants(&self) -> usize {
+    pub fn compiled_kernels(&self) -> usize {
         self.kernels.compiled()
     }
 
@@ -147,7 +146,6 @@ impl GpuRenderer {
 
     /// Renders `scene` to linear radiance on the GPU.
     pub fn render(&self, scene: &Scene, opts: &RenderOptions, progress: &ProgressBar) -> Result<Rendered> {
-        let (w, h) = (opts.width, opts.height);
         let Prepared { variant, pipeline, mut packed, tables, start } = self.prepare(scene, opts, false)?;
         packed.params = job_params(opts, packed.params);
         let preprocess_s = start.elapsed().as_secs_f64();
@@ -163,24 +161,7 @@ impl GpuRenderer {
         )?;
         let trace_s = start.elapsed().as_secs_f64();
 
-        let corners = opts.sampling == Sampling::Corners;
-        let gw = opts.grid().0;
-        let mut image = Image::new(w, h, false);
-        let px = |v: DVec3| [v.x as f32, v.y as f32, v.z as f32, 1.0];
-        let at = |i: u32, j: u32| {
-            let p = run.values[(j * gw + i) as usize];
-            DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
-        };
-        for j in 0..h {
-            for i in 0..w {
-                let v = if corners {
-                    (at(i, j) + at(i + 1, j) + at(i, j + 1) + at(i + 1, j + 1)) * 0.25
-                } else {
-                    at(i, j) / opts.spp as f64
-                };
-                image.pixels[(j * w + i) as usize] = px(v);
-            }
-        }
+        let image = grid_image(opts, &run.values, opts.spp);
         let stats = Stats::new(
             opts.settings("gpu", accel_name(variant)),
             simulated_effects(scene, opts.max_depth),

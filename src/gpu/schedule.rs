@@ -175,13 +175,19 @@ impl Schedule {
         // change nothing (`active` counts the last one).
         for k in 0..self.dispatches {
             enc.clear_buffer(&buffers.active, 0, None);
-            let timestamp_writes = self.timer.as_ref().map(|t| wgpu::ComputePassTimestampWrites {
-                query_set: &t.set,
-                beginning_of_pass_write_index: (k == 0).then_some(0),
-                end_of_pass_write_index: (k + 1 == self.dispatches).then_some(1),
+            // The first pass writes the start time, the last the end time.
+            let (first_pass, last_pass) = (k == 0, k + 1 == self.dispatches);
+            let timestamp_writes = self.timer.as_ref().filter(|_| first_pass || last_pass).map(|t| {
+                wgpu::ComputePassTimestampWrites {
+                    query_set: &t.set,
+                    beginning_of_pass_write_index: first_pass.then_some(0),
+                    end_of_pass_write_index: last_pass.then_some(1),
+                }
             });
-            let mut pass = enc
-                .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("trace"), timestamp_writes });
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("kernel step"),
+                timestamp_writes,
+            });
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &buffers.bind, &[]);
             pass.dispatch_workgroups(count.div_ceil(WORKGROUP), 1, 1);

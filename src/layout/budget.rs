@@ -38,16 +38,27 @@ fn per_test(scene: &Scene) -> u64 {
     }
 }
 
+/// Loop iterations a step spends besides its walks: the light loop, the counters' flush, and
+/// a margin for the short loops of shading.
+fn step_overhead(scene: &Scene) -> u64 {
+    scene.lights.len() as u64 + COUNTER_COUNT as u64 + 16
+}
+
+/// Loop iterations of one chunk of a walk: [`WALK_CHUNK`] entries and the members of the last
+/// group entry.
+fn chunk_iterations(scene: &Scene) -> u64 {
+    per_test(scene) * (WALK_CHUNK as u64 + GROUP_SIZE as u64)
+}
+
 /// Shadow walks of at most this many entries are traced within the step that found the hit
 /// (`Params::shadow_inline`): as many as keep a step, with one whole walk and every light's
 /// inline walk (each entry possibly a group of `GROUP_SIZE`), within lavapipe's loop limit.
 /// Longer walks become jobs on the ray stack, one step each at least.
 pub fn shadow_inline(scene: &Scene) -> u32 {
-    let per_test = per_test(scene);
     let lights = scene.lights.len() as u64;
-    let group = GROUP_SIZE as u64;
-    let step = per_test * (WALK_CHUNK as u64 + group) + lights + COUNTER_COUNT as u64 + 16;
-    (LAVAPIPE_LOOP_LIMIT.saturating_sub(step) / (lights.max(1) * per_test * (1 + group))) as u32
+    let step = chunk_iterations(scene) + step_overhead(scene);
+    (LAVAPIPE_LOOP_LIMIT.saturating_sub(step) / (lights.max(1) * per_test(scene) * (1 + GROUP_SIZE as u64)))
+        as u32
 }
 
 /// Checks that no kernel step can pass lavapipe's loop limit; were one to need more, the
@@ -73,7 +84,7 @@ pub fn check_loop_budget(scene: &Scene, walks: Option<&WalkBounds>, max_depth: O
     let steps = match max_depth {
         Some(d) => {
             let group = GROUP_SIZE as u64;
-            let chunk = per_test * (WALK_CHUNK as u64 + group);
+            let chunk = chunk_iterations(scene);
             // The eye ray is depth 1, so secondary rays take at most `d` slots.
             let inline = if d as u64 + lights > STACK_SIZE as u64 {
                 lights * shadow
@@ -84,7 +95,7 @@ pub fn check_loop_budget(scene: &Scene, walks: Option<&WalkBounds>, max_depth: O
         }
         None => eye,
     };
-    let worst = steps + lights + COUNTER_COUNT as u64 + 16;
+    let worst = steps + step_overhead(scene);
     if worst > LAVAPIPE_LOOP_LIMIT {
         return Err(Error::Options(format!(
             "{what} over {} primitives and {lights} lights need up to {worst} loop iterations per \

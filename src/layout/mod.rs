@@ -1,5 +1,6 @@
-//! The flat GPU layout, without wgpu: the `#[repr(C)]` twins of every WGSL struct and
-//! constant shared with the host ([`structs`], [`counters`]), the scene packed into them
+//! The flat GPU layout, without wgpu: the `#[repr(C)]` twins of the structs and constants of
+//! `shaders/shared/layout.wgsl` ([`structs`], [`counters`]; the tables' are in
+//! [`crate::coherence::flat`]), the scene packed into them
 //! ([`pack`](mod@pack)), and the limits one kernel step keeps to ([`budget`]).
 
 pub mod budget;

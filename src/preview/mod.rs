@@ -4,9 +4,10 @@
 //! - [`session`]: the GPU side without a window — passes of one sample each, split into
 //!   short steps, added to an accumulation; camera, effect and depth changes restart it;
 //! - [`controls`]: orbit, pan, zoom and fly as camera geometry;
-//! - this module: the window, input, the display pass (the accumulation's average,
-//!   clamped and sRGB-encoded like the PNG output), the title (samples per pixel,
-//!   milliseconds per frame, rays per second) and screenshots.
+//! - [`display`]: the display pass (the accumulation's average, clamped and sRGB-encoded
+//!   like the PNG output);
+//! - this module: the window, input, the title (samples per pixel, milliseconds per frame,
+//!   rays per second) and screenshots.
 //!
 //! Each redraw spends at most [`FRAME_BUDGET`] on GPU steps before presenting, so the
 //! window keeps responding on big scenes; a frame may finish several passes on small ones.

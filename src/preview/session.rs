@@ -22,11 +22,10 @@ use crate::gpu::kernels::compute_pipeline;
 use crate::gpu::schedule::{Pacing, Progress, Schedule};
 use crate::gpu::shaders::{Kernel, Variant};
 use crate::gpu::{self, GpuRenderer, SceneBuffers};
-use crate::job::{AccelKind, RenderOptions};
+use crate::job::{grid_image, AccelKind, RenderOptions};
 use crate::layout::budget::{table_params, tile_points, MAX_DEPTH, TESTS_PER_DISPATCH};
 use crate::layout::{job_params, pack, Params};
 use crate::output::Image;
-use crate::sampling::Sampling;
 use crate::scene::{Camera, Effects, Scene};
 
 /// The wall time one submission should take; tiles shrink or grow towards it.
@@ -384,31 +383,13 @@ impl Session {
         }
         let (gw, gh) = self.grid;
         let bytes = gw as u64 * gh as u64 * 16;
-        let (w, h) = (self.opts.width, self.opts.height);
         let ctx = &self.gpu.ctx;
         let read = ctx.readback_buffer("accumulation readback", bytes);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         enc.copy_buffer_to_buffer(&self.accum, 0, &read, 0, bytes);
         ctx.queue.submit([enc.finish()]);
         let data = ctx.read(&read, bytes)?;
-        let values: &[[f32; 4]] = bytemuck::cast_slice(&data);
-        let at = |i: u32, j: u32, c: usize| values[(j * gw + i) as usize][c] as f64;
-        let corners = self.opts.sampling == Sampling::Corners;
-        let mut image = Image::new(w, h, false);
-        for j in 0..h {
-            for i in 0..w {
-                let mut px = [0.0f32, 0.0, 0.0, 1.0];
-                for (c, v) in px.iter_mut().take(3).enumerate() {
-                    *v = if corners {
-                        (at(i, j, c) + at(i + 1, j, c) + at(i, j + 1, c) + at(i + 1, j + 1, c)) * 0.25
-                    } else {
-                        at(i, j, c) / self.passes as f64
-                    } as f32;
-                }
-                image.pixels[(j * w + i) as usize] = px;
-            }
-        }
-        Ok(image)
+        Ok(grid_image(&self.opts, bytemuck::cast_slice(&data), self.passes))
     }
 }
 

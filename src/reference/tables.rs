@@ -107,6 +107,9 @@ impl Accel for TableAccel<'_> {
         tests: &mut TestCounts,
     ) -> Option<NearestHit> {
         let flat = self.flat();
+        if ray.dir.abs().max_element() == 0.0 {
+            return None;
+        }
         let d = ray.dir.as_vec3().normalize();
         let o = flat.cube_origin(self.key(origin, ray.origin));
         let at = self.at(ray.origin);
@@ -142,7 +145,7 @@ impl Accel for TableAccel<'_> {
             let to_point = q.ray.origin - lp;
             let reach = to_point.length();
             if reach > 0.0 {
-                let d = (to_point / reach).as_vec3();
+                let d = (to_point / reach).as_vec3().normalize();
                 return self.any_hit(l, self.at(lp), d, reach, q, tests);
             }
         }
