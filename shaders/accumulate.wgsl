@@ -10,7 +10,8 @@ struct Tile {
     pad1: u32,
 }
 
-@group(0) @binding(0) var<uniform> tile: Tile;
+// A storage buffer, not a uniform, for the reason `params` is one (shared/layout.wgsl).
+@group(0) @binding(0) var<storage, read> tile: Tile;
 @group(0) @binding(1) var<storage, read> tile_out: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> accum: array<vec4<f32>>;
 

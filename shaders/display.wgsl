@@ -16,7 +16,9 @@ struct View {
     pad1: u32,
 }
 
-@group(0) @binding(0) var<uniform> view: View;
+// A storage buffer, not a uniform, for the reason `params` is one (shared/layout.wgsl):
+// `samples` changes with every frame.
+@group(0) @binding(0) var<storage, read> view: View;
 @group(0) @binding(1) var<storage, read> image: array<vec4<f32>>;
 
 struct VertexOut {

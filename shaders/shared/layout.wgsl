@@ -162,7 +162,13 @@ struct PointState {
     stack: array<Pending, STACK_SIZE>,
 }
 
-@group(0) @binding(0) var<uniform> params: Params;
+// `params` is a read-only storage buffer, not a uniform: lavapipe specialises a shader on
+// the values of uniforms that steer its control flow ("inlined uniforms") and compiles a
+// new variant for every new set of values. The tile's first point changes with every tile,
+// so a uniform `params` made one compiled variant per tile, each kept until the device goes:
+// memory grew with every tile (gears_s4 by brute force at 64x64: 0.2 to 5.6 GB in two
+// minutes) and every tile paid a compile or a cache load.
+@group(0) @binding(0) var<storage, read> params: Params;
 @group(0) @binding(1) var<storage, read> prims: array<Prim>;
 @group(0) @binding(2) var<storage, read> materials: array<Material>;
 @group(0) @binding(3) var<storage, read> lights: array<Light>;

@@ -10,9 +10,10 @@ use super::shaders::{self, Kernel, Variant};
 use super::GpuContext;
 use crate::error::Result;
 
-/// The scene buffers' bindings: 0 the uniform `params`, 1–6 the read-only scene, 7–10 the
-/// kernels' outputs and state, 11–19 the candidate tables (brute-force kernels leave them
-/// unused).
+/// The scene buffers' bindings: 0 `params`, 1–6 the read-only scene, 7–10 the kernels'
+/// outputs and state, 11–19 the candidate tables (brute-force kernels leave them unused).
+/// `params` is a read-only storage buffer, not a uniform: lavapipe would compile a variant
+/// of the kernel for every tile's values (see `shaders/shared/layout.wgsl`).
 fn bind_layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
     let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
         binding,
@@ -21,7 +22,7 @@ fn bind_layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
         count: None,
     };
     let storage = |read_only| wgpu::BufferBindingType::Storage { read_only };
-    let mut entries = vec![entry(0, wgpu::BufferBindingType::Uniform)];
+    let mut entries = vec![entry(0, storage(true))];
     entries.extend((1..=6).map(|b| entry(b, storage(true))));
     entries.extend((7..=10).map(|b| entry(b, storage(false))));
     entries.extend((11..=19).map(|b| entry(b, storage(true))));

@@ -6,7 +6,7 @@
 
 use bytemuck::{Pod, Zeroable};
 
-/// Kernel parameters (WGSL `Params`, a uniform; keep in sync with
+/// Kernel parameters (WGSL `Params`, in a read-only storage buffer; keep in sync with
 /// `shaders/shared/layout.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]

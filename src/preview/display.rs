@@ -8,7 +8,7 @@ use crate::gpu::shaders::{Kernel, Variant};
 use crate::gpu::GpuContext;
 use crate::sampling::Sampling;
 
-/// What the window shows: the display pass's uniform (WGSL `View` in
+/// What the window shows, read by the display pass (WGSL `View` in
 /// `shaders/display.wgsl`, keep them in sync).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
@@ -29,7 +29,7 @@ pub struct View {
 /// The display pass: a full-window triangle whose fragments read the accumulation.
 pub struct Display {
     pipeline: wgpu::RenderPipeline,
-    uniform: wgpu::Buffer,
+    view_buffer: wgpu::Buffer,
     encode: bool,
 }
 
@@ -58,13 +58,13 @@ impl Display {
             multiview_mask: None,
             cache: None,
         });
-        let uniform = device.create_buffer(&wgpu::BufferDescriptor {
+        let view_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("display view"),
             size: std::mem::size_of::<View>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        Ok(Display { pipeline, uniform, encode: !format.is_srgb() })
+        Ok(Display { pipeline, view_buffer, encode: !format.is_srgb() })
     }
 
     /// Draws the session's accumulation into `target`.
@@ -79,12 +79,12 @@ impl Display {
             encode: self.encode as u32,
             ..View::default()
         };
-        ctx.queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&view));
+        ctx.queue.write_buffer(&self.view_buffer, 0, bytemuck::bytes_of(&view));
         let bind = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("display"),
             layout: &self.pipeline.get_bind_group_layout(0),
             entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: self.uniform.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 0, resource: self.view_buffer.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 1, resource: session.accumulation().as_entire_binding() },
             ],
         });

@@ -31,7 +31,7 @@ use crate::scene::{Camera, Effects, Scene};
 /// The wall time one submission should take; tiles shrink or grow towards it.
 const STEP_TARGET: Duration = Duration::from_millis(30);
 
-/// Which points of the image a finished tile holds: the `accumulate` kernel's uniform (WGSL
+/// Which points of the image a finished tile holds, read by the `accumulate` kernel (WGSL
 /// `Tile` in `shaders/accumulate.wgsl`, keep them in sync).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
@@ -110,7 +110,7 @@ pub struct Session {
     base: Params,
     grid: (u32, u32),
     accum: wgpu::Buffer,
-    tile_uniform: wgpu::Buffer,
+    tile_buffer: wgpu::Buffer,
     accumulate: wgpu::ComputePipeline,
     accumulate_bind: wgpu::BindGroup,
     schedule: Schedule,
@@ -154,14 +154,14 @@ impl Session {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let tile_uniform = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        let tile_buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("accumulate tile"),
             size: std::mem::size_of::<Tile>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
         let accumulate = compute_pipeline(ctx, Kernel::Accumulate, Variant::default(), None)?;
-        let accumulate_bind = accumulate_bind(ctx, &accumulate, &tile_uniform, &buffers, &accum);
+        let accumulate_bind = accumulate_bind(ctx, &accumulate, &tile_buffer, &buffers, &accum);
         let schedule = Schedule::new(ctx, total, tile, true, Pacing::Adaptive { target: STEP_TARGET }, false);
         let mut s = Session {
             base: job_params(&opts, packed.params),
@@ -175,7 +175,7 @@ impl Session {
             buffers,
             grid,
             accum,
-            tile_uniform,
+            tile_buffer,
             accumulate,
             accumulate_bind,
             schedule,
@@ -296,7 +296,7 @@ impl Session {
     /// Points the accumulation pass at the current output buffer.
     fn rebind(&mut self) {
         self.accumulate_bind =
-            accumulate_bind(&self.gpu.ctx, &self.accumulate, &self.tile_uniform, &self.buffers, &self.accum);
+            accumulate_bind(&self.gpu.ctx, &self.accumulate, &self.tile_buffer, &self.buffers, &self.accum);
     }
 
     /// Switches effects on or off and sets the maximum depth; restarts the
@@ -355,7 +355,7 @@ impl Session {
         };
         let (device, queue) = (&self.gpu.ctx.device, &self.gpu.ctx.queue);
         let tile = Tile { first_point: first as u32, point_count: count, ..Tile::default() };
-        queue.write_buffer(&self.tile_uniform, 0, bytemuck::bytes_of(&tile));
+        queue.write_buffer(&self.tile_buffer, 0, bytemuck::bytes_of(&tile));
         let mut enc = device.create_command_encoder(&Default::default());
         {
             let mut pass = enc.begin_compute_pass(&Default::default());
@@ -393,7 +393,7 @@ impl Session {
     }
 }
 
-/// The accumulation pass's bind group: the tile uniform, the kernel's output, the
+/// The accumulation pass's bind group: the tile, the kernel's output, the
 /// accumulation.
 fn accumulate_bind(
     ctx: &gpu::GpuContext,
