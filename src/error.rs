@@ -85,6 +85,9 @@ pub enum Error {
     /// The window system failed.
     #[error("the window system failed: {0}")]
     Window(String),
+    /// A signal (`signal`, its number) asked to stop; nothing was written.
+    #[error("interrupted by signal {signal}; nothing was written")]
+    Interrupted { signal: i32 },
 }
 
 impl Error {

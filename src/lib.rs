@@ -31,6 +31,7 @@ pub mod compare;
 pub mod error;
 pub mod gpu;
 pub mod info;
+pub mod interrupt;
 pub mod job;
 pub mod kernel;
 pub mod layout;

@@ -144,14 +144,21 @@ fn write_atomically(
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
-    let tmp = tempfile::Builder::new().prefix(".cuberay-").suffix(".tmp").tempfile_in(dir).map_err(io)?;
+    let tmp = tempfile::Builder::new().prefix(".cuberay-").suffix(".tmp").tempfile_in(dir).map_err(|e| {
+        Error::Io {
+            path: dir.to_owned(),
+            source: std::io::Error::new(e.kind(), "cannot create a file in this folder"),
+        }
+    })?;
     {
         let mut w = BufWriter::new(tmp.as_file());
         encode(&mut w).map_err(|source| Error::Encode { path: path.to_owned(), source })?;
         w.flush().map_err(io)?;
     }
     tmp.as_file().sync_all().map_err(io)?;
-    // Dropping `tmp` on an error above removes the temporary file.
+    // A stop asked for while the file was written: nothing is left behind (dropping `tmp` on
+    // any error above removes the temporary file).
+    crate::interrupt::check()?;
     tmp.persist(path).map_err(|e| io(e.error))?;
     Ok(())
 }

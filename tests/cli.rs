@@ -76,3 +76,88 @@ fn bad_input_exits_non_zero_with_file_and_line() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("unknown scene format"));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Runs `cuberay render ARGS -o DIR/out.png`, sends `signal` once it has rendered for a
+/// while, and checks that it stops within a second with exit status `code` (128 + the
+/// signal's number) and leaves the output folder empty: no image, no temporary file.
+fn interrupted_render_writes_nothing(signal: &str, code: i32, args: &[&str]) {
+    let dir = tempfile::tempdir().unwrap();
+    let mut child = cuberay()
+        .arg("render")
+        .args(args)
+        .arg("-o")
+        .arg(dir.path().join("out.png"))
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    assert!(child.try_wait().unwrap().is_none(), "the render ended before the signal: make it longer");
+    let start = std::time::Instant::now();
+    let kill =
+        std::process::Command::new("kill").arg(format!("-{signal}")).arg(child.id().to_string()).status();
+    assert!(kill.unwrap().success());
+    let out = child.wait_with_output().unwrap();
+    let took = start.elapsed();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    eprintln!("SIG{signal}: stopped after {:.0} ms; {}", took.as_secs_f64() * 1e3, stderr.trim());
+    assert!(took.as_secs_f64() < 1.0, "SIG{signal}: the render took {took:?} to stop");
+    assert_eq!(out.status.code(), Some(code), "SIG{signal}: {stderr}");
+    assert!(stderr.contains("nothing was written"), "{stderr}");
+    let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert!(left.is_empty(), "SIG{signal} left files behind: {left:?}");
+}
+
+#[test]
+fn sigint_stops_a_gpu_render_and_writes_nothing() {
+    let scene = shared("spd/nff/tetra_s6.nff");
+    let scene = scene.to_str().unwrap();
+    // Compile the kernel first: lavapipe compiles at the first dispatch, which no signal
+    // interrupts.
+    let dir = tempfile::tempdir().unwrap();
+    let warm = cuberay()
+        .args(["render", scene, "--sampling", "corners", "--width", "8", "--height", "8", "-o"])
+        .arg(dir.path().join("warm.png"))
+        .output()
+        .unwrap();
+    assert!(warm.status.success(), "{}", String::from_utf8_lossy(&warm.stderr));
+    interrupted_render_writes_nothing(
+        "INT",
+        130,
+        &[scene, "--sampling", "corners", "--width", "2048", "--height", "2048"],
+    );
+}
+
+#[test]
+fn sigterm_stops_a_cpu_render_and_writes_nothing() {
+    let scene = shared("spd/nff/balls_s4.nff");
+    let args = [
+        scene.to_str().unwrap(),
+        "--backend",
+        "cpu",
+        "--accel",
+        "brute",
+        "--width",
+        "512",
+        "--height",
+        "512",
+    ];
+    interrupted_render_writes_nothing("TERM", 143, &args);
+}
+
+/// A headless GPU render prints nothing on stderr, even where XDG_RUNTIME_DIR is unset
+/// (Mesa's device-selection layer made libwayland complain about it on every run).
+#[test]
+fn a_headless_gpu_render_is_quiet() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = cuberay()
+        .args(["render", "--width", "16", "--height", "12", "-o"])
+        .arg(dir.path().join("quiet.png"))
+        .env_remove("XDG_RUNTIME_DIR")
+        .env_remove("NODEVICE_SELECT")
+        .env_remove("RUST_LOG")
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    assert_eq!(String::from_utf8_lossy(&out.stderr), "", "stderr of a plain render");
+}

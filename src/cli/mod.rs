@@ -45,14 +45,50 @@ enum Command {
 }
 
 pub fn main() -> ExitCode {
+    quiet_device_selection();
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    stop_on_signals();
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
+            if let Some(cuberay::Error::Interrupted { signal }) = e.downcast_ref::<cuberay::Error>() {
+                eprintln!("interrupted (signal {signal}): nothing was written");
+                return ExitCode::from((128 + signal).clamp(0, 255) as u8);
+            }
             eprintln!("error: {e:#}");
             ExitCode::FAILURE
         }
+    }
+}
+
+/// SIGINT and SIGTERM ask the render to stop ([`cuberay::interrupt`]): it ends within a kernel
+/// step, writes nothing and exits with 128 + the signal's number. A second signal ends the
+/// process at once.
+fn stop_on_signals() {
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM]) else {
+        log::warn!("cannot install the signal handlers: an interrupted render may leave a temporary file");
+        return;
+    };
+    std::thread::spawn(move || {
+        for signal in signals.forever() {
+            if cuberay::interrupt::requested().is_some() {
+                std::process::exit(128 + signal);
+            }
+            cuberay::interrupt::request(signal);
+        }
+    });
+}
+
+/// Mesa's Vulkan device-selection layer opens a Wayland connection to learn which GPU drives
+/// the display, and libwayland prints "XDG_RUNTIME_DIR is invalid or not set" on every run
+/// where that variable is unset. cuberay picks its adapter itself (`WGPU_ADAPTER_NAME`,
+/// power preference), so the layer is skipped unless the user set `NODEVICE_SELECT`.
+fn quiet_device_selection() {
+    if std::env::var_os("NODEVICE_SELECT").is_none() {
+        // SAFETY: called first in `main`, before any other thread exists.
+        unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
     }
 }
 

@@ -86,6 +86,10 @@ pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
         heap.push((Reverse(Key(0.0)), 0));
     }
     while let Some((Reverse(Key(node_dmin)), ni)) = heap.pop() {
+        // A stop asked for: the build returns `Error::Interrupted` before using this table.
+        if crate::interrupt::requested().is_some() {
+            break;
+        }
         let node = ctx.bvh.nodes[ni as usize];
         // Skip the subtree when every cell its bound meets is already cut off before it.
         if let Some(k) = sphere_cone(c, r, node.center, node.radius + eps, delta) {

@@ -115,6 +115,7 @@ impl Tables {
         let ctx = Ctx::new(&targets, &bvh, self.eps, params);
         let def = eye_def(scene, params, self.eps);
         self.built[0] = build_origin(&def, &ctx);
+        crate::interrupt::check()?;
         self.defs[0] = def;
         self.flat = flat_tables(&self.built, &self.defs, scene, &targets, &ctx.groups)?;
         self.flat.check(targets.len())?;
@@ -147,6 +148,7 @@ pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables> {
         }
     }
     let mut built: Vec<OriginTable> = defs.par_iter().map(|d| build_origin(d, &ctx)).collect();
+    crate::interrupt::check()?;
     let fixed_bytes: usize =
         built.iter().map(table_bytes).sum::<usize>() + 4 * (targets.len() + scene.lights.len() + 1);
 
@@ -170,6 +172,7 @@ pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables> {
         defs.extend(s.defs);
         built.extend(s.built);
     }
+    crate::interrupt::check()?;
     let flat = flat_tables(&built, &defs, scene, &targets, &ctx.groups)?;
     flat.check(targets.len())?;
     Ok(Tables {

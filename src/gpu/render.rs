@@ -237,6 +237,8 @@ impl GpuRenderer {
         progress.set_length(schedule.tiles());
         let mut values = Vec::with_capacity(total as usize);
         loop {
+            // Between kernel steps a stop asked for ends the render.
+            crate::interrupt::check()?;
             let Progress::TileDone { count, pass_done, .. } =
                 schedule.step(&self.ctx, pipeline, &buffers, &packed.params)?
             else {

@@ -329,6 +329,7 @@ impl Session {
         let start = Instant::now();
         let mut worked = false;
         while !self.is_complete() && (!worked || start.elapsed() + self.schedule.last_submit() < budget) {
+            crate::interrupt::check()?;
             self.step()?;
             worked = true;
         }
@@ -338,6 +339,7 @@ impl Session {
     /// Runs passes until complete.
     pub fn finish(&mut self) -> Result<()> {
         while !self.is_complete() {
+            crate::interrupt::check()?;
             self.step()?;
         }
         Ok(())

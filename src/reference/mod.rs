@@ -66,6 +66,12 @@ fn prepare(scene: &Scene, opts: &RenderOptions) -> Result<()> {
     scene.validate()
 }
 
+/// Whether a stop was asked for: the pixel loops then skip their work, and the render
+/// returns `Error::Interrupted`.
+fn stopped() -> bool {
+    crate::interrupt::requested().is_some()
+}
+
 fn to_pixel(c: DVec3) -> [f32; 4] {
     [c.x as f32, c.y as f32, c.z as f32, 1.0]
 }
@@ -95,7 +101,15 @@ pub fn render(scene: &Scene, opts: &RenderOptions, progress: &ProgressBar) -> Re
                 .into_par_iter()
                 .map(|j| {
                     let mut c = Counters::default();
-                    let row = (0..=w).map(|i| tracer.eye(&eye_ray(i as f64, j as f64), &mut c)).collect();
+                    let row = (0..=w)
+                        .map(|i| {
+                            if stopped() {
+                                DVec3::ZERO
+                            } else {
+                                tracer.eye(&eye_ray(i as f64, j as f64), &mut c)
+                            }
+                        })
+                        .collect();
                     progress.inc(1);
                     (row, c)
                 })
@@ -122,6 +136,9 @@ pub fn render(scene: &Scene, opts: &RenderOptions, progress: &ProgressBar) -> Re
                         .map(|i| {
                             let mut sum = DVec3::ZERO;
                             for s in 0..spp {
+                                if stopped() {
+                                    break;
+                                }
                                 let (x, y) = sampling::sample_position(i, j, w, s, spp, opts.seed);
                                 sum += tracer.eye(&eye_ray(x, y), &mut c);
                             }
@@ -138,6 +155,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions, progress: &ProgressBar) -> Re
             }
         }
     }
+    crate::interrupt::check()?;
     let trace_s = start.elapsed().as_secs_f64();
     let stats = Stats::new(
         opts.settings("cpu", accel.name()),
@@ -166,6 +184,9 @@ pub fn render_aov(scene: &Scene, opts: &RenderOptions, aov: Aov, progress: &Prog
             let row = (0..w)
                 .map(|i| {
                     let (o, d) = scene.camera.ray(i as f64 + 0.5, j as f64 + 0.5, w, h);
+                    if stopped() {
+                        return [0.0; 4];
+                    }
                     match tracer.first_hit(&Ray::new(o, d), &mut c) {
                         None => match aov {
                             Aov::Id => [-1.0, -1.0, -1.0, 0.0],
@@ -189,6 +210,7 @@ pub fn render_aov(scene: &Scene, opts: &RenderOptions, aov: Aov, progress: &Prog
         counters += c;
         image.pixels[j * w as usize..(j + 1) * w as usize].copy_from_slice(&row);
     }
+    crate::interrupt::check()?;
     let trace_s = start.elapsed().as_secs_f64();
     let set = opts.aov_settings("cpu", accel.name());
     let stats =
