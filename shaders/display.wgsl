@@ -1,5 +1,5 @@
 // The preview's `display` pass (src/preview/display.rs): draws the accumulation's average
-// as the headless PNG output encodes it (clamp to [0, 1], sRGB).
+// as the headless PNG output encodes it (clamp to [0, 1], then the render's transfer).
 
 // What the window shows. Keep in sync with `View` in src/preview/display.rs.
 struct View {
@@ -10,7 +10,8 @@ struct View {
     samples: u32,
     // 1: the accumulation holds pixel corners (SPD sampling); a pixel averages four.
     corners: u32,
-    // 1: the target is not an sRGB format, so the shader encodes; 0: the hardware does.
+    // What the shader does after clamping (ENCODE_*): the render's transfer, less what an
+    // sRGB target format does in hardware.
     encode: u32,
     pad0: u32,
     pad1: u32,
@@ -31,6 +32,19 @@ fn vs_main(@builtin(vertex_index) v: u32) -> VertexOut {
     let x = f32((v << 1u) & 2u) * 2.0 - 1.0;
     let y = f32(v & 2u) * 2.0 - 1.0;
     return VertexOut(vec4<f32>(x, y, 0.0, 1.0));
+}
+
+// Store the value as it is; sRGB-encode it; or undo the sRGB encoding an sRGB target applies
+// (display values on an sRGB surface).
+const ENCODE_NONE: u32 = 0u;
+const ENCODE_SRGB: u32 = 1u;
+const ENCODE_LINEARIZE: u32 = 2u;
+
+fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        return c / 12.92;
+    }
+    return pow((c + 0.055) / 1.055, 2.4);
 }
 
 fn srgb(c: f32) -> f32 {
@@ -59,8 +73,10 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
     // NaN fails every comparison: max(NaN, 0) is 0 or NaN by platform, so map it first.
     c = select(c, vec3<f32>(0.0), c != c);
     c = clamp(c, vec3<f32>(0.0), vec3<f32>(1.0));
-    if view.encode != 0u {
+    if view.encode == ENCODE_SRGB {
         c = vec3<f32>(srgb(c.x), srgb(c.y), srgb(c.z));
+    } else if view.encode == ENCODE_LINEARIZE {
+        c = vec3<f32>(srgb_to_linear(c.x), srgb_to_linear(c.y), srgb_to_linear(c.z));
     }
     return vec4<f32>(c, 1.0);
 }

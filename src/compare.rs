@@ -10,7 +10,7 @@
 
 use serde::Serialize;
 
-use crate::output::{to_srgb8, Image};
+use crate::output::{to_rgb8, Image};
 
 /// The comparison of a test image with a reference.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -38,8 +38,8 @@ pub fn compare(reference: &Image, test: &Image, tolerance: f64) -> (Comparison, 
         .zip(&test.pixels)
         .filter(|(a, b)| !a[..3].iter().chain(&b[..3]).all(|v| v.is_finite()))
         .count() as u64;
-    let a = to_srgb8(reference).into_raw();
-    let b = to_srgb8(test).into_raw();
+    let a = to_rgb8(reference).into_raw();
+    let b = to_rgb8(test).into_raw();
     let mut sum_sq = 0.0;
     let mut max_abs: f64 = 0.0;
     let mut over = 0u64;

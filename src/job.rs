@@ -11,7 +11,7 @@ use crate::error::{Error, Result};
 use crate::kernel::spawn::SpawnPolicy;
 use crate::output::Image;
 use crate::sampling::Sampling;
-use crate::scene::Scene;
+use crate::scene::{Scene, Transfer};
 use crate::stats::{self, Stats};
 
 /// Which acceleration structure to use.
@@ -43,6 +43,8 @@ pub struct RenderOptions {
     /// How far the GPU kernels move spawned rays off their surfaces (the candidate tables
     /// are built for it). The CPU reference keeps its own, much smaller f64 offset.
     pub spawn: SpawnPolicy,
+    /// How a PNG encodes the values; `None`: the scene's ([`Scene::transfer`]).
+    pub transfer: Option<Transfer>,
 }
 
 impl RenderOptions {
@@ -57,6 +59,7 @@ impl RenderOptions {
             max_depth: 5,
             accel: AccelKind::Auto,
             spawn: SpawnPolicy::Scaled,
+            transfer: None,
         }
     }
 
@@ -89,8 +92,13 @@ impl RenderOptions {
         }
     }
 
-    /// The settings block of the statistics.
-    pub fn settings(&self, backend: &str, accel: &str) -> stats::Settings {
+    /// The transfer of this job's images for `scene`.
+    pub fn transfer_for(&self, scene: &Scene) -> Transfer {
+        self.transfer.unwrap_or(scene.transfer)
+    }
+
+    /// The settings block of the statistics of a render of `scene`.
+    pub fn settings(&self, scene: &Scene, backend: &str, accel: &str) -> stats::Settings {
         stats::Settings {
             backend: backend.into(),
             accel: accel.into(),
@@ -103,12 +111,13 @@ impl RenderOptions {
             },
             seed: self.seed,
             max_depth: self.max_depth,
+            transfer: self.transfer_for(scene),
         }
     }
 
     /// The settings block of an AOV pass: one eye ray through each pixel centre.
-    pub fn aov_settings(&self, backend: &str, accel: &str) -> stats::Settings {
-        let mut set = self.settings(backend, accel);
+    pub fn aov_settings(&self, scene: &Scene, backend: &str, accel: &str) -> stats::Settings {
+        let mut set = self.settings(scene, backend, accel);
         set.sampling = "center".into();
         set.spp = 1;
         set.max_depth = 1;
@@ -116,10 +125,10 @@ impl RenderOptions {
     }
 }
 
-/// The image of a render from its grid of eye-ray points (one summed RGB per point, as the
-/// kernels leave them): each pixel the mean of its four corners with SPD sampling, else its
-/// sum over `samples` samples divided by `samples` (in f64).
-pub fn grid_image(opts: &RenderOptions, values: &[[f32; 4]], samples: u32) -> Image {
+/// The image of a render of `scene` from its grid of eye-ray points (one summed RGB per
+/// point, as the kernels leave them): each pixel the mean of its four corners with SPD
+/// sampling, else its sum over `samples` samples divided by `samples` (in f64).
+pub fn grid_image(opts: &RenderOptions, scene: &Scene, values: &[[f32; 4]], samples: u32) -> Image {
     let (w, h) = (opts.width, opts.height);
     let gw = opts.grid().0;
     let corners = opts.sampling == Sampling::Corners;
@@ -128,6 +137,7 @@ pub fn grid_image(opts: &RenderOptions, values: &[[f32; 4]], samples: u32) -> Im
         DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
     };
     let mut image = Image::new(w, h, false);
+    image.transfer = opts.transfer_for(scene);
     for j in 0..h {
         for i in 0..w {
             let v = if corners {

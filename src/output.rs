@@ -2,9 +2,10 @@
 //! outputs (AOVs).
 //!
 //! - **PNG**: each channel is clamped to [0, 1] (exposure 1, no other tone curve) and
-//!   encoded with the sRGB transfer function, 8 bits per channel, RGB. The plain clamp
-//!   keeps NFF scenes, whose colours and light intensities are chosen for a [0, 1]
-//!   display range, comparable with their reference images.
+//!   encoded by the image's [`Transfer`], 8 bits per channel, RGB: the sRGB transfer function
+//!   for linear radiance (glTF), or as they are for display values (NFF, whose colours and
+//!   light intensities were chosen for a [0, 1] frame buffer: so the SPD renders look like
+//!   their reference images).
 //! - **EXR**: linear f32 values as rendered: RGB for radiance, RGBA for AOVs (A = 1 where
 //!   the pixel's ray hit something, 0 where it missed; see [`Aov`] for the values).
 //!
@@ -20,6 +21,7 @@ use std::path::Path;
 use image::{ImageBuffer, ImageFormat, Rgb, Rgba};
 
 use crate::error::Error;
+pub use crate::scene::Transfer;
 
 /// An image of linear f32 values, row-major from the top-left pixel.
 #[derive(Clone, Debug, PartialEq)]
@@ -30,11 +32,19 @@ pub struct Image {
     pub pixels: Vec<[f32; 4]>,
     /// True for AOVs, whose alpha says hit (1) or miss (0) and is written to EXR.
     pub has_alpha: bool,
+    /// How a PNG (or the preview's window) encodes the values.
+    pub transfer: Transfer,
 }
 
 impl Image {
     pub fn new(width: u32, height: u32, has_alpha: bool) -> Image {
-        Image { width, height, pixels: vec![[0.0, 0.0, 0.0, 1.0]; (width * height) as usize], has_alpha }
+        Image {
+            width,
+            height,
+            pixels: vec![[0.0, 0.0, 0.0, 1.0]; (width * height) as usize],
+            has_alpha,
+            transfer: Transfer::Srgb,
+        }
     }
 
     pub fn get(&self, x: u32, y: u32) -> [f32; 4] {
@@ -89,17 +99,22 @@ pub fn linear_to_srgb(c: f64) -> f64 {
     }
 }
 
-/// The documented PNG mapping of one linear value: clamp to [0, 1], sRGB-encode, round.
-pub fn png_value(v: f32) -> u8 {
+/// The documented PNG mapping of one value: clamp to [0, 1], encode by `transfer`, round.
+pub fn png_value(v: f32, transfer: Transfer) -> u8 {
     let c = if v.is_nan() { 0.0 } else { (v as f64).clamp(0.0, 1.0) };
-    (linear_to_srgb(c) * 255.0).round() as u8
+    let e = match transfer {
+        Transfer::Srgb => linear_to_srgb(c),
+        Transfer::Display => c,
+    };
+    (e * 255.0).round() as u8
 }
 
-/// The 8-bit sRGB image a PNG would hold.
-pub fn to_srgb8(img: &Image) -> ImageBuffer<Rgb<u8>, Vec<u8>> {
+/// The 8-bit image a PNG would hold (encoded by the image's transfer).
+pub fn to_rgb8(img: &Image) -> ImageBuffer<Rgb<u8>, Vec<u8>> {
+    let t = img.transfer;
     ImageBuffer::from_fn(img.width, img.height, |x, y| {
         let p = img.get(x, y);
-        Rgb([png_value(p[0]), png_value(p[1]), png_value(p[2])])
+        Rgb([png_value(p[0], t), png_value(p[1], t), png_value(p[2], t)])
     })
 }
 
@@ -110,7 +125,7 @@ pub fn write(img: &Image, path: &Path) -> Result<(), Error> {
         return Err(Error::AovNeedsExr { path: path.to_owned() });
     }
     write_atomically(path, |w| match format {
-        OutputFormat::Png => to_srgb8(img).write_to(w, ImageFormat::Png),
+        OutputFormat::Png => to_rgb8(img).write_to(w, ImageFormat::Png),
         OutputFormat::Exr if img.has_alpha => {
             let buf: ImageBuffer<Rgba<f32>, Vec<f32>> =
                 ImageBuffer::from_fn(img.width, img.height, |x, y| Rgba(img.get(x, y)));
@@ -177,11 +192,15 @@ mod tests {
 
     #[test]
     fn png_mapping_clamps_and_encodes() {
-        assert_eq!(png_value(-1.0), 0);
-        assert_eq!(png_value(0.0), 0);
-        assert_eq!(png_value(1.0), 255);
-        assert_eq!(png_value(7.0), 255);
-        assert_eq!(png_value(0.5), 188);
+        for t in [Transfer::Srgb, Transfer::Display] {
+            assert_eq!(png_value(-1.0, t), 0);
+            assert_eq!(png_value(0.0, t), 0);
+            assert_eq!(png_value(1.0, t), 255);
+            assert_eq!(png_value(7.0, t), 255);
+            assert_eq!(png_value(f32::NAN, t), 0);
+        }
+        assert_eq!(png_value(0.5, Transfer::Srgb), 188);
+        assert_eq!(png_value(0.5, Transfer::Display), 128);
     }
 
     #[test]
@@ -196,7 +215,11 @@ mod tests {
         let back = image::open(&exr).unwrap().into_rgb32f();
         assert_eq!(back.get_pixel(1, 1).0, [0.25, 2.0, 0.0]);
         let back = image::open(&png).unwrap().into_rgb8();
-        assert_eq!(back.get_pixel(1, 1).0, [png_value(0.25), 255, 0]);
+        assert_eq!(back.get_pixel(1, 1).0, [png_value(0.25, Transfer::Srgb), 255, 0]);
+        // Display values are stored as they are.
+        img.transfer = Transfer::Display;
+        write(&img, &png).unwrap();
+        assert_eq!(image::open(&png).unwrap().into_rgb8().get_pixel(1, 1).0, [64, 255, 0]);
         let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
         assert_eq!(names.len(), 2, "{names:?}");
         // An AOV cannot go to a PNG, and nothing is written.

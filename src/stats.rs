@@ -174,6 +174,8 @@ pub struct Settings {
     pub seed: u64,
     /// Maximum ray-tree depth, the eye ray being depth 1.
     pub max_depth: u32,
+    /// How a PNG encodes the values: `srgb` or `display` (see [`crate::scene::Transfer`]).
+    pub transfer: crate::scene::Transfer,
 }
 
 /// Everything `--stats` reports.
@@ -247,8 +249,8 @@ impl Stats {
         let effects = if self.effects.is_empty() { "none".to_string() } else { self.effects.join(", ") };
         let mut o = String::new();
         o += &format!(
-            "render:   {} backend, accel {}, {}x{}, sampling {}, {} spp, seed {}, max depth {}\n",
-            s.backend, s.accel, s.size[0], s.size[1], s.sampling, s.spp, s.seed, s.max_depth
+            "render:   {} backend, accel {}, {}x{}, sampling {}, {} spp, seed {}, max depth {}, transfer {:?}\n",
+            s.backend, s.accel, s.size[0], s.size[1], s.sampling, s.spp, s.seed, s.max_depth, s.transfer
         );
         o += &format!("effects:  {effects}\n");
         o += &format!(

@@ -49,6 +49,7 @@ fn scene(eye: DVec3, at: DVec3, lights: &[DVec3], primitives: Vec<Primitive>) ->
         textures: Vec::new(),
         primitives,
         resolution: Some((64, 64)),
+        transfer: Default::default(),
     };
     s.validate().unwrap();
     s

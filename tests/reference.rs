@@ -36,6 +36,7 @@ fn scene(camera: Camera) -> Scene {
         textures: Vec::new(),
         primitives: Vec::new(),
         resolution: None,
+        transfer: Default::default(),
     }
 }
 
@@ -559,7 +560,7 @@ fn spd_render_matches_the_orientation_of_its_reference_image(name: &str) {
         let reference =
             image::open(common::shared(&format!("spd/doc/reference_images/{name}.png"))).unwrap().into_rgb8();
         assert_eq!(reference.dimensions(), (512, 512));
-        let ours = cuberay::output::to_srgb8(&run(&s, &opts(64, 64)).image);
+        let ours = cuberay::output::to_rgb8(&run(&s, &opts(64, 64)).image);
         let mirrored = image::imageops::flip_horizontal(&ours);
         let r = block_luminance(&reference, 8);
         let a = correlation(&block_luminance(&ours, 1), &r);
@@ -671,3 +672,59 @@ cases!(gltf_models_render_without_nan: super::gltf_model_renders_without_nan {
     cornell_box_emission => ("CornellBox/CornellBox.glb", "emission"),
     lights_punctual_lamp_refraction => ("LightsPunctualLamp/LightsPunctualLamp.gltf", "refraction"),
 });
+
+/// PNG output encodes by the scene's transfer: NFF colours are display values, stored as
+/// they are; `--transfer srgb` sRGB-encodes them instead; glTF defaults to sRGB. `--stats`
+/// says which was used.
+#[test]
+fn png_transfer_defaults_to_the_scene_format_and_can_be_chosen() {
+    let dir = tempdir();
+    let scene = dir.path().join("tiny.nff");
+    std::fs::write(&scene, TINY_NFF).unwrap();
+    let render = |out: &str, extra: &[&str]| {
+        let st = cuberay()
+            .arg("render")
+            .arg(&scene)
+            .arg("-o")
+            .arg(dir.path().join(out))
+            .args(["--backend", "cpu", "--stats", "json"])
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&st.stdout).unwrap();
+        v["settings"]["transfer"].as_str().unwrap().to_string()
+    };
+    assert_eq!(render("lin.exr", &[]), "display");
+    assert_eq!(render("display.png", &[]), "display");
+    assert_eq!(render("srgb.png", &["--transfer", "srgb"]), "srgb");
+    let lin = image::open(dir.path().join("lin.exr")).unwrap().into_rgb32f();
+    let display = image::open(dir.path().join("display.png")).unwrap().into_rgb8();
+    let srgb = image::open(dir.path().join("srgb.png")).unwrap().into_rgb8();
+    let mut brighter = 0;
+    for (x, y, p) in lin.enumerate_pixels() {
+        for c in 0..3 {
+            let v = p.0[c].clamp(0.0, 1.0);
+            assert_eq!(
+                display.get_pixel(x, y).0[c],
+                (v * 255.0).round() as u8,
+                "display value at ({x}, {y})"
+            );
+            let s = cuberay::output::png_value(p.0[c], cuberay::scene::Transfer::Srgb);
+            assert_eq!(srgb.get_pixel(x, y).0[c], s, "sRGB value at ({x}, {y})");
+            brighter += (s > display.get_pixel(x, y).0[c]) as u32;
+        }
+    }
+    assert!(brighter > 0, "sRGB encoding lifts mid-tones");
+    let gltf = common::shared("gltf/Box/Box.gltf");
+    let st = cuberay()
+        .arg("render")
+        .arg(&gltf)
+        .arg("-o")
+        .arg(dir.path().join("box.png"))
+        .args(["--backend", "cpu", "--width", "8", "--height", "8", "--stats", "json"])
+        .output()
+        .unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&st.stdout).unwrap();
+    assert_eq!(v["settings"]["transfer"], "srgb");
+}

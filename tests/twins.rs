@@ -15,7 +15,7 @@ use cuberay::gpu::shaders::{compose, Kernel, Variant};
 use cuberay::kernel::{FAR, NO_ID, SHADOW_END_REL};
 use cuberay::layout::counters::*;
 use cuberay::layout::*;
-use cuberay::preview::display::View;
+use cuberay::preview::display::{View, ENCODE_LINEARIZE, ENCODE_NONE, ENCODE_SRGB};
 use cuberay::preview::session::{Tile, ACCUMULATE_WORKGROUP};
 
 /// One field of a struct: name, offset, size and type (in WGSL's spelling).
@@ -183,6 +183,9 @@ fn rust_constants() -> BTreeMap<&'static str, Value> {
         ("GROUP_BIT", U32(GROUP_BIT)),
         ("GROUP_SLACK", F32(GROUP_SLACK)),
         ("ACCUMULATE_WORKGROUP", U32(ACCUMULATE_WORKGROUP)),
+        ("ENCODE_NONE", U32(ENCODE_NONE)),
+        ("ENCODE_SRGB", U32(ENCODE_SRGB)),
+        ("ENCODE_LINEARIZE", U32(ENCODE_LINEARIZE)),
     ])
 }
 

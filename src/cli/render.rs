@@ -14,6 +14,7 @@ use cuberay::load::{self, Loaded};
 use cuberay::output::{self, Aov, OutputFormat};
 use cuberay::reference;
 use cuberay::sampling::Sampling;
+use cuberay::scene::Transfer;
 
 /// Which renderer to run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -83,6 +84,11 @@ pub struct TraceArgs {
     /// glTF: index of the camera to use.
     #[arg(long)]
     pub camera: Option<usize>,
+    /// How a PNG (and the preview window) encodes the values: srgb (linear radiance,
+    /// sRGB-encoded) or display (the values as they are). Default: display for NFF, whose
+    /// colours are display values, srgb for glTF.
+    #[arg(long, value_enum)]
+    pub transfer: Option<Transfer>,
 }
 
 impl TraceArgs {
@@ -103,6 +109,7 @@ impl TraceArgs {
             sampling: self.sampling,
             max_depth: self.max_depth,
             accel: self.accel,
+            transfer: self.transfer,
             ..RenderOptions::new(1, 1)
         };
         opts.validate()?;

@@ -161,9 +161,9 @@ impl GpuRenderer {
         )?;
         let trace_s = start.elapsed().as_secs_f64();
 
-        let image = grid_image(opts, &run.values, opts.spp);
+        let image = grid_image(opts, scene, &run.values, opts.spp);
         let stats = Stats::new(
-            opts.settings("gpu", accel_name(variant)),
+            opts.settings(scene, "gpu", accel_name(variant)),
             simulated_effects(scene, opts.max_depth),
             &run.counters,
             stats::Times {
@@ -201,7 +201,7 @@ impl GpuRenderer {
         let mut image = Image::new(w, h, true);
         image.pixels = run.values;
         let stats = Stats::new(
-            opts.aov_settings("gpu", accel_name(variant)),
+            opts.aov_settings(scene, "gpu", accel_name(variant)),
             Vec::new(),
             &run.counters,
             stats::Times {

@@ -46,7 +46,7 @@ use super::polygon::Triangulator;
 use super::Loaded;
 use crate::error::Error;
 use crate::scene::{
-    Camera, Cylinder, FovSpan, Light, Material, Primitive, Projection, Scene, Sphere, Triangle,
+    Camera, Cylinder, FovSpan, Light, Material, Primitive, Projection, Scene, Sphere, Transfer, Triangle,
 };
 
 /// Loads an NFF file.
@@ -198,6 +198,7 @@ impl State {
             textures: Vec::new(),
             primitives: self.primitives,
             resolution,
+            transfer: Transfer::Display,
         };
         scene.validate().map_err(|e| invalid(e.into_message()))?;
         Ok(Loaded { scene, warnings })

@@ -7,6 +7,7 @@ use crate::gpu::kernels::shader_module;
 use crate::gpu::shaders::{Kernel, Variant};
 use crate::gpu::GpuContext;
 use crate::sampling::Sampling;
+use crate::scene::Transfer;
 
 /// What the window shows, read by the display pass (WGSL `View` in
 /// `shaders/display.wgsl`, keep them in sync).
@@ -20,17 +21,24 @@ pub struct View {
     pub samples: u32,
     /// 1: the accumulation holds pixel corners (SPD sampling); a pixel averages four.
     pub corners: u32,
-    /// 1: the target is not an sRGB format, so the shader encodes; 0: the hardware does.
+    /// What the shader does after clamping: one of the `ENCODE_*` codes.
     pub encode: u32,
     pub pad0: u32,
     pub pad1: u32,
 }
 
+/// [`View::encode`] codes (WGSL `ENCODE_*`): store the clamped value as it is, sRGB-encode
+/// it, or undo the sRGB encoding an sRGB target format applies.
+pub const ENCODE_NONE: u32 = 0;
+pub const ENCODE_SRGB: u32 = 1;
+pub const ENCODE_LINEARIZE: u32 = 2;
+
 /// The display pass: a full-window triangle whose fragments read the accumulation.
 pub struct Display {
     pipeline: wgpu::RenderPipeline,
     view_buffer: wgpu::Buffer,
-    encode: bool,
+    /// The target format encodes sRGB in hardware.
+    srgb_target: bool,
 }
 
 impl Display {
@@ -64,7 +72,7 @@ impl Display {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        Ok(Display { pipeline, view_buffer, encode: !format.is_srgb() })
+        Ok(Display { pipeline, view_buffer, srgb_target: format.is_srgb() })
     }
 
     /// Draws the session's accumulation into `target`.
@@ -76,7 +84,11 @@ impl Display {
             grid_w: session.grid().0,
             samples: session.passes(),
             corners: (o.sampling == Sampling::Corners) as u32,
-            encode: self.encode as u32,
+            encode: match (session.transfer(), self.srgb_target) {
+                (Transfer::Srgb, false) => ENCODE_SRGB,
+                (Transfer::Display, true) => ENCODE_LINEARIZE,
+                _ => ENCODE_NONE,
+            },
             ..View::default()
         };
         ctx.queue.write_buffer(&self.view_buffer, 0, bytemuck::bytes_of(&view));

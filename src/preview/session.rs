@@ -26,7 +26,7 @@ use crate::job::{grid_image, AccelKind, RenderOptions};
 use crate::layout::budget::{table_params, tile_points, MAX_DEPTH, TESTS_PER_DISPATCH};
 use crate::layout::{job_params, pack, Params};
 use crate::output::Image;
-use crate::scene::{Camera, Effects, Scene};
+use crate::scene::{Camera, Effects, Scene, Transfer};
 
 /// The wall time one submission should take; tiles shrink or grow towards it.
 const STEP_TARGET: Duration = Duration::from_millis(30);
@@ -192,6 +192,11 @@ impl Session {
 
     pub fn options(&self) -> &RenderOptions {
         &self.opts
+    }
+
+    /// How the window and screenshots encode the values.
+    pub fn transfer(&self) -> Transfer {
+        self.opts.transfer_for(&self.scene)
     }
 
     pub fn toggles(&self) -> Toggles {
@@ -391,7 +396,7 @@ impl Session {
         enc.copy_buffer_to_buffer(&self.accum, 0, &read, 0, bytes);
         ctx.queue.submit([enc.finish()]);
         let data = ctx.read(&read, bytes)?;
-        Ok(grid_image(&self.opts, bytemuck::cast_slice(&data), self.passes))
+        Ok(grid_image(&self.opts, &self.scene, bytemuck::cast_slice(&data), self.passes))
     }
 }
 

@@ -92,6 +92,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions, progress: &ProgressBar) -> Re
 
     let start = Instant::now();
     let mut image = Image::new(w, h, false);
+    image.transfer = opts.transfer_for(scene);
     let mut counters = Counters::default();
     match opts.sampling {
         Sampling::Corners => {
@@ -158,7 +159,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions, progress: &ProgressBar) -> Re
     crate::interrupt::check()?;
     let trace_s = start.elapsed().as_secs_f64();
     let stats = Stats::new(
-        opts.settings("cpu", accel.name()),
+        opts.settings(scene, "cpu", accel.name()),
         simulated_effects(scene, opts.max_depth),
         &counters,
         stats::Times { preprocess_s, trace_s, ..Default::default() },
@@ -212,7 +213,7 @@ pub fn render_aov(scene: &Scene, opts: &RenderOptions, aov: Aov, progress: &Prog
     }
     crate::interrupt::check()?;
     let trace_s = start.elapsed().as_secs_f64();
-    let set = opts.aov_settings("cpu", accel.name());
+    let set = opts.aov_settings(scene, "cpu", accel.name());
     let stats =
         Stats::new(set, Vec::new(), &counters, stats::Times { preprocess_s, trace_s, ..Default::default() });
     Ok(Rendered { image, stats })

@@ -282,6 +282,22 @@ pub struct Scene {
     pub primitives: Vec<Primitive>,
     /// The image size the file asks for (NFF `resolution`), if any.
     pub resolution: Option<(u32, u32)>,
+    /// How the file's colours are meant to reach a display, and so how a PNG encodes the
+    /// rendered values: NFF colours are display values, glTF's are linear.
+    pub transfer: Transfer,
+}
+
+/// How rendered values become the 8-bit values of a PNG (or a window), after clamping to
+/// [0, 1].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Transfer {
+    /// The values are linear radiance: encode them with the sRGB transfer function (glTF).
+    #[default]
+    Srgb,
+    /// The values are already display values, as the 1987 renderers of the SPD wrote the
+    /// shaded colour straight to the frame buffer: store them as they are (NFF).
+    Display,
 }
 
 impl Scene {

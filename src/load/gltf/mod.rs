@@ -30,7 +30,7 @@ use gltf::Document;
 
 use super::{LoadOptions, Loaded};
 use crate::error::Error;
-use crate::scene::{Light, Scene};
+use crate::scene::{Light, Scene, Transfer};
 
 mod data;
 mod geometry;
@@ -221,6 +221,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, Error> {
         textures: table.textures,
         primitives,
         resolution: None,
+        transfer: Transfer::Srgb,
     };
     scene.validate().map_err(|e| ctx.invalid(format!("internal check failed: {}", e.into_message())))?;
     Ok(Loaded { scene, warnings })
