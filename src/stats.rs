@@ -149,6 +149,14 @@ pub struct Times {
     /// The same time per kernel (`render`: the ray-tree steps, `aov`: the AOV pass; `null`
     /// for a kernel that did not run); all `null` where `gpu_s` is.
     pub gpu_kernel_s: KernelTimes,
+    /// Wall-clock time of the kernel's compilation, done before the timed dispatches
+    /// (lavapipe compiles at the first dispatch: seconds for a new variant, milliseconds once
+    /// Mesa's shader cache holds it); `null` on the CPU.
+    pub compile_s: Option<f64>,
+    /// The longest single submission of kernel steps, wall clock: a bound on what one
+    /// dispatch costs (real GPUs kill dispatches that run for about two seconds); `null` on
+    /// the CPU.
+    pub longest_submit_s: Option<f64>,
 }
 
 /// GPU time per kernel, seconds.
@@ -287,6 +295,12 @@ impl Stats {
                     o += &format!(" ({name} {t:.3} s)");
                 }
             }
+        }
+        if let Some(c) = self.time.compile_s {
+            o += &format!(", compile {c:.3} s");
+        }
+        if let Some(l) = self.time.longest_submit_s {
+            o += &format!(", longest submission {:.1} ms", l * 1e3);
         }
         o += "\n";
         o

@@ -531,3 +531,31 @@ fn a_long_render_keeps_its_memory_flat() {
     );
     assert!(last <= 1.15 * second, "memory grew from {:.0} to {:.0} MiB", second / 1024.0, last / 1024.0);
 }
+
+/// A device that is gone ends a render with an error that says so: no hang, no panic.
+#[test]
+fn a_lost_device_ends_the_render_with_an_error() {
+    let r = GpuRenderer::new().unwrap_or_else(|e| panic!("{e}"));
+    r.ctx.device.destroy();
+    let e = r.render(&showcase(), &RenderOptions::new(16, 12), &hidden()).err().expect("an error");
+    eprintln!("{e}");
+    assert!(matches!(e, cuberay::Error::Gpu(_)), "{e:?}");
+}
+
+/// Compilation at first dispatch is timed apart from the kernel time: the first render of a
+/// kernel warms it up once (a dispatch over no points), later renders in the process do not;
+/// both report the longest submission.
+#[test]
+fn the_first_dispatch_is_timed_apart_from_the_kernel_time() {
+    let r = GpuRenderer::new().unwrap_or_else(|e| panic!("{e}"));
+    let opts = RenderOptions::new(16, 12);
+    let first = r.render(&showcase(), &opts, &hidden()).unwrap().stats.time;
+    let second = r.render(&showcase(), &opts, &hidden()).unwrap().stats.time;
+    eprintln!("first {first:?}\nsecond {second:?}");
+    assert!(first.compile_s.is_some_and(|c| c > 0.0), "{first:?}");
+    assert_eq!(second.compile_s, Some(0.0));
+    for t in [&first, &second] {
+        let longest = t.longest_submit_s.expect("longest submission");
+        assert!(longest > 0.0 && longest <= t.trace_s, "{t:?}");
+    }
+}

@@ -2,12 +2,11 @@
 //! tables (uploaded once), and the kernels' outputs and per-point state (sized for a tile),
 //! with their one bind group.
 
-use wgpu::util::DeviceExt;
-
 use super::GpuContext;
 use crate::coherence::FlatTables;
+use crate::error::{Error, Result};
 use crate::layout::counters::COUNTER_BYTES;
-use crate::layout::{Packed, Params, PointState};
+use crate::layout::{Packed, Params, PointState, WORKGROUP};
 
 /// A packed scene's buffers on the GPU with their bind group (the bindings of
 /// `shaders/shared/layout.wgsl` and `shaders/shared/tables.wgsl`), sized for tiles of up to
@@ -29,9 +28,40 @@ pub struct SceneBuffers {
     pub tile: u64,
 }
 
+/// Checks every storage buffer (`(name, bytes)`) against the adapter's limits on one binding
+/// and one buffer; the error names the buffer and the limit.
+pub fn check_limits(buffers: &[(&str, u64)], limits: &wgpu::Limits) -> Result<()> {
+    for &(name, bytes) in buffers {
+        for (limit, max) in [
+            ("max_storage_buffer_binding_size", limits.max_storage_buffer_binding_size),
+            ("max_buffer_size", limits.max_buffer_size),
+        ] {
+            if bytes > max {
+                return Err(Error::Options(format!(
+                    "the GPU buffer {name} needs {bytes} bytes, over this adapter's {limit} of {max}: \
+                     render a smaller image or scene, or with --backend cpu"
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The largest tile of at most `tile` points (a multiple of the workgroup) whose per-point
+/// buffers (`per_point` bytes a point) stay within the adapter's limits: a large image is
+/// split into more tiles rather than refused. At least one workgroup (which
+/// [`check_limits`] then refuses on an adapter too small even for that).
+pub fn fit_tile(tile: u64, per_point: u64, limits: &wgpu::Limits) -> u64 {
+    let group = WORKGROUP as u64;
+    let max = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
+    tile.min((max / per_point / group * group).max(group))
+}
+
 /// Uploads `packed` (and the candidate tables, when traced) and creates the kernels'
 /// buffers for tiles of up to `tile` grid points (`stepped`: with a point state each, for
-/// the `render` kernel).
+/// the `render` kernel; fewer when the adapter's limits call for it: the buffers' `tile` says
+/// how many). A buffer over the adapter's limits is refused before anything is
+/// created, and a failed allocation is an error, not a lost device.
 pub fn upload(
     ctx: &GpuContext,
     layout: &wgpu::BindGroupLayout,
@@ -39,21 +69,52 @@ pub fn upload(
     tables: Option<&FlatTables>,
     tile: u64,
     stepped: bool,
-) -> SceneBuffers {
+) -> Result<SceneBuffers> {
     let device = &ctx.device;
+    let state_bytes = std::mem::size_of::<PointState>() as u64;
+    let tile = fit_tile(tile, if stepped { state_bytes.max(16) } else { 16 }, &device.limits());
+    let size = |bytes: usize| bytes as u64;
+    let mut sizes = vec![
+        ("prims", size(std::mem::size_of_val(packed.prims.as_slice()))),
+        ("tri_attrs", size(std::mem::size_of_val(packed.tri_attrs.as_slice()))),
+        ("texels", size(std::mem::size_of_val(packed.texels.as_slice()))),
+        ("out", tile * 16),
+        ("point states", if stepped { tile * state_bytes } else { state_bytes }),
+    ];
+    if let Some(t) = tables {
+        sizes.push(("cell_start", size(std::mem::size_of_val(t.cell_start.as_slice()))));
+        sizes.push(("entries", size(std::mem::size_of_val(t.entries.as_slice()))));
+        sizes.push(("group_prims", size(std::mem::size_of_val(t.group_prims.as_slice()))));
+    }
+    check_limits(&sizes, &device.limits())?;
+    // A device that is gone (its loss reported on the next poll) creates nothing.
+    let _ = device.poll(wgpu::PollType::Poll);
+    ctx.fault()?;
+    let out_of_memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+    let invalid = device.push_error_scope(wgpu::ErrorFilter::Validation);
     let storage = |label: &str, bytes: &[u8], extra: wgpu::BufferUsages| {
-        // Storage bindings may not be empty.
+        // Storage bindings may not be empty. The contents go through the queue (not a
+        // buffer mapped at creation, whose mapping panics on a lost device).
         let contents = if bytes.is_empty() { &[0u8; 256][..] } else { bytes };
-        device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(label),
-            contents,
-            usage: wgpu::BufferUsages::STORAGE | extra,
-        })
+            size: (contents.len() as u64).next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | extra,
+            mapped_at_creation: false,
+        });
+        let whole = contents.len() - contents.len() % wgpu::COPY_BUFFER_ALIGNMENT as usize;
+        ctx.queue.write_buffer(&buffer, 0, &contents[..whole]);
+        if whole < contents.len() {
+            let mut tail = [0u8; wgpu::COPY_BUFFER_ALIGNMENT as usize];
+            tail[..contents.len() - whole].copy_from_slice(&contents[whole..]);
+            ctx.queue.write_buffer(&buffer, whole as u64, &tail);
+        }
+        buffer
     };
     let none = wgpu::BufferUsages::empty();
-    let prims = storage("prims", bytemuck::cast_slice(&packed.prims), wgpu::BufferUsages::COPY_DST);
+    let prims = storage("prims", bytemuck::cast_slice(&packed.prims), none);
     let materials = storage("materials", bytemuck::cast_slice(&packed.materials), none);
-    let lights = storage("lights", bytemuck::cast_slice(&packed.lights), wgpu::BufferUsages::COPY_DST);
+    let lights = storage("lights", bytemuck::cast_slice(&packed.lights), none);
     let attrs = storage("tri_attrs", bytemuck::cast_slice(&packed.tri_attrs), none);
     let infos = storage("texture_infos", bytemuck::cast_slice(&packed.texture_infos), none);
     let texels = storage("texels", bytemuck::cast_slice(&packed.texels), none);
@@ -79,12 +140,13 @@ pub fn upload(
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
         mapped_at_creation: false,
     });
-    let counters = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+    // New buffers are zeroed.
+    let counters = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("counters"),
-        contents: &[0u8; COUNTER_BYTES as usize],
+        size: COUNTER_BYTES,
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
     });
-    let state_bytes = std::mem::size_of::<PointState>() as u64;
     let states = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("point states"),
         size: if stepped { tile * state_bytes } else { state_bytes },
@@ -124,5 +186,37 @@ pub fn upload(
         ]
         .map(|(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }),
     });
-    SceneBuffers { params, prims, lights, out, counters, states, active, bind, tile }
+    let failed = [pollster::block_on(invalid.pop()), pollster::block_on(out_of_memory.pop())];
+    if let Some(e) = failed.into_iter().flatten().next() {
+        let mib = sizes.iter().map(|s| s.1).sum::<u64>() as f64 / (1u64 << 20) as f64;
+        return Err(Error::Gpu(format!("cannot create the scene's buffers ({mib:.0} MiB and more): {e}")));
+    }
+    Ok(SceneBuffers { params, prims, lights, out, counters, states, active, bind, tile })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn buffers_over_a_limit_are_refused_by_name() {
+        let limits = wgpu::Limits { max_storage_buffer_binding_size: 1 << 20, ..wgpu::Limits::default() };
+        assert!(check_limits(&[("prims", 1 << 20), ("entries", 12)], &limits).is_ok());
+        let e = check_limits(&[("prims", 100), ("entries", (1 << 20) + 8)], &limits).unwrap_err().to_string();
+        assert!(e.contains("entries") && e.contains("max_storage_buffer_binding_size"), "{e}");
+        let limits = wgpu::Limits { max_buffer_size: 64, ..limits };
+        let e = check_limits(&[("out", 65)], &limits).unwrap_err().to_string();
+        assert!(e.contains("out") && e.contains("max_buffer_size"), "{e}");
+    }
+
+    #[test]
+    fn tiles_shrink_to_the_limits_in_whole_workgroups() {
+        let limits =
+            wgpu::Limits { max_storage_buffer_binding_size: 1000 * 64 + 5, ..wgpu::Limits::default() };
+        assert_eq!(fit_tile(4096, 1000, &limits), 64);
+        assert_eq!(fit_tile(32, 1000, &limits), 32);
+        let small = wgpu::Limits { max_storage_buffer_binding_size: 10, ..limits };
+        assert_eq!(fit_tile(4096, 1000, &small), WORKGROUP as u64);
+        assert!(check_limits(&[("point states", WORKGROUP as u64 * 1000)], &small).is_err());
+    }
 }

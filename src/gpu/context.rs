@@ -4,6 +4,8 @@
 //! name, e.g. `llvmpipe`) and `WGPU_POWER_PREF`, as wgpu's own tools do, but reports a
 //! missing adapter as an error that says how to install one instead of panicking.
 
+use std::sync::{Arc, Mutex};
+
 use crate::error::{Error, Result};
 use wgpu::{Adapter, Backends, Device, Features, Instance, InstanceDescriptor, Limits, Queue};
 
@@ -15,6 +17,9 @@ pub struct GpuContext {
     pub info: wgpu::AdapterInfo,
     /// Timestamp queries are available: kernel times can be measured on the GPU.
     pub timestamps: bool,
+    /// The first fault the device reported on its own (a lost device, or an error no
+    /// operation of ours captured): every later wait returns it as an error.
+    fault: Arc<Mutex<Option<String>>>,
 }
 
 impl GpuContext {
@@ -59,12 +64,28 @@ impl GpuContext {
             .await
             .map_err(|source| Error::Device { adapter: info.name.clone(), source })?;
         log::info!("GPU: {} ({:?}, {})", info.name, info.backend, info.driver_info);
+        // wgpu's default reaction to an error nobody captured is a panic: record it instead,
+        // and a lost device too, so that the render ends with an error that says so.
+        let fault: Arc<Mutex<Option<String>>> = Arc::default();
+        let record = |fault: &Arc<Mutex<Option<String>>>, message: String| {
+            log::error!("{message}");
+            fault.lock().expect("fault lock").get_or_insert(message);
+        };
+        let f = fault.clone();
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            record(&f, format!("the GPU reported: {e}"))
+        }));
+        let f = fault.clone();
+        device.set_device_lost_callback(move |reason, message| {
+            record(&f, format!("the GPU device was lost ({reason:?}): {message}"))
+        });
         Ok(GpuContext {
             adapter,
             device,
             queue,
             timestamps: features.contains(Features::TIMESTAMP_QUERY),
             info,
+            fault,
         })
     }
 }
@@ -75,8 +96,17 @@ impl GpuContext {
         self.info.name.to_lowercase().contains("llvmpipe")
     }
 
+    /// `Err(Error::Gpu)` once the device has reported a fault.
+    pub fn fault(&self) -> Result<()> {
+        match self.fault.lock().expect("fault lock").as_ref() {
+            Some(message) => Err(Error::Gpu(message.clone())),
+            None => Ok(()),
+        }
+    }
+
     /// Waits for the queue and copies the first `bytes` of mappable `buffer`.
     pub fn read(&self, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>> {
+        self.fault()?;
         let (tx, rx) = std::sync::mpsc::channel();
         buffer.map_async(wgpu::MapMode::Read, 0..bytes, move |r| {
             let _ = tx.send(r);
@@ -84,6 +114,7 @@ impl GpuContext {
         self.device
             .poll(wgpu::PollType::Wait { submission_index: None, timeout: None })
             .map_err(|e| Error::Gpu(e.to_string()))?;
+        self.fault()?;
         rx.recv().map_err(|e| Error::Gpu(e.to_string()))?.map_err(|e| Error::Gpu(e.to_string()))?;
         let data = buffer.get_mapped_range(0..bytes).map_err(|e| Error::Gpu(format!("{e:?}")))?.to_vec();
         buffer.unmap();

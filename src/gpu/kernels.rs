@@ -1,8 +1,16 @@
 //! Compiled kernels: one pipeline per kernel and [`Variant`], compiled on first use and
 //! cached, over the one bind group layout of the scene buffers (`shaders/shared/layout.wgsl`
 //! and `shaders/shared/tables.wgsl`: bindings 0 to 19).
+//!
+//! Lavapipe compiles a kernel at its first dispatch, not at pipeline creation, and Mesa 24–25
+//! take 25–45 s over it; Mesa's disk cache then keeps the machine code for later runs. So the
+//! renderer dispatches each pipeline once over no points before timing anything (see
+//! [`super::schedule::warm_up`]), and says on stderr, once per machine, adapter, driver and
+//! kernel source, that a kernel is being compiled: [`first_compile_marker`].
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
+use std::hash::{Hash, Hasher};
+use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
@@ -35,6 +43,8 @@ pub struct Kernels {
     pipeline_layout: wgpu::PipelineLayout,
     cache: Mutex<HashMap<(Kernel, Variant), Arc<wgpu::ComputePipeline>>>,
     compiles: AtomicUsize,
+    /// The pipelines already dispatched once (warmed up) in this process.
+    warmed: Mutex<HashSet<(Kernel, Variant)>>,
 }
 
 impl Kernels {
@@ -53,6 +63,7 @@ impl Kernels {
             pipeline_layout,
             cache: Mutex::new(HashMap::new()),
             compiles: AtomicUsize::new(0),
+            warmed: Mutex::new(HashSet::new()),
         }
     }
 
@@ -82,6 +93,43 @@ impl Kernels {
         cache.insert((kernel, variant), pipeline.clone());
         Ok(pipeline)
     }
+
+    /// Records that the pipeline of `kernel` for `variant` has been dispatched; `true` the
+    /// first time in this process.
+    pub fn first_warm_up(&self, kernel: Kernel, variant: Variant) -> bool {
+        self.warmed.lock().expect("warm-up lock").insert((kernel, variant))
+    }
+}
+
+/// The marker file saying that `kernel` for `variant` has been compiled on this machine by
+/// this adapter and driver, when there is none yet (`None`: compiled before, or no cache
+/// folder). It lives in `$XDG_CACHE_HOME/cuberay/kernels` (else `~/.cache/cuberay/kernels`)
+/// and is named by a hash of the adapter, the driver and the kernel's WGSL. It only decides
+/// whether to print the notice: a missing or stale marker costs one line on stderr.
+pub fn first_compile_marker(ctx: &GpuContext, kernel: Kernel, variant: Variant) -> Result<Option<PathBuf>> {
+    let Some(dir) = kernel_cache_dir() else { return Ok(None) };
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    let info = &ctx.info;
+    (&info.name, &info.driver, &info.driver_info, info.vendor, info.device).hash(&mut h);
+    (kernel.name(), shaders::compose(kernel, variant)?).hash(&mut h);
+    let marker = dir.join(format!("{}-{:016x}", kernel.name(), h.finish()));
+    Ok((!marker.exists()).then_some(marker))
+}
+
+/// Writes a marker from [`first_compile_marker`]; a failure only means the notice comes again.
+pub fn mark_compiled(marker: &std::path::Path) {
+    let made =
+        marker.parent().map(std::fs::create_dir_all).transpose().and_then(|_| std::fs::write(marker, b""));
+    if let Err(e) = made {
+        log::debug!("cannot write the kernel marker {}: {e}", marker.display());
+    }
+}
+
+/// `$XDG_CACHE_HOME/cuberay/kernels`, else `$HOME/.cache/cuberay/kernels`.
+fn kernel_cache_dir() -> Option<PathBuf> {
+    let non_empty = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty()).map(PathBuf::from);
+    let base = non_empty("XDG_CACHE_HOME").or_else(|| non_empty("HOME").map(|h| h.join(".cache")))?;
+    Some(base.join("cuberay").join("kernels"))
 }
 
 /// The compute pipeline of `kernel` for `variant` (`layout`: `None` takes the layout the

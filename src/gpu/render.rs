@@ -12,8 +12,8 @@ use std::time::Instant;
 use indicatif::ProgressBar;
 
 use super::buffers::{upload, SceneBuffers};
-use super::kernels::Kernels;
-use super::schedule::{Pacing, Progress, Schedule};
+use super::kernels::{first_compile_marker, mark_compiled, Kernels};
+use super::schedule::{self, Pacing, Progress, Schedule};
 use super::shaders::{Kernel, Queries, Variant};
 use super::GpuContext;
 use crate::coherence::{self, FlatTables, Tables};
@@ -33,17 +33,40 @@ pub struct GpuRenderer {
     kernels: Kernels,
 }
 
-/// What a run over the grid returns: one `vec4<f32>` per grid point, the counters and the
-/// kernel time.
+/// What a run over the grid returns: one `vec4<f32>` per grid point, the counters, the
+/// kernel time, the warm-up (compilation) time and the longest submission.
 struct RunOutput {
     values: Vec<[f32; 4]>,
     counters: Counters,
     gpu_s: Option<f64>,
+    compile_s: f64,
+    longest_submit_s: f64,
+}
+
+impl RunOutput {
+    /// The times of a render whose preprocessing took `preprocess_s` and whose run took
+    /// `trace_s`; `aov`: the kernel was the AOV pass.
+    fn times(&self, preprocess_s: f64, trace_s: f64, aov: bool) -> stats::Times {
+        let kernel = if aov {
+            stats::KernelTimes { render: None, aov: self.gpu_s }
+        } else {
+            stats::KernelTimes { render: self.gpu_s, aov: None }
+        };
+        stats::Times {
+            preprocess_s,
+            trace_s,
+            gpu_s: self.gpu_s,
+            gpu_kernel_s: kernel,
+            compile_s: Some(self.compile_s),
+            longest_submit_s: Some(self.longest_submit_s),
+        }
+    }
 }
 
 /// The set-up shared by [`GpuRenderer::render`] and [`GpuRenderer::render_aov`]; `start` is
 /// when preprocessing began.
 struct Prepared {
+    kernel: Kernel,
     variant: Variant,
     pipeline: std::sync::Arc<wgpu::ComputePipeline>,
     packed: Packed,
@@ -86,11 +109,12 @@ impl GpuRenderer {
         let effects = if aov { Effects::default() } else { scene.effects() };
         let depth = if aov { 1 } else { opts.max_depth };
         let variant = Self::variant(effects, depth, opts.accel);
-        let pipeline = self.kernel(if aov { Kernel::Aov } else { Kernel::Render }, variant)?;
+        let kernel = if aov { Kernel::Aov } else { Kernel::Render };
+        let pipeline = self.kernel(kernel, variant)?;
         let start = Instant::now();
         let mut packed = pack(scene, opts.width, opts.height, opts.spawn);
         let tables = self.tables(scene, opts, variant, &mut packed)?;
-        Ok(Prepared { variant, pipeline, packed, tables, start })
+        Ok(Prepared { kernel, variant, pipeline, packed, tables, start })
     }
 
     /// Builds the candidate tables when `variant` traces them (for all its effects) and
@@ -119,6 +143,38 @@ impl GpuRenderer {
         Ok(Some(t))
     }
 
+    /// Dispatches the pipeline of `kernel` for `variant` once over no points, the first time
+    /// in this process (see [`schedule::warm_up`]), so that compilation at first dispatch is
+    /// neither counted in the kernel time nor mistaken for a hang: the first time on this
+    /// machine it says so on stderr. Returns the warm-up's time (0 when warmed before).
+    pub fn warm_up(
+        &self,
+        kernel: Kernel,
+        variant: Variant,
+        pipeline: &wgpu::ComputePipeline,
+        buffers: &SceneBuffers,
+        base: &crate::layout::Params,
+    ) -> Result<f64> {
+        if !self.kernels.first_warm_up(kernel, variant) {
+            return Ok(0.0);
+        }
+        let marker = first_compile_marker(&self.ctx, kernel, variant)?;
+        if marker.is_some() {
+            log::warn!(
+                "compiling the {} kernel for {}, {}: the first time on a machine this can take a minute",
+                kernel.name(),
+                self.ctx.info.name,
+                self.ctx.info.driver_info
+            );
+        }
+        let took = schedule::warm_up(&self.ctx, pipeline, buffers, base)?.as_secs_f64();
+        log::info!("{} kernel warmed up in {took:.2} s", kernel.name());
+        if let Some(m) = marker {
+            mark_compiled(&m);
+        }
+        Ok(took)
+    }
+
     /// Uploads `packed` (and the tables) into buffers for tiles of up to `tile` points.
     pub fn upload(
         &self,
@@ -126,7 +182,7 @@ impl GpuRenderer {
         tables: Option<&FlatTables>,
         tile: u64,
         stepped: bool,
-    ) -> SceneBuffers {
+    ) -> Result<SceneBuffers> {
         upload(&self.ctx, self.kernels.bind_layout(), packed, tables, tile, stepped)
     }
 
@@ -146,11 +202,13 @@ impl GpuRenderer {
 
     /// Renders `scene` to linear radiance on the GPU.
     pub fn render(&self, scene: &Scene, opts: &RenderOptions, progress: &ProgressBar) -> Result<Rendered> {
-        let Prepared { variant, pipeline, mut packed, tables, start } = self.prepare(scene, opts, false)?;
+        let Prepared { kernel, variant, pipeline, mut packed, tables, start } =
+            self.prepare(scene, opts, false)?;
         packed.params = job_params(opts, packed.params);
         let preprocess_s = start.elapsed().as_secs_f64();
         let start = Instant::now();
         let run = self.run(
+            (kernel, variant),
             &pipeline,
             Some(opts.max_depth),
             scene,
@@ -166,12 +224,7 @@ impl GpuRenderer {
             opts.settings(scene, "gpu", accel_name(variant)),
             simulated_effects(scene, opts.max_depth),
             &run.counters,
-            stats::Times {
-                preprocess_s,
-                trace_s,
-                gpu_s: run.gpu_s,
-                gpu_kernel_s: stats::KernelTimes { render: run.gpu_s, aov: None },
-            },
+            run.times(preprocess_s, trace_s, false),
         );
         Ok(Rendered { image, stats })
     }
@@ -186,7 +239,8 @@ impl GpuRenderer {
         progress: &ProgressBar,
     ) -> Result<Rendered> {
         let (w, h) = (opts.width, opts.height);
-        let Prepared { variant, pipeline, mut packed, tables, start } = self.prepare(scene, opts, true)?;
+        let Prepared { kernel, variant, pipeline, mut packed, tables, start } =
+            self.prepare(scene, opts, true)?;
         let center = RenderOptions { spp: 1, sampling: Sampling::Center, max_depth: 1, ..opts.clone() };
         packed.params = job_params(&center, packed.params);
         packed.params.aov = match aov {
@@ -196,29 +250,28 @@ impl GpuRenderer {
         };
         let preprocess_s = start.elapsed().as_secs_f64();
         let start = Instant::now();
-        let run = self.run(&pipeline, None, scene, &packed, tables.as_ref(), (w, h), progress)?;
+        let run =
+            self.run((kernel, variant), &pipeline, None, scene, &packed, tables.as_ref(), (w, h), progress)?;
         let trace_s = start.elapsed().as_secs_f64();
+        let times = run.times(preprocess_s, trace_s, true);
         let mut image = Image::new(w, h, true);
         image.pixels = run.values;
         let stats = Stats::new(
             opts.aov_settings(scene, "gpu", accel_name(variant)),
             Vec::new(),
             &run.counters,
-            stats::Times {
-                preprocess_s,
-                trace_s,
-                gpu_s: run.gpu_s,
-                gpu_kernel_s: stats::KernelTimes { render: None, aov: run.gpu_s },
-            },
+            times,
         );
         Ok(Rendered { image, stats })
     }
 
     /// Runs `pipeline` over the `grid` of points with the fixed schedule: the stepped `render`
-    /// kernel (`max_depth` given) until every tile is done, the `aov` kernel once per tile.
+    /// kernel (`max_depth` given) until every tile is done, the `aov` kernel once per tile,
+    /// after warming the pipeline (of `which` kernel and variant) up.
     #[allow(clippy::too_many_arguments)]
     fn run(
         &self,
+        which: (Kernel, Variant),
         pipeline: &wgpu::ComputePipeline,
         max_depth: Option<u32>,
         scene: &Scene,
@@ -231,9 +284,10 @@ impl GpuRenderer {
         let stepped = max_depth.is_some();
         let total = grid.0 as u64 * grid.1 as u64;
         let tile = budget::tile_points(scene, tables.map(|t| &t.walks), TESTS_PER_DISPATCH);
-        let buffers = self.upload(packed, tables.map(|t| &t.flat), tile, stepped);
-        let readback = self.ctx.readback_buffer("readback", tile * 16);
-        let mut schedule = Schedule::new(&self.ctx, total, tile, stepped, Pacing::Fixed, true);
+        let buffers = self.upload(packed, tables.map(|t| &t.flat), tile, stepped)?;
+        let compile_s = self.warm_up(which.0, which.1, pipeline, &buffers, &packed.params)?;
+        let readback = self.ctx.readback_buffer("readback", buffers.tile * 16);
+        let mut schedule = Schedule::new(&self.ctx, total, buffers.tile, stepped, Pacing::Fixed, true);
         progress.set_length(schedule.tiles());
         let mut values = Vec::with_capacity(total as usize);
         loop {
@@ -257,7 +311,13 @@ impl GpuRenderer {
             }
         }
         let counters = self.counters(&buffers)?;
-        Ok(RunOutput { values, counters, gpu_s: schedule.gpu_s() })
+        Ok(RunOutput {
+            values,
+            counters,
+            gpu_s: schedule.gpu_s(),
+            compile_s,
+            longest_submit_s: schedule.longest_submit().as_secs_f64(),
+        })
     }
 
     /// The counters the kernels have added up in `buffers` so far.

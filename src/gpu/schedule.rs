@@ -74,6 +74,36 @@ pub struct Schedule {
     timer: Option<Timer>,
     gpu_s: f64,
     last_submit: Duration,
+    longest_submit: Duration,
+}
+
+/// Dispatches `pipeline` once over no points (it writes nothing), so that a driver that
+/// compiles kernels at their first dispatch (lavapipe) does so here rather than inside a timed
+/// schedule; returns how long the dispatch took, compilation included.
+pub fn warm_up(
+    ctx: &GpuContext,
+    pipeline: &wgpu::ComputePipeline,
+    buffers: &SceneBuffers,
+    base: &Params,
+) -> Result<Duration> {
+    let p = Params { first_point: 0, point_count: 0, ..*base };
+    ctx.queue.write_buffer(&buffers.params, 0, bytemuck::bytes_of(&p));
+    let read = ctx.readback_buffer("warm-up readback", 4);
+    let mut enc = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+    {
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("kernel warm-up"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, &buffers.bind, &[]);
+        pass.dispatch_workgroups(1, 1, 1);
+    }
+    enc.copy_buffer_to_buffer(&buffers.active, 0, &read, 0, 4);
+    let start = Instant::now();
+    ctx.queue.submit([enc.finish()]);
+    ctx.read(&read, 4)?;
+    Ok(start.elapsed())
 }
 
 impl Schedule {
@@ -121,6 +151,7 @@ impl Schedule {
             timer,
             gpu_s: 0.0,
             last_submit: Duration::ZERO,
+            longest_submit: Duration::ZERO,
         }
     }
 
@@ -143,6 +174,11 @@ impl Schedule {
     /// How long the last submission took, from submit to its readback.
     pub fn last_submit(&self) -> Duration {
         self.last_submit
+    }
+
+    /// The longest submission so far.
+    pub fn longest_submit(&self) -> Duration {
+        self.longest_submit
     }
 
     /// One submission: starts the next tile when none is under way (writing `base` with the
@@ -201,6 +237,7 @@ impl Schedule {
         queue.submit([enc.finish()]);
         let left = u32::from_le_bytes(ctx.read(&self.active_read, 4)?.try_into().expect("4 bytes"));
         self.last_submit = start.elapsed();
+        self.longest_submit = self.longest_submit.max(self.last_submit);
         if let Some(t) = &self.timer {
             let ts = ctx.read(&t.read, 16)?;
             let ts: &[u64] = bytemuck::cast_slice(&ts);

@@ -18,6 +18,7 @@ use std::time::{Duration, Instant};
 
 use crate::coherence::Tables;
 use crate::error::{Error, Result};
+use crate::gpu::buffers::check_limits;
 use crate::gpu::kernels::compute_pipeline;
 use crate::gpu::schedule::{Pacing, Progress, Schedule};
 use crate::gpu::shaders::{Kernel, Variant};
@@ -142,12 +143,15 @@ impl Session {
         let all = GpuRenderer::variant(scene.effects(), MAX_DEPTH, opts.accel);
         let tables = gpu.tables(&scene, &opts, all, &mut packed)?;
         gpu.check_loop_budget(&scene, tables.as_ref(), Some(MAX_DEPTH))?;
-        let pipeline = gpu.kernel(Kernel::Render, variant(&scene, toggles, opts.max_depth, opts.accel))?;
+        let first = variant(&scene, toggles, opts.max_depth, opts.accel);
+        let pipeline = gpu.kernel(Kernel::Render, first)?;
         let tile = tile_points(&scene, tables.as_ref().map(|t| &t.walks), TESTS_PER_DISPATCH);
-        let buffers = gpu.upload(&packed, tables.as_ref().map(|t| &t.flat), tile, true);
+        let buffers = gpu.upload(&packed, tables.as_ref().map(|t| &t.flat), tile, true)?;
+        gpu.warm_up(Kernel::Render, first, &pipeline, &buffers, &packed.params)?;
         let grid = opts.grid();
         let ctx = &gpu.ctx;
         let total = grid.0 as u64 * grid.1 as u64;
+        check_limits(&[("preview accumulation", total * 16)], &ctx.device.limits())?;
         let accum = ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("preview accumulation"),
             size: total * 16,
@@ -162,7 +166,8 @@ impl Session {
         });
         let accumulate = compute_pipeline(ctx, Kernel::Accumulate, Variant::default(), None)?;
         let accumulate_bind = accumulate_bind(ctx, &accumulate, &tile_buffer, &buffers, &accum);
-        let schedule = Schedule::new(ctx, total, tile, true, Pacing::Adaptive { target: STEP_TARGET }, false);
+        let schedule =
+            Schedule::new(ctx, total, buffers.tile, true, Pacing::Adaptive { target: STEP_TARGET }, false);
         let mut s = Session {
             base: job_params(&opts, packed.params),
             gpu,
@@ -257,8 +262,8 @@ impl Session {
                 Err(e) => {
                     // Without tables the session falls back to brute force.
                     let brute = variant(&self.scene, self.toggles, self.opts.max_depth, AccelKind::Brute);
-                    self.pipeline = self.gpu.kernel(Kernel::Render, brute)?;
-                    self.buffers = self.gpu.upload(&packed, None, self.buffers.tile, true);
+                    self.buffers = self.gpu.upload(&packed, None, self.buffers.tile, true)?;
+                    self.use_kernel(brute)?;
                     self.rebind();
                     return Err(Error::Scene(format!("cannot rebuild the candidate tables: {e}")));
                 }
@@ -266,7 +271,7 @@ impl Session {
             gpu::point_at(&mut packed.params, &tables.flat);
             self.gpu.check_loop_budget(&self.scene, Some(&tables), Some(MAX_DEPTH))?;
             log::debug!("tables for the new eye in {:.3} s (eye table only: {eye_only})", tables.build_s);
-            self.buffers = self.gpu.upload(&packed, Some(&tables.flat), self.buffers.tile, true);
+            self.buffers = self.gpu.upload(&packed, Some(&tables.flat), self.buffers.tile, true)?;
             self.tables = Some(tables);
             self.rebind();
         } else {
@@ -311,11 +316,18 @@ impl Session {
         opts.max_depth = max_depth;
         gpu::check(&self.scene, &opts)?;
         let accel = if self.tables.is_some() { AccelKind::Cube } else { AccelKind::Brute };
-        self.pipeline = self.gpu.kernel(Kernel::Render, variant(&self.scene, toggles, max_depth, accel))?;
+        self.use_kernel(variant(&self.scene, toggles, max_depth, accel))?;
         self.toggles = toggles;
         self.opts = opts;
         self.base.max_depth = max_depth;
         self.restart();
+        Ok(())
+    }
+
+    /// Traces with the render kernel of `v` from now on, compiled and warmed up on first use.
+    fn use_kernel(&mut self, v: Variant) -> Result<()> {
+        self.pipeline = self.gpu.kernel(Kernel::Render, v)?;
+        self.gpu.warm_up(Kernel::Render, v, &self.pipeline, &self.buffers, &self.base)?;
         Ok(())
     }
 
