@@ -71,6 +71,9 @@ fn bad_input_exits_non_zero_with_file_and_line() {
 
     let out = cuberay().arg("info").arg(dir.join("missing.nff")).output().unwrap();
     assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("missing.nff"), "the error names the file: {err}");
+    assert_eq!(err.matches("No such file").count(), 1, "the cause is said once: {err}");
     let out = cuberay().arg("info").arg(dir.join("scene.obj")).output().unwrap();
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).contains("unknown scene format"));

@@ -288,7 +288,7 @@ impl GpuRenderer {
         let compile_s = self.warm_up(which.0, which.1, pipeline, &buffers, &packed.params)?;
         let readback = self.ctx.readback_buffer("readback", buffers.tile * 16);
         let mut schedule = Schedule::new(&self.ctx, total, buffers.tile, stepped, Pacing::Fixed, true);
-        progress.set_length(schedule.tiles());
+        progress.set_length(total);
         let mut values = Vec::with_capacity(total as usize);
         loop {
             // Between kernel steps a stop asked for ends the render.
@@ -305,7 +305,7 @@ impl GpuRenderer {
             self.ctx.queue.submit([enc.finish()]);
             let data = self.ctx.read(&readback, bytes)?;
             values.extend(bytemuck::cast_slice::<u8, [f32; 4]>(&data).iter().copied());
-            progress.inc(1);
+            progress.inc(count as u64);
             if pass_done {
                 break;
             }

@@ -11,8 +11,11 @@
 //! [`crate::layout::budget`]), and tiles bound both a dispatch's length and the states'
 //! memory.
 //!
-//! [`Pacing::Fixed`] (headless renders) submits one dispatch at a time over whole tiles and
-//! measures each with timestamp queries; [`Pacing::Adaptive`] (the preview) grows or shrinks
+//! [`Pacing::Fixed`] (headless renders) submits one dispatch at a time and measures each
+//! with timestamp queries; its tiles start at a quarter of the buffers' capacity and are
+//! halved after a tile whose longest submission passed [`SUBMIT_LIMIT`] (grown back when
+//! well under), because the static estimate of a step's work ([`crate::layout::budget`])
+//! cannot see how long secondary rays' walks really are; [`Pacing::Adaptive`] (the preview) grows or shrinks
 //! the tile and the dispatches per submission so that one submission takes about a target
 //! time, keeping the window responsive.
 
@@ -40,6 +43,11 @@ const MAX_DISPATCHES: u32 = 16;
 
 /// The first tile of an adaptive schedule holds at most this many points.
 const FIRST_ADAPTIVE_TILE: u64 = 4096;
+
+/// The longest a fixed-pacing submission should take. Real GPUs reset a device whose
+/// submission runs for about 2 s; lavapipe on two cores is slower than any of them, so
+/// keeping its submissions to a quarter of that keeps every device's well under.
+pub const SUBMIT_LIMIT: Duration = Duration::from_millis(500);
 
 /// What a [`Schedule::step`] got done.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -75,6 +83,8 @@ pub struct Schedule {
     gpu_s: f64,
     last_submit: Duration,
     longest_submit: Duration,
+    /// The longest submission of the current tile.
+    tile_longest: Duration,
 }
 
 /// Dispatches `pipeline` once over no points (it writes nothing), so that a driver that
@@ -135,7 +145,7 @@ impl Schedule {
             period_s: ctx.queue.get_timestamp_period() as f64 * 1e-9,
         });
         let tile_size = match pacing {
-            Pacing::Fixed => capacity,
+            Pacing::Fixed => (capacity / 4).div_ceil(MIN_TILE).max(1) * MIN_TILE,
             Pacing::Adaptive { .. } => capacity.min(FIRST_ADAPTIVE_TILE),
         };
         Schedule {
@@ -152,16 +162,13 @@ impl Schedule {
             gpu_s: 0.0,
             last_submit: Duration::ZERO,
             longest_submit: Duration::ZERO,
+            tile_longest: Duration::ZERO,
         }
-    }
-
-    /// Tiles in a pass at the current tile size.
-    pub fn tiles(&self) -> u64 {
-        self.total.div_ceil(self.tile_size)
     }
 
     /// Drops the current tile and starts again from the first point.
     pub fn restart(&mut self) {
+        self.tile_longest = Duration::ZERO;
         self.next_point = 0;
         self.current = None;
     }
@@ -238,6 +245,7 @@ impl Schedule {
         let left = u32::from_le_bytes(ctx.read(&self.active_read, 4)?.try_into().expect("4 bytes"));
         self.last_submit = start.elapsed();
         self.longest_submit = self.longest_submit.max(self.last_submit);
+        self.tile_longest = self.tile_longest.max(self.last_submit);
         if let Some(t) = &self.timer {
             let ts = ctx.read(&t.read, 16)?;
             let ts: &[u64] = bytemuck::cast_slice(&ts);
@@ -253,12 +261,28 @@ impl Schedule {
             return Ok(Progress::Stepping);
         }
         self.current = None;
+        self.fit_tile_to_submit_limit();
         self.next_point = first + count as u64;
         let pass_done = self.next_point == self.total;
         if pass_done {
             self.next_point = 0;
         }
         Ok(Progress::TileDone { first, count, pass_done })
+    }
+
+    /// Fixed pacing, at the end of a tile: the next tile is half as large when this one's
+    /// longest submission passed [`SUBMIT_LIMIT`], twice as large (up to the capacity) when
+    /// it stayed under a quarter of it.
+    fn fit_tile_to_submit_limit(&mut self) {
+        let longest = std::mem::take(&mut self.tile_longest);
+        if self.pacing != Pacing::Fixed {
+            return;
+        }
+        if longest > SUBMIT_LIMIT {
+            self.tile_size = (self.tile_size / 2).div_ceil(MIN_TILE).max(1) * MIN_TILE;
+        } else if longest < SUBMIT_LIMIT / 4 {
+            self.tile_size = (self.tile_size * 2).min(self.capacity);
+        }
     }
 
     /// Adaptive pacing: towards the target, larger tiles first, then more dispatches per
