@@ -5,8 +5,8 @@
 //! same run, as the baseline.
 //!
 //! `cargo run --release --example spd_times -- [--size N] [--cpu] [SCENE_DIR]` prints one
-//! Markdown table: the times of `--stats` (`time.*`), the rays traced and the process's peak
-//! memory so far. SCENE_DIR defaults to `../shared/scenes/spd/nff`.
+//! Markdown table: the times of `--stats` (`time.*`), the rays traced, the self-hits
+//! (`rays.self_hits`) and the process's peak memory so far. SCENE_DIR defaults to `../shared/scenes/spd/nff`.
 
 use std::path::PathBuf;
 
@@ -53,9 +53,9 @@ fn main() -> anyhow::Result<()> {
     let gpu = GpuRenderer::new()?;
     let info = &gpu.ctx.info;
     println!("GPU: {}, {}; {size}×{size}, corners, depth 5\n", info.name, info.driver_info);
-    print!("| scene | prims | preprocess s | warm-up compile s | gpu s | trace s | longest submit ms | rays | peak MiB |");
+    print!("| scene | prims | preprocess s | warm-up compile s | gpu s | trace s | longest submit ms | rays | self-hits | peak MiB |");
     println!("{}", if cpu { " cpu trace s | cpu / gpu trace |" } else { "" });
-    println!("|---|---|---|---|---|---|---|---|---|{}", if cpu { "---|---|" } else { "" });
+    println!("|---|---|---|---|---|---|---|---|---|---|{}", if cpu { "---|---|" } else { "" });
     let hidden = ProgressBar::hidden();
     for name in SCENES {
         let path = dir.join(format!("{name}.nff"));
@@ -66,7 +66,7 @@ fn main() -> anyhow::Result<()> {
         let t = gpu.render(&scene, &opts(size), &hidden)?.stats;
         let time = &t.time;
         print!(
-            "| {name} | {} | {:.3} | {} | {} | {:.3} | {:.1} | {} | {:.0} |",
+            "| {name} | {} | {:.3} | {} | {} | {:.3} | {:.1} | {} | {} | {:.0} |",
             scene.primitives.len(),
             time.preprocess_s,
             opt(warm.compile_s),
@@ -74,6 +74,7 @@ fn main() -> anyhow::Result<()> {
             time.trace_s,
             time.longest_submit_s.unwrap_or(0.0) * 1e3,
             t.rays.total,
+            t.rays.self_hits,
             peak_mib().unwrap_or(f64::NAN),
         );
         if cpu {

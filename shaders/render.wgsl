@@ -29,7 +29,7 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocati
             let i = point % params.grid_w;
             let j = point / params.grid_w;
             let eye = camera_ray(sample_position(i, j, params.sample_first + state.sample));
-            state.stack[0] = Pending(eye.o, RAY_EYE, eye.d, 1u, vec3<f32>(1.0), NO_ID);
+            state.stack[0] = Pending(eye.o, RAY_EYE | (1u << RAY_DEPTH_SHIFT), eye.d, 0.0, vec3<f32>(1.0), NO_ID);
             state.sp = 1u;
             state.sample += 1u;
         }

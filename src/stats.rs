@@ -9,6 +9,9 @@
 //!   transmitting one without total internal reflection, while the depth limit allows);
 //! - `rays.shadow`: shadow rays traced (none where the surface faces away from the light);
 //!   `rays.shadow_blocked`: those that found an occluder;
+//! - `rays.self_hits`: spawned rays (shadow, reflection, refraction) whose nearest hit (a
+//!   shadow ray: the blocker that answered it) lies within 4 spawn offsets of their origin:
+//!   self-intersection acne, 0 in a render whose offsets are large enough (not an SPD count);
 //! - `tests.*`: primitive intersection tests (bounding volume tests are not counted), by
 //!   primitive type, over all rays; `tests_per_ray.K` = tests made by rays of kind K
 //!   divided by the number of rays of kind K;
@@ -88,6 +91,7 @@ pub struct Counters {
     pub tests: [TestCounts; 4],
     pub eye_hit: u64,
     pub shadow_blocked: u64,
+    pub self_hits: u64,
 }
 
 impl Counters {
@@ -109,6 +113,7 @@ impl AddAssign for Counters {
         }
         self.eye_hit += o.eye_hit;
         self.shadow_blocked += o.shadow_blocked;
+        self.self_hits += o.self_hits;
     }
 }
 
@@ -121,6 +126,8 @@ pub struct RayStats {
     pub refract: u64,
     pub shadow: u64,
     pub shadow_blocked: u64,
+    /// Spawned rays that hit within 4 spawn offsets of their origin.
+    pub self_hits: u64,
     /// eye + reflect + refract + shadow.
     pub total: u64,
 }
@@ -222,6 +229,7 @@ impl Stats {
                 refract: rays_of(RayKind::Refract),
                 shadow: rays_of(RayKind::Shadow),
                 shadow_blocked: c.shadow_blocked,
+                self_hits: c.self_hits,
                 total: total_rays,
             },
             tests,
@@ -262,8 +270,8 @@ impl Stats {
         );
         o += &format!("effects:  {effects}\n");
         o += &format!(
-            "rays:     {} in all: {} eye ({} hit), {} reflect, {} refract, {} shadow ({} blocked)\n",
-            r.total, r.eye, r.eye_hit, r.reflect, r.refract, r.shadow, r.shadow_blocked
+            "rays:     {} in all: {} eye ({} hit), {} reflect, {} refract, {} shadow ({} blocked); {} self-hits\n",
+            r.total, r.eye, r.eye_hit, r.reflect, r.refract, r.shadow, r.shadow_blocked, r.self_hits
         );
         o += &format!(
             "tests:    {} in all: {} sphere, {} triangle, {} cylinder\n",
@@ -316,7 +324,7 @@ mod tests {
         let mut tests = [TestCounts::default(); 4];
         tests[0] = TestCounts { sphere: 30, triangle: 10, cylinder: 0, bound: 6 };
         tests[1] = TestCounts { sphere: 4, triangle: 0, cylinder: 4, bound: 0 };
-        let c = Counters { rays: [10, 4, 2, 0], tests, eye_hit: 7, shadow_blocked: 1 };
+        let c = Counters { rays: [10, 4, 2, 0], tests, eye_hit: 7, shadow_blocked: 1, self_hits: 0 };
         let s = Stats::new(Settings::default(), vec!["shadows"], &c, Times::default());
         assert_eq!(s.rays.total, 16);
         assert_eq!(s.tests.total(), 48);
@@ -325,7 +333,7 @@ mod tests {
         assert_eq!(s.tests_per_ray.refract, 0.0);
         assert_eq!(s.bound_tests_per_ray.eye, 0.6);
         let v: serde_json::Value = serde_json::from_str(&s.to_json()).unwrap();
-        for key in ["eye", "eye_hit", "reflect", "refract", "shadow", "shadow_blocked"] {
+        for key in ["eye", "eye_hit", "reflect", "refract", "shadow", "shadow_blocked", "self_hits"] {
             assert!(v["rays"][key].is_u64(), "rays.{key} missing");
         }
         for key in ["sphere", "triangle", "cylinder", "bound"] {

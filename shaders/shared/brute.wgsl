@@ -57,7 +57,10 @@ fn brute_any_range(ray: Ray, t_max: f32, skip: u32, first: u32, end: u32) -> boo
         }
         let p = prims[id];
         count_test(RAY_SHADOW, p.kind);
-        if intersect_prim(p, ray, t_max).ok {
+        let h = intersect_prim(p, ray, t_max);
+        if h.ok {
+            // The ray starts at the shadow ray's origin: its t is the distance from there.
+            blocked_at = h.t;
             return true;
         }
     }

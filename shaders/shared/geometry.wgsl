@@ -313,5 +313,10 @@ fn surface(prim: Prim, ray: Ray, h: PrimHit) -> Surface {
 // numbers behind the hit point, about 128 f32 rounding units of that magnitude).
 fn spawn_origin(s: Surface, dir: vec3<f32>) -> vec3<f32> {
     let side = select(-s.ng, s.ng, dot(dir, s.ng) >= 0.0);
-    return s.p + side * (s.scale * params.spawn_rel + params.spawn_abs);
+    return s.p + side * spawn_offset(s);
+}
+
+// How far `spawn_origin` moves a ray's origin off surface `s`.
+fn spawn_offset(s: Surface) -> f32 {
+    return s.scale * params.spawn_rel + params.spawn_abs;
 }

@@ -102,15 +102,18 @@ struct TextureInfo {
 }
 
 // A ray waiting in a grid point's ray tree, with the weight its radiance counts with. A
-// shadow job (kind RAY_SHADOW) keeps its light's index in `depth` and, in `weight`, what the
-// light adds unless blocked.
+// shadow job (kind RAY_SHADOW) keeps its light's index in place of the depth and, in
+// `weight`, what the light adds unless blocked.
 struct Pending {
     o: vec3<f32>,
     // Ray kind (bits 0-1, RAY_KIND_MASK); RAY_SKIP_FROM: `from_prim` need not be tested
-    // (the ray leaves a triangle, or a sphere outwards).
+    // (the ray leaves a triangle, or a sphere outwards); from bit RAY_DEPTH_SHIFT on, the
+    // ray's depth (the eye ray: 1), or a shadow job's light (`job_depth`).
     kind: u32,
     d: vec3<f32>,
-    depth: u32,
+    // How far `o` was moved off the surface it leaves (0 for the eye): a hit nearer than
+    // SELF_HIT_SPAWNS of these is counted as a self-hit.
+    spawn: f32,
     weight: vec3<f32>,
     // The primitive the ray leaves (the eye: 0xffffffff).
     from_prim: u32,
@@ -212,16 +215,29 @@ const RAY_REFLECT: u32 = 2u;
 const RAY_REFRACT: u32 = 3u;
 const RAY_KIND_MASK: u32 = 3u;
 const RAY_SKIP_FROM: u32 = 4u;
+const RAY_DEPTH_SHIFT: u32 = 8u;
+
+// The depth of a pending ray (a shadow job: its light).
+fn job_depth(job: Pending) -> u32 {
+    return job.kind >> RAY_DEPTH_SHIFT;
+}
+
+// A spawned ray whose nearest hit (a shadow ray: the blocker that answered it) lies within
+// this many spawn offsets of its origin is a self-hit (C_SELF_HITS): acne on the surface it
+// leaves or on a neighbour. A ray refracted through a shell thinner than this counts too.
+const SELF_HIT_SPAWNS: f32 = 4.0;
 
 // Counter slots: rays by kind (C_RAYS + kind), tests by ray kind x primitive kind
 // (C_TESTS + 3 * ray kind + primitive kind), eye hits, blocked shadow rays, group sphere
-// tests by ray kind (C_BOUNDS + kind). Each is 64-bit in `counters` (low, high word).
+// tests by ray kind (C_BOUNDS + kind), self-hits of spawned rays. Each is 64-bit in
+// `counters` (low, high word).
 const C_RAYS: u32 = 0u;
 const C_TESTS: u32 = 4u;
 const C_EYE_HIT: u32 = 16u;
 const C_SHADOW_BLOCKED: u32 = 17u;
 const C_BOUNDS: u32 = 18u;
-const COUNTER_COUNT: u32 = 22u;
+const C_SELF_HITS: u32 = 22u;
+const COUNTER_COUNT: u32 = 23u;
 
 // The largest finite f32: the open end of an unbounded ray (no infinity is used).
 const FAR: f32 = 3.4028235e38;
@@ -231,6 +247,12 @@ const NO_ID: u32 = 0xffffffffu;
 
 // Shadow rays towards a positional light end this relative distance before it (f32).
 const SHADOW_END_REL: f32 = 9.5367431640625e-7;
+
+#if SHADOWS
+// After an `occluded*` call (walk.wgsl or brute.wgsl) answered blocked: how far from the
+// shadow ray's origin its blocker lies (the self-hit count, shade.wgsl).
+var<private> blocked_at: f32;
+#endif
 
 var<private> local_counts: array<u32, COUNTER_COUNT>;
 var<workgroup> group_counts: array<atomic<u32>, COUNTER_COUNT>;

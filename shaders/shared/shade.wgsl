@@ -134,6 +134,7 @@ fn push_shadow_rays(id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>
             continue;
         }
         let o = spawn_origin(s, lit.dir);
+        let spawn = spawn_offset(s);
         let skip = leave_skip(id, lit.dir, s.ng);
         let t_max = shadow_t_max(i, o);
         // A full stack takes no job: the walk is traced at once, however long.
@@ -145,16 +146,28 @@ fn push_shadow_rays(id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>
         }
         if r == ANY_UNFINISHED {
             let flags = select(0u, RAY_SKIP_FROM, skip != NO_ID);
-            state.stack[state.sp] = Pending(o, RAY_SHADOW | flags, lit.dir, i, weight * lit.c, id);
+            state.stack[state.sp] =
+                Pending(o, RAY_SHADOW | flags | (i << RAY_DEPTH_SHIFT), lit.dir, spawn, weight * lit.c, id);
             state.sp += 1u;
             continue;
         }
         count(C_RAYS + RAY_SHADOW);
         if r == ANY_BLOCKED {
-            count(C_SHADOW_BLOCKED);
+            count_blocked(spawn);
         } else {
             state.color += weight * lit.c;
         }
+    }
+}
+
+// A blocked shadow ray, spawned `spawn` off its surface: a self-hit too when its blocker
+// lies within SELF_HIT_SPAWNS spawn offsets. The walk stops at the first blocker it finds,
+// not the nearest, so a self-hit behind which another blocker was found first is not
+// counted; that point is in shadow either way, so what is missed makes no acne.
+fn count_blocked(spawn: f32) {
+    count(C_SHADOW_BLOCKED);
+    if blocked_at < SELF_HIT_SPAWNS * spawn {
+        count(C_SELF_HITS);
     }
 }
 
@@ -162,14 +175,15 @@ fn push_shadow_rays(id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>
 // and, once answered, pops it and adds its light unless blocked.
 fn shadow_step(job: Pending) {
     let skip = select(NO_ID, job.from_prim, (job.kind & RAY_SKIP_FROM) != 0u);
-    let r = occluded_step(job.o, job.d, shadow_t_max(job.depth, job.o), job.depth, job.from_prim, skip);
+    let light = job_depth(job);
+    let r = occluded_step(job.o, job.d, shadow_t_max(light, job.o), light, job.from_prim, skip);
     if r == ANY_UNFINISHED {
         return;
     }
     state.sp -= 1u;
     count(C_RAYS + RAY_SHADOW);
     if r == ANY_BLOCKED {
-        count(C_SHADOW_BLOCKED);
+        count_blocked(job.spawn);
     } else {
         state.color += job.weight;
     }
@@ -237,6 +251,8 @@ fn trace_step() {
     }
     if kind == RAY_EYE {
         count(C_EYE_HIT);
+    } else if h.hit.t < SELF_HIT_SPAWNS * job.spawn {
+        count(C_SELF_HITS);
     }
     let prim = prims[h.prim];
     let m = materials[prim.material];
@@ -247,7 +263,8 @@ fn trace_step() {
     let n = select(-s.ns, s.ns, entering);
     state.color += job.weight * shade_local(h.prim, m, s, n, -d);
 #if REFLECTION
-    if job.depth < params.max_depth {
+    let depth = job_depth(job);
+    if depth < params.max_depth {
         let transmits = m.transmittance > 0.0;
         var weight = m.mirror;
 #if REFRACTION
@@ -261,8 +278,9 @@ fn trace_step() {
         }
         if refracted.ok {
             let flags = select(0u, RAY_SKIP_FROM, leave_skip(h.prim, refracted.dir, s.ng) != NO_ID);
-            state.stack[state.sp] = Pending(spawn_origin(s, refracted.dir), RAY_REFRACT | flags, refracted.dir,
-                job.depth + 1u, job.weight * m.transmittance, h.prim);
+            state.stack[state.sp] = Pending(spawn_origin(s, refracted.dir),
+                RAY_REFRACT | flags | ((depth + 1u) << RAY_DEPTH_SHIFT), refracted.dir, spawn_offset(s),
+                job.weight * m.transmittance, h.prim);
             state.sp += 1u;
         }
 #endif
@@ -272,8 +290,8 @@ fn trace_step() {
                 r = reflect_dir(d, ng);
             }
             let flags = select(0u, RAY_SKIP_FROM, leave_skip(h.prim, r, s.ng) != NO_ID);
-            state.stack[state.sp] = Pending(spawn_origin(s, r), RAY_REFLECT | flags, r, job.depth + 1u, job.weight * weight,
-                h.prim);
+            state.stack[state.sp] = Pending(spawn_origin(s, r), RAY_REFLECT | flags | ((depth + 1u) << RAY_DEPTH_SHIFT), r,
+                spawn_offset(s), job.weight * weight, h.prim);
             state.sp += 1u;
         }
     }

@@ -122,6 +122,10 @@ fn closest_step(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) 
 }
 
 #if SHADOWS
+// The t of the hit that ended the last any-hit walk with ANY_BLOCKED (the self-hit count;
+// the CPU walker's `hits` closure keeps it on that side).
+var<private> blocker_t: f32;
+
 // Continues the any-hit walk `w` for at most about `budget` loop iterations: ANY_BLOCKED
 // when some primitive other than `skip` is hit at 0 < t < t_max, ANY_CLEAR when the walk
 // ended without one, ANY_UNFINISHED when the budget ran out first.
@@ -149,7 +153,9 @@ fn walk_any(w: ptr<function, Walk>, ray: Ray, t_max: f32, skip: u32, budget: u32
                     if m != skip {
                         let p = prims[m];
                         count_test(RAY_SHADOW, p.kind);
-                        if intersect_prim(p, ray, t_max).ok {
+                        let h = intersect_prim(p, ray, t_max);
+                        if h.ok {
+                            blocker_t = h.t;
                             return ANY_BLOCKED;
                         }
                     }
@@ -162,7 +168,9 @@ fn walk_any(w: ptr<function, Walk>, ray: Ray, t_max: f32, skip: u32, budget: u32
         }
         let p = prims[e.id];
         count_test(RAY_SHADOW, p.kind);
-        if intersect_prim(p, ray, t_max).ok {
+        let h = intersect_prim(p, ray, t_max);
+        if h.ok {
+            blocker_t = h.t;
             return ANY_BLOCKED;
         }
     }
@@ -181,12 +189,22 @@ fn cube_walk_any(origin: u32, ray: Ray, t_max: f32, skip: u32) -> bool {
 // The walk that answers whether light `light` is blocked from `q`, the spawn origin on
 // primitive `from_prim` (direction `to_light`, `t_max` before a positional light). A light
 // with a table traces the ray light-buffer style, from the light towards `q`; otherwise
-// the ray leaves `q` with the table of `from_prim`. `empty`: nothing to walk.
+// the ray leaves `q` with the table of `from_prim`. `empty`: nothing to walk. `q_t`: the t
+// of `q` along the ray.
 struct ShadowWalk {
     origin: u32,
     ray: Ray,
     t_max: f32,
     empty: bool,
+    q_t: f32,
+}
+
+// Notes (in `blocked_at`, layout.wgsl) where the blocker of `sw`'s walk lies when `r` is ANY_BLOCKED; returns `r`.
+fn note_blocker(sw: ShadowWalk, r: u32) -> u32 {
+    if r == ANY_BLOCKED {
+        blocked_at = abs(blocker_t - sw.q_t);
+    }
+    return r;
 }
 
 fn shadow_walk(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim: u32) -> ShadowWalk {
@@ -196,13 +214,13 @@ fn shadow_walk(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_p
         let v = q - l;
         let dist = length(v);
         if !(dist > 0.0) {
-            return ShadowWalk(lo, make_ray(l, to_light), 0.0, true);
+            return ShadowWalk(lo, make_ray(l, to_light), 0.0, true, 0.0);
         }
         let ray = make_ray(l, v);
-        return ShadowWalk(lo, ray, dist * (1.0 - SHADOW_END_REL), max3(abs(ray.d)) == 0.0);
+        return ShadowWalk(lo, ray, dist * (1.0 - SHADOW_END_REL), max3(abs(ray.d)) == 0.0, dist);
     }
     let ray = make_ray(q, to_light);
-    return ShadowWalk(cube_origin(from_prim, q), ray, t_max, max3(abs(ray.d)) == 0.0);
+    return ShadowWalk(cube_origin(from_prim, q), ray, t_max, max3(abs(ray.d)) == 0.0, 0.0);
 }
 
 // `occluded` when its walk has at most `params.shadow_inline` entries (groups counted
@@ -216,7 +234,7 @@ fn occluded_short(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, fro
     if (w.iend - w.i) + (w.jend - w.j) > params.shadow_inline {
         return ANY_UNFINISHED;
     }
-    return walk_any(&w, sw.ray, sw.t_max, skip, UNBOUNDED);
+    return note_blocker(sw, walk_any(&w, sw.ray, sw.t_max, skip, UNBOUNDED));
 }
 
 // Whether light `light` is blocked from `q` (see `shadow_walk`), in one go.
@@ -225,7 +243,9 @@ fn occluded(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim
     if sw.empty {
         return false;
     }
-    return cube_walk_any(sw.origin, sw.ray, sw.t_max, skip);
+    let blocked = cube_walk_any(sw.origin, sw.ray, sw.t_max, skip);
+    note_blocker(sw, select(ANY_CLEAR, ANY_BLOCKED, blocked));
+    return blocked;
 }
 
 // `occluded` for the shadow job on top of the point's stack, in bounded steps (the walk's
@@ -242,7 +262,7 @@ fn occluded_step(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from
         let s = state.walk;
         w = Walk(s.i, s.iend, s.j, s.jend);
     }
-    let r = walk_any(&w, sw.ray, sw.t_max, skip, WALK_CHUNK);
+    let r = note_blocker(sw, walk_any(&w, sw.ray, sw.t_max, skip, WALK_CHUNK));
     state.walking = select(0u, 1u, r == ANY_UNFINISHED);
     state.walk = WalkState(w.i, w.iend, w.j, w.jend, NO_ID, 0.0, 0.0, 0.0);
     return r;

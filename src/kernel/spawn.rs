@@ -42,9 +42,14 @@ impl SpawnPolicy {
 
 /// The origin of a ray leaving surface `s` towards `dir` under `policy`.
 pub fn spawn_origin(s: &Surface, dir: Vec3, policy: SpawnPolicy) -> Vec3 {
-    let (rel, abs) = policy.rel_abs();
     let side = if dir.dot(s.ng) >= 0.0 { s.ng } else { -s.ng };
-    s.p + side * (s.scale * rel + abs)
+    s.p + side * spawn_offset(s, policy)
+}
+
+/// How far [`spawn_origin`] moves a ray's origin off surface `s` under `policy`.
+pub fn spawn_offset(s: &Surface, policy: SpawnPolicy) -> f32 {
+    let (rel, abs) = policy.rel_abs();
+    s.scale * rel + abs
 }
 
 /// The largest coordinate magnitude of the scene re-centred on the camera: its bounds and

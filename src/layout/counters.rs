@@ -14,8 +14,11 @@ pub const C_EYE_HIT: u32 = 16;
 pub const C_SHADOW_BLOCKED: u32 = 17;
 /// Group bounding-sphere tests by ray kind: slot `C_BOUNDS + ray_kind`.
 pub const C_BOUNDS: u32 = 18;
+/// Spawned rays that hit within [`SELF_HIT_SPAWNS`](super::structs::SELF_HIT_SPAWNS) spawn
+/// offsets of their origin.
+pub const C_SELF_HITS: u32 = 22;
 /// Slots in all.
-pub const COUNTER_COUNT: u32 = 22;
+pub const COUNTER_COUNT: u32 = 23;
 
 /// Bytes of the `counters` buffer.
 pub const COUNTER_BYTES: u64 = COUNTER_COUNT as u64 * 8;
@@ -34,5 +37,6 @@ pub fn decode_counters(raw: &[u8]) -> Counters {
     }
     c.eye_hit = slot(C_EYE_HIT);
     c.shadow_blocked = slot(C_SHADOW_BLOCKED);
+    c.self_hits = slot(C_SELF_HITS);
     c
 }

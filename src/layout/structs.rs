@@ -127,16 +127,17 @@ pub struct TextureInfo {
 }
 
 /// A pending ray of a grid point's ray tree (WGSL `Pending`, keep in sync with
-/// `shaders/shared/layout.wgsl`); a shadow job keeps its light in `depth` and what the light
-/// adds unless blocked in `weight`. `kind` is a `RAY_*` kind, with [`RAY_SKIP_FROM`] set when
-/// `from_prim` need not be tested.
+/// `shaders/shared/layout.wgsl`). `kind` is a `RAY_*` kind, with [`RAY_SKIP_FROM`] set when
+/// `from_prim` need not be tested, and the ray's depth from bit [`RAY_DEPTH_SHIFT`] on (a
+/// shadow job: its light, with what the light adds unless blocked in `weight`). `spawn` is
+/// how far the origin was moved off the surface it leaves (0 for the eye).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct Pending {
     pub o: [f32; 3],
     pub kind: u32,
     pub d: [f32; 3],
-    pub depth: u32,
+    pub spawn: f32,
     pub weight: [f32; 3],
     pub from_prim: u32,
 }
@@ -214,3 +215,8 @@ pub const RAY_REFRACT: u32 = 3;
 pub const RAY_KIND_MASK: u32 = 3;
 /// Set in [`Pending::kind`] when the ray need not test the primitive it leaves.
 pub const RAY_SKIP_FROM: u32 = 4;
+/// Where the depth starts in [`Pending::kind`].
+pub const RAY_DEPTH_SHIFT: u32 = 8;
+/// A spawned ray whose nearest hit (a shadow ray: the blocker that answered it) lies within
+/// this many spawn offsets of its origin is a self-hit (`rays.self_hits`).
+pub const SELF_HIT_SPAWNS: f32 = 4.0;

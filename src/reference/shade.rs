@@ -31,13 +31,18 @@
 use glam::DVec3;
 
 use super::accel::{Accel, NearestHit, RayOrigin, ShadowQuery};
-use super::geometry::{spawn_origin, surface, Ray};
+use super::geometry::{spawn_offset, spawn_origin, surface, Ray};
 use super::texture;
 use crate::scene::{Light, LightKind, Material, Scene};
 use crate::stats::{Counters, RayKind};
 
 /// Shadow rays towards a positional light end this relative distance before it.
 pub const SHADOW_END_REL: f64 = 1e-9;
+
+/// A spawned ray whose nearest hit (a shadow ray: any blocker) lies within this many spawn
+/// offsets of its origin is counted in `rays.self_hits` (the same rule as the kernels', in
+/// the reference's own offsets).
+pub const SELF_HIT_SPAWNS: f64 = 4.0;
 
 /// Direction, distance and strength of a light's incidence at a point.
 pub struct Incidence {
@@ -103,7 +108,7 @@ pub struct Tracer<'a> {
 impl Tracer<'_> {
     /// Radiance along an eye ray.
     pub fn eye(&self, ray: &Ray, c: &mut Counters) -> DVec3 {
-        self.trace(ray, RayOrigin::Eye, RayKind::Eye, 1, c)
+        self.trace(ray, RayOrigin::Eye, RayKind::Eye, 1, 0.0, c)
     }
 
     /// The first hit of an eye ray (for AOVs), counted as an eye ray.
@@ -116,13 +121,26 @@ impl Tracer<'_> {
         Some(FirstHit { t: h.hit.t, prim: h.prim, normal })
     }
 
-    fn trace(&self, ray: &Ray, origin: RayOrigin, kind: RayKind, depth: u32, c: &mut Counters) -> DVec3 {
+    /// Radiance along `ray` of `kind`, whose origin was moved `spawn` off the surface it
+    /// leaves (0 for the eye).
+    #[allow(clippy::too_many_arguments)]
+    fn trace(
+        &self,
+        ray: &Ray,
+        origin: RayOrigin,
+        kind: RayKind,
+        depth: u32,
+        spawn: f64,
+        c: &mut Counters,
+    ) -> DVec3 {
         c.count_ray(kind);
         match self.accel.closest(ray, origin, f64::INFINITY, c.tests_mut(kind)) {
             None => self.scene.background,
             Some(h) => {
                 if kind == RayKind::Eye {
                     c.eye_hit += 1;
+                } else if h.hit.t < SELF_HIT_SPAWNS * spawn {
+                    c.self_hits += 1;
                 }
                 self.shade(ray, &h, depth, c)
             }
@@ -171,6 +189,16 @@ impl Tracer<'_> {
             c.count_ray(RayKind::Shadow);
             if self.accel.occluded(&q, c.tests_mut(RayKind::Shadow)) {
                 c.shadow_blocked += 1;
+                // A self-hit when something blocks it within SELF_HIT_SPAWNS offsets: a second,
+                // short query from the point, its tests not counted (it is instrumentation).
+                let near = ShadowQuery {
+                    t_max: q.t_max.min(SELF_HIT_SPAWNS * spawn_offset(&s)),
+                    light_position: None,
+                    ..q
+                };
+                if self.accel.occluded(&near, &mut Default::default()) {
+                    c.self_hits += 1;
+                }
                 continue;
             }
             let mut local = diffuse * n_dot_l;
@@ -201,12 +229,14 @@ impl Tracer<'_> {
                 m.mirror
             };
             let rr = Ray::new(spawn_origin(&s, r), r);
-            l += weight * self.trace(&rr, RayOrigin::Surface(h.prim), RayKind::Reflect, depth + 1, c);
+            let spawn = spawn_offset(&s);
+            l += weight * self.trace(&rr, RayOrigin::Surface(h.prim), RayKind::Reflect, depth + 1, spawn, c);
         }
         if let Some(t) = refracted {
             let rt = Ray::new(spawn_origin(&s, t), t);
-            l +=
-                m.transmittance * self.trace(&rt, RayOrigin::Surface(h.prim), RayKind::Refract, depth + 1, c);
+            let spawn = spawn_offset(&s);
+            l += m.transmittance
+                * self.trace(&rt, RayOrigin::Surface(h.prim), RayKind::Refract, depth + 1, spawn, c);
         }
         l
     }
