@@ -94,21 +94,17 @@ pub fn upload(
     let invalid = device.push_error_scope(wgpu::ErrorFilter::Validation);
     let storage = |label: &str, bytes: &[u8], extra: wgpu::BufferUsages| {
         // Storage bindings may not be empty. The contents go through the queue (not a
-        // buffer mapped at creation, whose mapping panics on a lost device).
+        // buffer mapped at creation, whose mapping panics on a lost device); every buffer
+        // holds 32-bit words, so its length is a whole number of copy units.
         let contents = if bytes.is_empty() { &[0u8; 256][..] } else { bytes };
+        assert_eq!(contents.len() as u64 % wgpu::COPY_BUFFER_ALIGNMENT, 0, "{label}: not whole words");
         let buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(label),
-            size: (contents.len() as u64).next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT),
+            size: contents.len() as u64,
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | extra,
             mapped_at_creation: false,
         });
-        let whole = contents.len() - contents.len() % wgpu::COPY_BUFFER_ALIGNMENT as usize;
-        ctx.queue.write_buffer(&buffer, 0, &contents[..whole]);
-        if whole < contents.len() {
-            let mut tail = [0u8; wgpu::COPY_BUFFER_ALIGNMENT as usize];
-            tail[..contents.len() - whole].copy_from_slice(&contents[whole..]);
-            ctx.queue.write_buffer(&buffer, whole as u64, &tail);
-        }
+        ctx.queue.write_buffer(&buffer, 0, contents);
         buffer
     };
     let none = wgpu::BufferUsages::empty();

@@ -15,9 +15,9 @@
 //! with timestamp queries; its tiles start at a quarter of the buffers' capacity and are
 //! halved after a tile whose longest submission passed [`SUBMIT_LIMIT`] (grown back when
 //! well under), because the static estimate of a step's work ([`crate::layout::budget`])
-//! cannot see how long secondary rays' walks really are; [`Pacing::Adaptive`] (the preview) grows or shrinks
-//! the tile and the dispatches per submission so that one submission takes about a target
-//! time, keeping the window responsive.
+//! cannot see how long secondary rays' walks really are. [`Pacing::Adaptive`] (the
+//! preview) grows or shrinks the tile and the dispatches per submission so that one
+//! submission takes about a target time, keeping the window responsive.
 
 use std::time::{Duration, Instant};
 
@@ -48,6 +48,11 @@ const FIRST_ADAPTIVE_TILE: u64 = 4096;
 /// submission runs for about 2 s; lavapipe on two cores is slower than any of them, so
 /// keeping its submissions to a quarter of that keeps every device's well under.
 pub const SUBMIT_LIMIT: Duration = Duration::from_millis(500);
+
+/// `points` rounded up to whole workgroups, at least one.
+fn whole_groups(points: u64) -> u64 {
+    points.div_ceil(MIN_TILE).max(1) * MIN_TILE
+}
 
 /// What a [`Schedule::step`] got done.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -145,7 +150,7 @@ impl Schedule {
             period_s: ctx.queue.get_timestamp_period() as f64 * 1e-9,
         });
         let tile_size = match pacing {
-            Pacing::Fixed => (capacity / 4).div_ceil(MIN_TILE).max(1) * MIN_TILE,
+            Pacing::Fixed => whole_groups(capacity / 4),
             Pacing::Adaptive { .. } => capacity.min(FIRST_ADAPTIVE_TILE),
         };
         Schedule {
@@ -279,7 +284,7 @@ impl Schedule {
             return;
         }
         if longest > SUBMIT_LIMIT {
-            self.tile_size = (self.tile_size / 2).div_ceil(MIN_TILE).max(1) * MIN_TILE;
+            self.tile_size = whole_groups(self.tile_size / 2);
         } else if longest < SUBMIT_LIMIT / 4 {
             self.tile_size = (self.tile_size * 2).min(self.capacity);
         }
