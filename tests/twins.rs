@@ -278,6 +278,7 @@ const WGSL_ONLY_STRUCTS: &[&str] = &[
     "Refracted",
     "Walk",
     "ShadowWalk",
+    "ShadowRay",
     "VertexOut",
 ];
 

@@ -49,8 +49,9 @@ fn closest_step(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) 
 }
 
 #if SHADOWS
-// Tests primitives first..end for a hit before t_max.
-fn brute_any_range(ray: Ray, t_max: f32, skip: u32, first: u32, end: u32) -> bool {
+// Tests primitives first..end for a hit before t_max; the first hit found is noted in
+// `blocked_at` as its distance from the shadow ray's spawn origin (`q_t` along the ray).
+fn brute_any_range(ray: Ray, t_max: f32, q_t: f32, skip: u32, first: u32, end: u32) -> bool {
     for (var id = first; id < end; id++) {
         if id == skip {
             continue;
@@ -59,23 +60,18 @@ fn brute_any_range(ray: Ray, t_max: f32, skip: u32, first: u32, end: u32) -> boo
         count_test(RAY_SHADOW, p.kind);
         let h = intersect_prim(p, ray, t_max);
         if h.ok {
-            // The ray starts at the shadow ray's origin: its t is the distance from there.
-            blocked_at = h.t;
+            blocked_at = abs(h.t - q_t);
             return true;
         }
     }
     return false;
 }
 
-// True when some primitive other than `skip` blocks the ray before t_max.
-fn brute_any(ray: Ray, t_max: f32, skip: u32) -> bool {
-    return brute_any_range(ray, t_max, skip, 0u, params.prim_count);
-}
-
 // Whether light `light` is blocked from `q`, the spawn origin on primitive `from_prim`:
-// the ray from `q` towards the light, up to `t_max`.
+// the shadow ray of `shadow_ray` (geometry.wgsl), the same ray the tables walk.
 fn occluded(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim: u32, skip: u32) -> bool {
-    return brute_any(make_ray(q, to_light), t_max, skip);
+    let sr = shadow_ray(q, to_light, t_max, light);
+    return !sr.empty && brute_any_range(sr.ray, sr.t_max, sr.q_t, skip, 0u, params.prim_count);
 }
 
 // `occluded` when it tests at most `params.shadow_inline` primitives; ANY_UNFINISHED,
@@ -90,9 +86,14 @@ fn occluded_short(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, fro
 // `occluded` for the shadow job on top of the point's stack, WALK_CHUNK primitives per
 // step: ANY_UNFINISHED when it goes on in the next step.
 fn occluded_step(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim: u32, skip: u32) -> u32 {
+    let sr = shadow_ray(q, to_light, t_max, light);
+    if sr.empty {
+        state.walking = 0u;
+        return ANY_CLEAR;
+    }
     let first = select(0u, state.walk.i, state.walking != 0u);
     let end = min(first + WALK_CHUNK, params.prim_count);
-    if brute_any_range(make_ray(q, to_light), t_max, skip, first, end) {
+    if brute_any_range(sr.ray, sr.t_max, sr.q_t, skip, first, end) {
         state.walking = 0u;
         return ANY_BLOCKED;
     }

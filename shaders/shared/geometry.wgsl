@@ -257,6 +257,37 @@ fn max3(v: vec3<f32>) -> f32 {
     return max(v.x, max(v.y, v.z));
 }
 
+#if SHADOWS
+// The shadow ray towards light `light` from `q`, the spawn origin of a hit (direction
+// `to_light`, ending at `t_max`): one ray for every accelerator, so that the tables and
+// brute force answer alike. A positional light's ray is traced light-buffer style, from
+// the light towards `q` (where its table is keyed), ending a relative SHADOW_END_REL before
+// `q`; a directional light's leaves `q`. `q_t`: the t of `q` along the ray; `empty`:
+// nothing to trace (`q` at the light, or a zero direction).
+struct ShadowRay {
+    ray: Ray,
+    t_max: f32,
+    q_t: f32,
+    empty: bool,
+    from_light: bool,
+}
+
+fn shadow_ray(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32) -> ShadowRay {
+    let l = lights[light];
+    if l.kind != LIGHT_DIRECTIONAL {
+        let v = q - l.position;
+        let dist = length(v);
+        if !(dist > 0.0) {
+            return ShadowRay(make_ray(l.position, to_light), 0.0, 0.0, true, true);
+        }
+        let ray = make_ray(l.position, v);
+        return ShadowRay(ray, dist * (1.0 - SHADOW_END_REL), dist, max3(abs(ray.d)) == 0.0, true);
+    }
+    let ray = make_ray(q, to_light);
+    return ShadowRay(ray, t_max, 0.0, max3(abs(ray.d)) == 0.0, false);
+}
+#endif
+
 fn surface(prim: Prim, ray: Ray, h: PrimHit) -> Surface {
     var s: Surface;
     s.has_uv = false;

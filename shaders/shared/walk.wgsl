@@ -187,10 +187,9 @@ fn cube_walk_any(origin: u32, ray: Ray, t_max: f32, skip: u32) -> bool {
 }
 
 // The walk that answers whether light `light` is blocked from `q`, the spawn origin on
-// primitive `from_prim` (direction `to_light`, `t_max` before a positional light). A light
-// with a table traces the ray light-buffer style, from the light towards `q`; otherwise
-// the ray leaves `q` with the table of `from_prim`. `empty`: nothing to walk. `q_t`: the t
-// of `q` along the ray.
+// primitive `from_prim`: the one shadow ray of `shadow_ray` (geometry.wgsl), walked with
+// the light's table when it is traced from the light, else with the table of `from_prim`
+// (the fallback origin where there is none). `empty`: nothing to walk.
 struct ShadowWalk {
     origin: u32,
     ray: Ray,
@@ -208,19 +207,13 @@ fn note_blocker(sw: ShadowWalk, r: u32) -> u32 {
 }
 
 fn shadow_walk(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim: u32) -> ShadowWalk {
-    let lo = light_table(light);
-    if lo != NO_ORIGIN {
-        let l = lights[light].position;
-        let v = q - l;
-        let dist = length(v);
-        if !(dist > 0.0) {
-            return ShadowWalk(lo, make_ray(l, to_light), 0.0, true, 0.0);
-        }
-        let ray = make_ray(l, v);
-        return ShadowWalk(lo, ray, dist * (1.0 - SHADOW_END_REL), max3(abs(ray.d)) == 0.0, dist);
+    let sr = shadow_ray(q, to_light, t_max, light);
+    var origin = cube_origin(from_prim, q);
+    if sr.from_light {
+        let lo = light_table(light);
+        origin = select(lo, params.fallback_origin, lo == NO_ORIGIN);
     }
-    let ray = make_ray(q, to_light);
-    return ShadowWalk(cube_origin(from_prim, q), ray, t_max, max3(abs(ray.d)) == 0.0, 0.0);
+    return ShadowWalk(origin, sr.ray, sr.t_max, sr.empty, sr.q_t);
 }
 
 // `occluded` when its walk has at most `params.shadow_inline` entries (groups counted
