@@ -900,3 +900,69 @@ fn moving_the_eye_rebuilds_only_its_table() {
     assert!(!tables.rebuild_eye(&s, &params).unwrap(), "the eye entered a sphere");
     check(&s, &tables);
 }
+
+/// Every scene of `scenes/hard/` (the hard-case suite of `tests/hard.rs`), with the default
+/// build and with small tables: rays from the eye through the image, from every light in
+/// every direction (nearest and any-hit), and leaving every primitive with a table, outward
+/// and inward, at its own scale and at the largest the spawn model allows, all agree with
+/// brute force.
+fn hard_scene_tables_match_brute_force(file: &str) {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/hard").join(file);
+    let s = cuberay::load::load(&path, &Default::default()).unwrap_or_else(|e| panic!("{e}")).scene;
+    for params in [BuildParams::default(), small_params()] {
+        let w = World::new(&s, &params);
+        for j in 0..24 {
+            for i in 0..24 {
+                let (o, d) = s.camera.ray(i as f64 * 64.0 / 23.0, j as f64 * 64.0 / 23.0, 64, 64);
+                w.check_nearest(OriginKey::Eye, w.p(o), d.as_vec3().normalize()).unwrap();
+            }
+        }
+        for (li, l) in s.lights.iter().enumerate() {
+            if w.tables.flat.table_of(OriginKey::Light(li)).is_some() {
+                sweep(&w, &s, OriginKey::Light(li), w.p(l.position), 300);
+            }
+        }
+        for id in 0..s.primitives.len() {
+            for m in 0..40 {
+                let (p, ng) =
+                    w.surface_point(id, (m as f32 * 0.618 + 0.1) % 1.0, (m as f32 * 0.377 + 0.2) % 1.0);
+                for sgn in [1.0f32, -1.0] {
+                    let d = dir(
+                        sgn * ng.x + 0.5 * (m as f32).sin(),
+                        sgn * ng.y + 0.5 * (m as f32).cos(),
+                        sgn * ng.z,
+                    );
+                    if legal(&s, id, ng, d) != d {
+                        continue;
+                    }
+                    let o = w.spawn(id, p, ng, d, m % 2 == 1);
+                    let key = OriginKey::Surface(id as u32, o);
+                    if w.tables.flat.table_of(key).is_some() {
+                        w.check_nearest(key, o, d).unwrap_or_else(|e| panic!("{file}: {e}"));
+                    }
+                }
+            }
+        }
+    }
+}
+
+cases!(hard_scene_tables_match_brute_force: super::hard_scene_tables_match_brute_force {
+    grazing_sphere => ("grazing_sphere.nff"),
+    parallel_triangles => ("parallel_triangles.nff"),
+    shared_edges => ("shared_edges.nff"),
+    self_intersection => ("self_intersection.nff"),
+    offset_origin => ("offset_origin.nff"),
+    offset_1e5 => ("offset_1e5.nff"),
+    tiny_sphere => ("tiny_sphere.nff"),
+    huge_sphere => ("huge_sphere.nff"),
+    nested_bounds => ("nested_bounds.nff"),
+    camera_inside => ("camera_inside.nff"),
+    cell_boundaries => ("cell_boundaries.nff"),
+    degenerate_triangles => ("degenerate_triangles.nff"),
+    every_field => ("every_field.nff"),
+    parallel_mirrors => ("parallel_mirrors.nff"),
+    equal_ties => ("equal_ties.nff"),
+    light_on_geometry => ("light_on_geometry.nff"),
+    coplanar_triangles => ("coplanar_triangles.nff"),
+    bad_normals => ("bad_normals.gltf"),
+});
