@@ -9,7 +9,9 @@
 //!   force, byte for byte (hard cases are where a table that is not quite conservative
 //!   shows), and the CPU's three accelerators give one image;
 //! - no pixel is NaN or infinite, and `rays.self_hits` is 0 on both backends;
-//! - the GPU agrees with the CPU (FLIP mean, pixels, eye-ray ids, ray counts by kind).
+//! - the GPU agrees with the CPU: FLIP mean, eye-ray ids (apart from a per-case number of
+//!   pixels, and from triangles of one flat surface meeting at an edge), eye hits, and
+//!   spawned rays by kind within 1% (plus 2).
 //!
 //! Each case then asserts its own expected behaviour, in closed form where there is one.
 //! Every test prints a `hard-case NAME:` line with its measured worst values.
@@ -23,6 +25,8 @@ use std::sync::OnceLock;
 use cuberay::compare::compare;
 use cuberay::gpu::GpuRenderer;
 use cuberay::job::{AccelKind, RenderOptions, Rendered};
+use cuberay::kernel::geometry::{make_ray, Prim32};
+use cuberay::kernel::FAR;
 use cuberay::load::{self, Loaded};
 use cuberay::output::{Aov, Image};
 use cuberay::reference;
@@ -52,7 +56,6 @@ fn load_case(file: &str) -> Loaded {
 
 /// The renders of one case and what they measured.
 struct Case {
-    name: String,
     scene: Scene,
     opts: RenderOptions,
     /// GPU, candidate tables (equal to GPU brute force).
@@ -114,8 +117,9 @@ fn assert_identical(name: &str, what: &str, a: &Rendered, b: &Rendered) {
 }
 
 /// Renders a case on both backends with every accelerator and asserts what holds on every
-/// scene (see the module doc); `max_flip` bounds the GPU-vs-CPU FLIP mean.
-fn run(name: &str, scene: Scene, opts: RenderOptions, max_flip: f64) -> Case {
+/// scene (see the module doc); `max_flip` bounds the GPU-vs-CPU FLIP mean and `max_ids` the
+/// pixels whose eye ray hit another object on the GPU than on the CPU.
+fn run(name: &str, scene: Scene, opts: RenderOptions, max_flip: f64, max_ids: usize) -> Case {
     let r = renderer();
     let with = |accel| RenderOptions { accel, ..opts.clone() };
     let gpu = |accel| r.render(&scene, &with(accel), &hidden()).unwrap_or_else(|e| panic!("{name}: {e}"));
@@ -158,7 +162,6 @@ fn run(name: &str, scene: Scene, opts: RenderOptions, max_flip: f64) -> Case {
         .filter(|(a, b)| a[0] != b[0] && !same_surface(&scene, a[0], b[0]))
         .count();
     let case = Case {
-        name: name.to_string(),
         scene,
         opts,
         gpu: g_cube,
@@ -190,7 +193,25 @@ fn run(name: &str, scene: Scene, opts: RenderOptions, max_flip: f64) -> Case {
         );
         panic!("{name}: GPU vs CPU FLIP mean {} > {max_flip}; images: {files}", cmp.flip_mean);
     }
+    assert!(
+        case.id_disagree <= max_ids,
+        "{name}: eye ids differ at {} pixels (at most {max_ids})",
+        case.id_disagree
+    );
     assert_eq!(gr.eye, cr.eye, "{name}: eye rays");
+    assert!(
+        gr.eye_hit.abs_diff(cr.eye_hit) as usize <= max_ids,
+        "{name}: eye hits GPU {} CPU {}",
+        gr.eye_hit,
+        cr.eye_hit
+    );
+    for (kind, a, b) in [
+        ("shadow", gr.shadow, cr.shadow),
+        ("reflect", gr.reflect, cr.reflect),
+        ("refract", gr.refract, cr.refract),
+    ] {
+        assert!(a.abs_diff(b) as f64 <= 2.0 + 0.01 * b as f64, "{name}: {kind} rays GPU {a} CPU {b}");
+    }
     case
 }
 
@@ -212,10 +233,10 @@ fn same_surface(scene: &Scene, a: f32, b: f32) -> bool {
 }
 
 /// Runs a scene file at its own resolution.
-fn run_file(file: &str, max_flip: f64) -> Case {
+fn run_file(file: &str, max_flip: f64, max_ids: usize) -> Case {
     let scene = load_case(file).scene;
     let (w, h) = scene.resolution.expect("hard-case scenes give their resolution");
-    run(file, scene, RenderOptions::new(w, h), max_flip)
+    run(file, scene, RenderOptions::new(w, h), max_flip, max_ids)
 }
 
 /// The distance of the line (o, d) from point c, in f64.
@@ -241,20 +262,20 @@ fn sphere_of(scene: &Scene, id: usize) -> (DVec3, f64) {
 // ---------------------------------------------------------------------------------------------
 // 1. Grazing sphere rays
 
-/// Eye rays pass a unit sphere at 1 ± 200 f32 ulps from its centre. Outside a band of
-/// `BAND` ulps the GPU's hit or miss must be the exact one (the f64 distance of the ray
-/// from the centre, for the ray the camera defines); the CPU's must be exact outside a
-/// band of 1e-6 ulps. No NaN, no hit beyond the far side.
+/// Eye rays pass a unit sphere at 1 ± 208 f32 ulps from its centre, about 0.1 ulp apart.
+/// Outside a band of `BAND` ulps the GPU's hit or miss must be the exact one (the f64
+/// distance of the ray from the centre, for the ray the camera defines); the CPU's must be
+/// exact outside a band of 1e-6 ulps. Inside the band either answer is right. No NaN, and
+/// GPU hit distances within 1e-3 of the exact near root.
 #[test]
 fn grazing_sphere_rays() {
     const ULP: f64 = f32::EPSILON as f64; // ulp(1) in f32: 2⁻²³
     const BAND: f64 = 16.0;
-    let c = run_file("grazing_sphere.nff", 0.05);
+    let c = run_file("grazing_sphere.nff", 0.05, 80);
     let (centre, r) = sphere_of(&c.scene, 0);
     let (mut inside_band, mut checked, mut nearest_checked) = (0, 0, f64::MAX);
     // GPU answers that differ from the exact one: how many, and the farthest from the
-    // silhouette (in ulps). The exactly tangent rays (0 ulps) count as hits on the GPU
-    // (discriminant ≥ 0) and as misses on the CPU; both are right.
+    // silhouette (in ulps).
     let (mut wrong_gpu, mut worst_wrong_gpu) = (0, 0.0f64);
     for (x, y) in c.pixels() {
         let (o, d) = c.ray(x, y);
@@ -299,7 +320,7 @@ fn grazing_sphere_rays() {
 /// light in that plane pass the edge-on triangle to light the wall.
 #[test]
 fn rays_parallel_to_a_triangle() {
-    let c = run_file("parallel_triangles.nff", 0.01);
+    let c = run_file("parallel_triangles.nff", 0.01, 0);
     let (_, h) = c.size();
     let mid = h / 2;
     for (x, y) in c.pixels() {
@@ -311,28 +332,40 @@ fn rays_parallel_to_a_triangle() {
             assert!(same, "GPU {g:?} and CPU {k:?} ids at ({x}, {y}) away from the plane");
         }
         assert!(g.is_some(), "({x}, {y}) missed the wall");
+        if y == mid {
+            assert_eq!(g == Some(1), k == Some(1), "({x}, {y}): GPU {g:?} CPU {k:?} on the tilted triangle");
+        }
     }
+    // The middle row crosses the tilted triangle (1e-7 out of its plane) at three pixels.
+    let tilted = (0..c.size().0).filter(|&x| Case::id(&c.gpu_id, x, mid) == Some(1)).count();
+    assert!(tilted >= 3, "the middle row hits the tilted triangle at {tilted} pixels");
     // The light lies in the edge-on triangle's plane: it blocks no shadow ray.
     assert_eq!((c.gpu.stats.rays.shadow_blocked, c.cpu.stats.rays.shadow_blocked), (0, 0));
-    eprintln!("hard-case parallel_triangles: triangle 0 never hit, row {mid} all on the wall or triangle 1");
+    eprintln!(
+        "hard-case parallel_triangles: triangle 0 never hit; row {mid} hits the tilted triangle at {tilted} pixels \
+         on both backends, the wall elsewhere"
+    );
 }
 
 // ---------------------------------------------------------------------------------------------
 // 3. Shared edges and vertices
 
 /// No eye ray slips between the fan's triangles or the grid's: every pixel whose f64 ray
-/// meets the fan disc (radius 1 polygon) or the grid more than 1e-3 inside its outline sees
-/// one of their triangles, on both backends; and every floor pixel in the ring the fan
-/// shadows (radius 1.25–1.5, seen past the fan's rim) is in shadow: no shadow ray slips
-/// through a crack either.
+/// meets the fan (a regular 16-gon of circumradius 1) or the grid more than 1e-3 inside its
+/// outline sees one of their triangles, on both backends. Tested one by one with the
+/// kernels' f32 triangle test, such a ray hits at least one triangle, and the rays through
+/// an edge or the fan's centre hit every triangle there (duplicates, counted): the nearest-hit
+/// rule keeps one. Every floor pixel whose shadow ray crosses the fan more than 0.02 inside
+/// its outline is in shadow: no shadow ray slips through a crack either.
 #[test]
 fn rays_through_shared_edges_and_vertices() {
-    let c = run_file("shared_edges.nff", 0.01);
+    let c = run_file("shared_edges.nff", 0.01, 0);
     const M: f64 = 1e-3;
     let (fan, grid, floor) = (0..16u32, 16..48u32, 48..50u32);
-    // The fan's outline is a regular 16-gon of circumradius 1: its inradius is cos(π/16).
     let inradius = (std::f64::consts::PI / 16.0).cos();
-    let (mut covered, mut ring) = (0, 0);
+    let light = c.scene.lights[0].position;
+    let prims = Prim32::from_scene(&c.scene, c.scene.camera.eye);
+    let (mut covered, mut ring, mut duplicates, mut most) = (0, 0, 0, 0);
     let ambient_only = |px: [f32; 4]| {
         // Floor colour 0.8 · kd 0.9 · ambient 0.5, no light: 0.36.
         (px[0] as f64 - 0.36).abs() < 1e-4
@@ -357,43 +390,60 @@ fn rays_through_shared_edges_and_vertices() {
                 );
             }
         }
-        covered += (in_fan || in_grid) as usize;
+        if in_fan || in_grid {
+            covered += 1;
+            let ray = make_ray((o - c.scene.camera.eye).as_vec3(), d.as_vec3());
+            let hits = (0..48).filter(|&i| prims[i].intersect(&ray, FAR).ok).count();
+            assert!(hits >= 1, "the f32 test finds no triangle at ({x}, {y})");
+            duplicates += hits - 1;
+            most = most.max(hits);
+        }
+        // A floor pixel (by both backends) whose shadow ray towards the light crosses z = 0
+        // well inside the fan.
         let f = on_plane_z(o, d, -1.0).unwrap();
-        let rf = f.truncate().length();
-        if (1.25 + 0.02..1.5 - 0.02).contains(&rf)
-            && Case::id(&c.cpu_id, x, y).is_some_and(|i| floor.contains(&i))
-        {
+        let cross = f + (light - f) * ((0.0 - f.z) / (light.z - f.z));
+        let on_floor = |ids: &Image| Case::id(ids, x, y).is_some_and(|i| floor.contains(&i));
+        if cross.truncate().length() < inradius - 0.02 && on_floor(&c.cpu_id) && on_floor(&c.gpu_id) {
             ring += 1;
             for (backend, img) in [("GPU", &c.gpu.image), ("CPU", &c.cpu.image)] {
                 let px = img.get(x, y);
-                if !ambient_only(px) {
-                    panic!("{backend}: light through the fan at floor pixel ({x}, {y}): {px:?}");
-                }
+                assert!(
+                    ambient_only(px),
+                    "{backend}: light through the fan at floor pixel ({x}, {y}): {px:?}"
+                );
             }
         }
     }
-    // Where an eye ray meets an edge both sides may claim it (f32 rounding decides), never
-    // neither; the eye-ray hit count equals the pixels that hit something.
-    let hits = c.gpu_id.pixels.iter().filter(|p| p[0] >= 0.0).count() as u64;
-    assert_eq!(c.gpu.stats.rays.eye_hit, hits, "GPU eye hits counted once each");
+    let (w, h) = c.size();
+    let centre_hits = {
+        let (o, d) = c.ray(w / 2, h / 2);
+        let ray = make_ray((o - c.scene.camera.eye).as_vec3(), d.as_vec3());
+        (0..16).filter(|&i| prims[i].intersect(&ray, FAR).ok).count()
+    };
     eprintln!(
-        "hard-case shared_edges: {covered} pixels inside the fan and grid, 0 cracks; {ring} ring pixels in \
-         shadow, 0 lit; middle pixel id GPU {:?} CPU {:?}",
-        Case::id(&c.gpu_id, 32, 32),
-        Case::id(&c.cpu_id, 32, 32)
+        "hard-case shared_edges: {covered} pixels inside the fan and grid, 0 cracks ({duplicates} duplicate f32 \
+         hits on shared edges, up to {most} on one ray, {centre_hits} of 16 at the fan's centre); {ring} floor \
+         pixels shadowed through the fan, 0 lit; middle pixel id GPU {:?} CPU {:?}",
+        Case::id(&c.gpu_id, w / 2, h / 2),
+        Case::id(&c.cpu_id, w / 2, h / 2)
     );
     assert!(covered > 600 && ring > 50, "the view must cover the fan, the grid and the ring");
+    assert!(duplicates > 0, "the middle row and column run along edges: some rays hit two triangles");
+    assert_eq!(centre_hits, 16, "the ray through the fan's centre meets all 16 triangles");
 }
 
 // ---------------------------------------------------------------------------------------------
 // 4. Self-intersection
 
-/// Reflection, refraction and shadow rays leave a mirror floor and mirror, glass and matte
+/// Reflection, refraction and shadow rays leave a mirror floor and mirror, glass and diffuse
 /// spheres: `run` asserts 0 self-hits on both backends; here, the GPU blocks the same
-/// shadow rays as the CPU (acne would block more) and the image agrees.
+/// shadow rays as the CPU (acne would block more) and the image agrees. The kernels do not
+/// test the primitive a ray leaves where it cannot meet it again (a triangle, a convex
+/// sphere left outward), so what is measured is the neighbours (the floor's other triangle
+/// across the diagonal) and rays inside the glass sphere, which do test it.
 #[test]
 fn self_intersection() {
-    let c = run_file("self_intersection.nff", 0.01);
+    let c = run_file("self_intersection.nff", 0.01, 2);
     let (g, k) = (&c.gpu.stats.rays, &c.cpu.stats.rays);
     assert!(g.reflect > 1000 && g.refract > 100 && g.shadow > 1000, "every spawned kind is exercised");
     let diff = g.shadow_blocked.abs_diff(k.shadow_blocked);
@@ -413,8 +463,8 @@ fn self_intersection() {
 /// (the scene is re-centred on the camera in f64 before it is converted to f32).
 #[test]
 fn a_scene_1e5_from_the_origin() {
-    let near = run_file("offset_origin.nff", 0.01);
-    let far = run_file("offset_1e5.nff", 0.01);
+    let near = run_file("offset_origin.nff", 0.01, 2);
+    let far = run_file("offset_1e5.nff", 0.01, 2);
     let (cmp, heat) = compare(&near.gpu.image, &far.gpu.image, 2.0 / 255.0);
     let ids = near.gpu_id.pixels.iter().zip(&far.gpu_id.pixels).filter(|(a, b)| a[0] != b[0]).count();
     eprintln!(
@@ -439,7 +489,7 @@ fn a_scene_1e5_from_the_origin() {
 /// it should be, on both backends.
 #[test]
 fn tiny_spheres() {
-    let c = run_file("tiny_sphere.nff", 0.01);
+    let c = run_file("tiny_sphere.nff", 0.01, 2);
     let spheres = [sphere_of(&c.scene, 0), sphere_of(&c.scene, 1)];
     let (mut covered, mut band) = ([0usize; 2], 0);
     for (x, y) in c.pixels() {
@@ -471,18 +521,19 @@ fn tiny_spheres() {
     assert!(covered[0] > 50 && covered[1] > 10, "both tiny spheres must cover pixels");
 }
 
-/// A ground sphere of radius 1e5: every pixel whose f64 ray meets it (more than 1e-3 in
-/// angle below the horizon) sees it or the small sphere: no holes.
+/// A ground sphere of radius 1e5: every pixel whose f64 ray meets it (passing more than
+/// 1e-4 inside its radius) sees it or the small sphere: no holes. The GPU's hit distances
+/// are within 1% of the exact ones (measured: 0.16 at most, see the printed line).
 #[test]
 fn a_huge_sphere() {
-    let c = run_file("huge_sphere.nff", 0.02);
+    let c = run_file("huge_sphere.nff", 0.02, 2);
     let (centre, r) = sphere_of(&c.scene, 0);
     let (mut ground, mut worst_depth) = (0, 0.0f64);
     for (x, y) in c.pixels() {
         let (o, d) = c.ray(x, y);
         let d = d.normalize();
         let m = miss_distance(o, d, centre);
-        if m > r * (1.0 - 1e-9) || (centre - o).dot(d) < 0.0 {
+        if m > r - 1e-4 || (centre - o).dot(d) < 0.0 {
             continue;
         }
         ground += 1;
@@ -493,7 +544,9 @@ fn a_huge_sphere() {
         if Case::id(&c.gpu_id, x, y) == Some(0) {
             // The f32 hit distance against the exact one (f64, near root).
             let exact = (centre - o).dot(d) - (r * r - m * m).sqrt();
-            worst_depth = worst_depth.max((c.gpu_depth.get(x, y)[0] as f64 - exact).abs());
+            let err = (c.gpu_depth.get(x, y)[0] as f64 - exact).abs();
+            assert!(err < 0.01 * exact, "GPU depth at ({x}, {y}) off by {err} of {exact}");
+            worst_depth = worst_depth.max(err);
         }
     }
     eprintln!(
@@ -511,15 +564,14 @@ fn a_huge_sphere() {
 /// equal brute force (asserted by `run`, every ray kind) and the GPU the CPU.
 #[test]
 fn tangent_overlapping_and_nested_bounds() {
-    let c = run_file("nested_bounds.nff", 0.01);
+    let c = run_file("nested_bounds.nff", 0.01, 2);
     assert!(c.gpu.stats.rays.refract > 100 && c.gpu.stats.rays.reflect > 100);
-    assert!(c.id_disagree <= 2, "{}: {} eye ids differ", c.name, c.id_disagree);
 }
 
 /// The eye at the centre of a glass sphere, inside the bounds of a ring of mirror spheres.
 #[test]
 fn camera_inside_a_glass_sphere_and_bounds() {
-    let c = run_file("camera_inside.nff", 0.01);
+    let c = run_file("camera_inside.nff", 0.01, 2);
     // Every eye ray first meets the glass sphere (id 0) from inside, or a ring sphere.
     for (x, y) in c.pixels() {
         for (backend, ids) in [("GPU", &c.gpu_id), ("CPU", &c.cpu_id)] {
@@ -528,18 +580,19 @@ fn camera_inside_a_glass_sphere_and_bounds() {
         }
     }
     assert!(c.gpu.stats.rays.refract > 1000);
-    assert!(c.id_disagree <= 2, "{}: {} eye ids differ", c.name, c.id_disagree);
 }
 
 // ---------------------------------------------------------------------------------------------
 // 9. Directions on cell boundaries
 
-/// Eye and shadow rays along axes, face diagonals, cube corners and cell boundaries, with
-/// −0.0 in the camera: the tables find exactly what brute force finds (`run`), and the
-/// spheres placed on those directions are seen where the f64 rays meet them.
+/// Eye and shadow rays along axes, face diagonals, cube corners and cell boundaries: the
+/// tables find exactly what brute force finds (`run`), and the spheres placed on those
+/// directions are seen where the f64 rays meet them. The file's −0.0 components are read
+/// and normalised away (the camera's rays carry +0.0); directions with −0.0 components are
+/// walked one by one in `tests/coherence.rs` (`boundary_directions_from_every_origin_kind`).
 #[test]
 fn directions_on_cell_boundaries() {
-    let c = run_file("cell_boundaries.nff", 0.01);
+    let c = run_file("cell_boundaries.nff", 0.01, 4);
     let (w, h) = c.size();
     // The middle pixel looks along +x, the corners along the cube's corner directions: each
     // ray passes through the centre of a sphere.
@@ -552,7 +605,6 @@ fn directions_on_cell_boundaries() {
             assert_eq!(Case::id(ids, x, y), Some(want as u32), "{backend} at ({x}, {y}), direction {d}");
         }
     }
-    assert!(c.id_disagree <= 4, "{}: {} eye ids differ", c.name, c.id_disagree);
     eprintln!("hard-case cell_boundaries: axis, diagonal and corner pixels hit their spheres");
 }
 
@@ -560,22 +612,25 @@ fn directions_on_cell_boundaries() {
 // 10. Degenerate triangles
 
 /// Six triangles without area are dropped with one warning naming the first one's line; the
-/// four good ones and the tiny well-shaped one are kept, and the tiny one is never hit.
+/// four good ones and the tiny well-shaped one are kept (the GPU gets it as a triangle with
+/// repeated vertices, once re-centred on the eye in f32) and render without NaN.
 #[test]
 fn degenerate_triangles() {
     let loaded = load_case("degenerate_triangles.nff");
     assert_eq!(loaded.scene.counts().triangles, 5, "four good triangles and the tiny one");
     assert!(
-        loaded.warnings.iter().any(|w| w.contains("dropped 6 degenerate") && w.contains("line 20")),
+        loaded.warnings.iter().any(|w| w.contains("dropped 6 degenerate") && w.contains("line 21")),
         "the loader says what it dropped: {:?}",
         loaded.warnings
     );
-    let c = run_file("degenerate_triangles.nff", 0.01);
+    let c = run_file("degenerate_triangles.nff", 0.01, 0);
     assert!(c.gpu.stats.rays.eye_hit > 500);
-    // Primitive 1 is the tiny triangle (file order, after the first good one).
-    for (backend, ids) in [("GPU", &c.gpu_id), ("CPU", &c.cpu_id)] {
-        assert!(ids.pixels.iter().all(|p| p[0] != 1.0), "{backend}: the 1e-30 triangle was hit");
-    }
+    // Primitive 1 is the tiny triangle (file order, after the first good one). A ray
+    // through its corner, by the kernels' f32 test, misses it without NaN.
+    let prims = Prim32::from_scene(&c.scene, c.scene.camera.eye);
+    let corner = DVec3::new(0.0, -0.5, 0.0) - c.scene.camera.eye;
+    let h = prims[1].intersect(&make_ray(DVec3::ZERO.as_vec3(), corner.as_vec3()), FAR);
+    assert!(!h.ok && !h.t.is_nan(), "the f32 test of the tiny triangle: {h:?}");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -623,7 +678,7 @@ fn nan_and_inf_in_every_input_field() {
     }
     eprintln!("hard-case every_field: {refused} edited files refused, each naming its line");
     assert!(refused > 100);
-    let c = run_file("every_field.nff", 0.01);
+    let c = run_file("every_field.nff", 0.01, 2);
     assert!(c.gpu.stats.rays.shadow > 0);
 }
 
@@ -674,7 +729,7 @@ fn nan_and_inf_in_gltf_fields() {
             assert!((n.length() - 1.0).abs() < 1e-3 && n.z.abs() > 0.999, "{backend}: normal {n}");
         }
     }
-    run("bad_normals.gltf", scene, opts, 0.01);
+    run("bad_normals.gltf", scene, opts, 0.01, 0);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -692,7 +747,7 @@ fn two_parallel_mirrors() {
     let mut worst = (0.0f64, 0.0f64);
     for depth in [1u32, 2, 5, 15] {
         let opts = RenderOptions { max_depth: depth, ..RenderOptions::new(32, 32) };
-        let c = run(&format!("parallel_mirrors depth {depth}"), scene.clone(), opts, 0.01);
+        let c = run(&format!("parallel_mirrors depth {depth}"), scene.clone(), opts, 0.01, 0);
         let mut want = DVec3::ZERO;
         let mut weight = DVec3::ONE;
         for k in 0..depth {
@@ -739,7 +794,7 @@ fn two_parallel_mirrors() {
 /// 8–15) are never seen, by any accelerator on either backend.
 #[test]
 fn equal_bounds_and_exact_ties() {
-    let c = run_file("equal_ties.nff", 0.01);
+    let c = run_file("equal_ties.nff", 0.01, 4);
     let mut seen = 0;
     for (x, y) in c.pixels() {
         for (backend, ids) in [("GPU", &c.gpu_id), ("CPU", &c.cpu_id)] {
@@ -752,7 +807,6 @@ fn equal_bounds_and_exact_ties() {
         }
     }
     assert!(seen > 400, "the spheres must be seen");
-    assert!(c.id_disagree <= 4, "{}: {} eye ids differ", c.name, c.id_disagree);
     eprintln!("hard-case equal_ties: {} sphere pixels per backend, the lower id wins every tie", seen / 2);
 }
 
@@ -764,7 +818,7 @@ fn equal_bounds_and_exact_ties() {
 /// nothing: removing it leaves every pixel bit-identical on both backends.
 #[test]
 fn a_light_on_and_inside_geometry() {
-    let c = run_file("light_on_geometry.nff", 0.01);
+    let c = run_file("light_on_geometry.nff", 0.01, 2);
     let (mut lit, mut dark) = (0, 0);
     let ambient_floor = 0.7 * 0.9 * c.scene.ambient.x;
     for (x, y) in c.pixels() {
@@ -812,9 +866,9 @@ fn a_light_on_and_inside_geometry() {
 #[test]
 fn coplanar_overlapping_triangles() {
     // Where triangles 0 and 1 overlap, f32 and f64 rounding pick their winners apart: the
-    // GPU-vs-CPU FLIP is measured on those pixels too, so it is bounded loosely here and
-    // the ids are checked pixel by pixel instead.
-    let c = run_file("coplanar_triangles.nff", 0.06);
+    // GPU-vs-CPU FLIP is measured on those pixels too, so it is bounded loosely here; the
+    // ids are checked pixel by pixel instead, and the colours wherever the ids agree.
+    let c = run_file("coplanar_triangles.nff", 0.06, 80);
     let tri = |id: usize| match &c.scene.primitives[id] {
         Primitive::Triangle(t) => t.p,
         p => panic!("{p:?}"),
@@ -848,11 +902,31 @@ fn coplanar_overlapping_triangles() {
             }
         }
     }
+    // Outside the overlap of triangles 0 and 1 both backends shade alike. (Inside it even
+    // one backend's render and AOV kernels may resolve a pixel differently: the id AOV is
+    // its own compiled kernel.)
+    let mut worst = 0.0f32;
+    for (x, y) in c.pixels() {
+        let (o, d) = c.ray(x, y);
+        let p = on_plane_z(o, d, 0.0).unwrap();
+        let near = |v: [DVec3; 3]| {
+            (0..3).all(|i| {
+                let (a, b) = (v[i], v[(i + 1) % 3]);
+                (b - a).truncate().perp_dot((p - a).truncate()) > -0.05
+            })
+        };
+        if !(near(tri(0)) && near(tri(1))) {
+            let (g, k) = (c.gpu.image.get(x, y), c.cpu.image.get(x, y));
+            worst = (0..3).map(|i| (g[i] - k[i]).abs()).fold(worst, f32::max);
+        }
+    }
+    assert!(worst <= 2.0 / 255.0, "GPU and CPU differ by {worst} outside the overlap");
     let again = renderer().render_aov(&c.scene, &c.opts, Aov::Id, &hidden()).unwrap();
     assert_eq!(first_difference(&again.image, &c.gpu_id), None, "a second render differs");
     eprintln!(
         "hard-case coplanar_triangles: GPU pixels by id {counts:?} (id 2, the twin, never); GPU and CPU pick \
-         apart triangles 0 and 1 at {fights} pixels of their overlap, nowhere else"
+         apart triangles 0 and 1 at {fights} pixels of their overlap, nowhere else; elsewhere they differ by \
+         {worst:.2e} at most"
     );
     assert!(counts[0] > 200 && counts[1] > 200);
 }
