@@ -271,7 +271,7 @@ fn sphere_of(scene: &Scene, id: usize) -> (DVec3, f64) {
 fn grazing_sphere_rays() {
     const ULP: f64 = f32::EPSILON as f64; // ulp(1) in f32: 2⁻²³
     const BAND: f64 = 16.0;
-    let c = run_file("grazing_sphere.nff", 0.05, 80);
+    let c = run_file("grazing_sphere.nff", 0.01, 12);
     let (centre, r) = sphere_of(&c.scene, 0);
     let (mut inside_band, mut checked, mut nearest_checked) = (0, 0, f64::MAX);
     // GPU answers that differ from the exact one: how many, and the farthest from the
