@@ -69,24 +69,24 @@ fn brute_any_range(ray: Ray, t_max: f32, q_t: f32, skip: u32, first: u32, end: u
 
 // Whether light `light` is blocked from `q`, the spawn origin on primitive `from_prim`:
 // the shadow ray of `shadow_ray` (geometry.wgsl), the same ray the tables walk.
-fn occluded(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim: u32, skip: u32) -> bool {
-    let sr = shadow_ray(q, to_light, t_max, light);
+fn occluded(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> bool {
+    let sr = shadow_ray(q, to_light, light);
     return !sr.empty && brute_any_range(sr.ray, sr.t_max, sr.q_t, skip, 0u, params.prim_count);
 }
 
 // `occluded` when it tests at most `params.shadow_inline` primitives; ANY_UNFINISHED,
 // without testing, when there are more.
-fn occluded_short(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim: u32, skip: u32) -> u32 {
+fn occluded_short(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> u32 {
     if params.prim_count > params.shadow_inline {
         return ANY_UNFINISHED;
     }
-    return select(ANY_CLEAR, ANY_BLOCKED, occluded(q, to_light, t_max, light, from_prim, skip));
+    return select(ANY_CLEAR, ANY_BLOCKED, occluded(q, to_light, light, from_prim, skip));
 }
 
 // `occluded` for the shadow job on top of the point's stack, WALK_CHUNK primitives per
 // step: ANY_UNFINISHED when it goes on in the next step.
-fn occluded_step(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim: u32, skip: u32) -> u32 {
-    let sr = shadow_ray(q, to_light, t_max, light);
+fn occluded_step(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> u32 {
+    let sr = shadow_ray(q, to_light, light);
     if sr.empty {
         state.walking = 0u;
         return ANY_CLEAR;

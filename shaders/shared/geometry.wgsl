@@ -259,10 +259,10 @@ fn max3(v: vec3<f32>) -> f32 {
 
 #if SHADOWS
 // The shadow ray towards light `light` from `q`, the spawn origin of a hit (direction
-// `to_light`, ending at `t_max`): one ray for every accelerator, so that the tables and
-// brute force answer alike. A positional light's ray is traced light-buffer style, from
-// the light towards `q` (where its table is keyed), ending a relative SHADOW_END_REL before
-// `q`; a directional light's leaves `q`. `q_t`: the t of `q` along the ray; `empty`:
+// `to_light`): one ray for every accelerator, so that the tables and brute force answer
+// alike. A positional light's ray is traced light-buffer style, from the light towards `q`
+// (where its table is keyed), ending a relative SHADOW_END_REL before `q`; a directional
+// light's leaves `q`, unbounded. `q_t`: the t of `q` along the ray; `empty`:
 // nothing to trace (`q` at the light, or a zero direction).
 struct ShadowRay {
     ray: Ray,
@@ -272,7 +272,7 @@ struct ShadowRay {
     from_light: bool,
 }
 
-fn shadow_ray(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32) -> ShadowRay {
+fn shadow_ray(q: vec3<f32>, to_light: vec3<f32>, light: u32) -> ShadowRay {
     let l = lights[light];
     if l.kind != LIGHT_DIRECTIONAL {
         let v = q - l.position;
@@ -284,7 +284,7 @@ fn shadow_ray(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32) -> Shad
         return ShadowRay(ray, dist * (1.0 - SHADOW_END_REL), dist, max3(abs(ray.d)) == 0.0, true);
     }
     let ray = make_ray(q, to_light);
-    return ShadowRay(ray, t_max, 0.0, max3(abs(ray.d)) == 0.0, false);
+    return ShadowRay(ray, FAR, 0.0, max3(abs(ray.d)) == 0.0, false);
 }
 #endif
 

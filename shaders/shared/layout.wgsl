@@ -245,7 +245,8 @@ const FAR: f32 = 3.4028235e38;
 // "No primitive".
 const NO_ID: u32 = 0xffffffffu;
 
-// Shadow rays towards a positional light end this relative distance before it (f32).
+// Shadow rays of a positional light, traced from the light, end this relative distance
+// before the point they are cast for (f32; `shadow_ray`, geometry.wgsl).
 const SHADOW_END_REL: f32 = 9.5367431640625e-7;
 
 #if SHADOWS

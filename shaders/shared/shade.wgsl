@@ -109,15 +109,6 @@ fn shade_local(id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>) -> 
 }
 
 #if SHADOWS
-// Where a shadow ray from `o` towards light `li` ends: just before a positional light.
-fn shadow_t_max(li: u32, o: vec3<f32>) -> f32 {
-    let light = lights[li];
-    if light.kind != LIGHT_DIRECTIONAL {
-        return length(light.position - o) * (1.0 - SHADOW_END_REL);
-    }
-    return FAR;
-}
-
 // The shadow rays of a hit on primitive `id` (reached with `weight`). A light whose walk
 // is long becomes a shadow job on the stack (kind RAY_SHADOW, `depth` the light, `weight`
 // what it adds unless blocked), traced over the next steps like any other ray, so that no
@@ -136,13 +127,12 @@ fn push_shadow_rays(id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>
         let o = spawn_origin(s, lit.dir);
         let spawn = spawn_offset(s);
         let skip = leave_skip(id, lit.dir, s.ng);
-        let t_max = shadow_t_max(i, o);
         // A full stack takes no job: the walk is traced at once, however long.
         var r = ANY_UNFINISHED;
         if state.sp < STACK_SIZE {
-            r = occluded_short(o, lit.dir, t_max, i, id, skip);
+            r = occluded_short(o, lit.dir, i, id, skip);
         } else {
-            r = select(ANY_CLEAR, ANY_BLOCKED, occluded(o, lit.dir, t_max, i, id, skip));
+            r = select(ANY_CLEAR, ANY_BLOCKED, occluded(o, lit.dir, i, id, skip));
         }
         if r == ANY_UNFINISHED {
             let flags = select(0u, RAY_SKIP_FROM, skip != NO_ID);
@@ -176,7 +166,7 @@ fn count_blocked(spawn: f32) {
 fn shadow_step(job: Pending) {
     let skip = select(NO_ID, job.from_prim, (job.kind & RAY_SKIP_FROM) != 0u);
     let light = job_depth(job);
-    let r = occluded_step(job.o, job.d, shadow_t_max(light, job.o), light, job.from_prim, skip);
+    let r = occluded_step(job.o, job.d, light, job.from_prim, skip);
     if r == ANY_UNFINISHED {
         return;
     }

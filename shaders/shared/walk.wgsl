@@ -206,20 +206,22 @@ fn note_blocker(sw: ShadowWalk, r: u32) -> u32 {
     return r;
 }
 
-fn shadow_walk(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim: u32) -> ShadowWalk {
-    let sr = shadow_ray(q, to_light, t_max, light);
-    var origin = cube_origin(from_prim, q);
+fn shadow_walk(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32) -> ShadowWalk {
+    let sr = shadow_ray(q, to_light, light);
+    var origin: u32;
     if sr.from_light {
         let lo = light_table(light);
         origin = select(lo, params.fallback_origin, lo == NO_ORIGIN);
+    } else {
+        origin = cube_origin(from_prim, q);
     }
     return ShadowWalk(origin, sr.ray, sr.t_max, sr.empty, sr.q_t);
 }
 
 // `occluded` when its walk has at most `params.shadow_inline` entries (groups counted
 // once): ANY_CLEAR or ANY_BLOCKED; ANY_UNFINISHED, without walking, when it is longer.
-fn occluded_short(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim: u32, skip: u32) -> u32 {
-    let sw = shadow_walk(q, to_light, t_max, light, from_prim);
+fn occluded_short(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> u32 {
+    let sw = shadow_walk(q, to_light, light, from_prim);
     if sw.empty {
         return ANY_CLEAR;
     }
@@ -231,8 +233,8 @@ fn occluded_short(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, fro
 }
 
 // Whether light `light` is blocked from `q` (see `shadow_walk`), in one go.
-fn occluded(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim: u32, skip: u32) -> bool {
-    let sw = shadow_walk(q, to_light, t_max, light, from_prim);
+fn occluded(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> bool {
+    let sw = shadow_walk(q, to_light, light, from_prim);
     if sw.empty {
         return false;
     }
@@ -243,8 +245,8 @@ fn occluded(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim
 
 // `occluded` for the shadow job on top of the point's stack, in bounded steps (the walk's
 // position kept in `state.walk`): ANY_UNFINISHED when it goes on in the next step.
-fn occluded_step(q: vec3<f32>, to_light: vec3<f32>, t_max: f32, light: u32, from_prim: u32, skip: u32) -> u32 {
-    let sw = shadow_walk(q, to_light, t_max, light, from_prim);
+fn occluded_step(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> u32 {
+    let sw = shadow_walk(q, to_light, light, from_prim);
     if sw.empty {
         return ANY_CLEAR;
     }

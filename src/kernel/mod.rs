@@ -24,6 +24,6 @@ pub mod spawn;
 pub const FAR: f32 = f32::MAX;
 /// "No primitive" (WGSL `NO_ID`).
 pub const NO_ID: u32 = u32::MAX;
-/// Shadow rays towards a positional light end this relative distance before it, so that a
-/// light on a surface does not shadow itself (WGSL `SHADOW_END_REL`, `2⁻²⁰`).
+/// Shadow rays of a positional light, traced from the light towards the point they are cast
+/// for, end this relative distance before that point (WGSL `SHADOW_END_REL`, `2⁻²⁰`).
 pub const SHADOW_END_REL: f32 = 1.0 / 1048576.0;
