@@ -595,6 +595,24 @@ fn eye_inside_bounding_spheres() {
     }
 }
 
+/// Rays leaving primitive `id` (which must have a table) from `count` points of its surface,
+/// outward (reflection) and inward (refraction) where the renderers can spawn them, every
+/// other one at the largest scale the spawn model allows: the walker agrees with brute force.
+fn check_surface_rays(w: &World, s: &Scene, id: usize, count: usize) -> Result<(), String> {
+    for m in 0..count {
+        let (p, ng) = w.surface_point(id, (m as f32 * 0.618 + 0.1) % 1.0, (m as f32 * 0.377 + 0.2) % 1.0);
+        for sgn in [1.0f32, -1.0] {
+            let d = dir(sgn * ng.x + 0.5 * (m as f32).sin(), sgn * ng.y + 0.5 * (m as f32).cos(), sgn * ng.z);
+            if legal(s, id, ng, d) != d {
+                continue;
+            }
+            let o = w.spawn(id, p, ng, d, m % 2 == 1);
+            w.check_nearest(OriginKey::Surface(id as u32, o), o, d)?;
+        }
+    }
+    Ok(())
+}
+
 #[test]
 fn tangent_and_nested_spheres() {
     // A chain of tangent spheres (each touching the next), a sphere nested inside another,
@@ -620,23 +638,7 @@ fn tangent_and_nested_spheres() {
     for k in [1, 2, 4] {
         let w = World::new(&s, &BuildParams { cluster_size: Some(k), surface_n: Some(8), ..small_params() });
         for id in 0..prims.len() {
-            for m in 0..60 {
-                let (p, ng) =
-                    w.surface_point(id, (m as f32 * 0.618 + 0.1) % 1.0, (m as f32 * 0.377 + 0.2) % 1.0);
-                // Outward (reflection) and inward (refraction) directions.
-                for sgn in [1.0f32, -1.0] {
-                    let d = dir(
-                        sgn * ng.x + 0.5 * (m as f32).sin(),
-                        sgn * ng.y + 0.5 * (m as f32).cos(),
-                        sgn * ng.z,
-                    );
-                    if legal(&s, id, ng, d) != d {
-                        continue;
-                    }
-                    let o = w.spawn(id, p, ng, d, m % 2 == 1);
-                    w.check_nearest(OriginKey::Surface(id as u32, o), o, d).unwrap();
-                }
-            }
+            check_surface_rays(&w, &s, id, 60).unwrap();
         }
         for j in 0..16 {
             for i in 0..16 {
@@ -923,24 +925,8 @@ fn hard_scene_tables_match_brute_force(file: &str) {
             }
         }
         for id in 0..s.primitives.len() {
-            for m in 0..40 {
-                let (p, ng) =
-                    w.surface_point(id, (m as f32 * 0.618 + 0.1) % 1.0, (m as f32 * 0.377 + 0.2) % 1.0);
-                for sgn in [1.0f32, -1.0] {
-                    let d = dir(
-                        sgn * ng.x + 0.5 * (m as f32).sin(),
-                        sgn * ng.y + 0.5 * (m as f32).cos(),
-                        sgn * ng.z,
-                    );
-                    if legal(&s, id, ng, d) != d {
-                        continue;
-                    }
-                    let o = w.spawn(id, p, ng, d, m % 2 == 1);
-                    let key = OriginKey::Surface(id as u32, o);
-                    if w.tables.flat.table_of(key).is_some() {
-                        w.check_nearest(key, o, d).unwrap_or_else(|e| panic!("{file}: {e}"));
-                    }
-                }
+            if w.tables.flat.prim_origin[id] != u32::MAX {
+                check_surface_rays(&w, &s, id, 40).unwrap_or_else(|e| panic!("{file}: {e}"));
             }
         }
     }

@@ -396,18 +396,9 @@ fn tables_match_brute_force(name: &str, scene: &Scene, w: u32, h: u32) {
 /// Fails, saving both images, at the first pixel where the tables' image differs from brute
 /// force's in any bit.
 fn assert_same_pixels(name: &str, cube: &cuberay::output::Image, brute: &cuberay::output::Image) {
-    let w = cube.width;
-    if let Some(i) =
-        cube.pixels.iter().zip(&brute.pixels).position(|(a, b)| a.map(f32::to_bits) != b.map(f32::to_bits))
-    {
+    if let Some((x, y, c, b)) = common::first_difference(cube, brute) {
         let files = common::save_failure(name, &[("cube", cube), ("brute", brute)], None);
-        panic!(
-            "{name}: pixel ({}, {}) tables {:?} brute force {:?}; images: {files}",
-            i as u32 % w,
-            i as u32 / w,
-            cube.pixels[i],
-            brute.pixels[i]
-        );
+        panic!("{name}: pixel ({x}, {y}) tables {c:?} brute force {b:?}; images: {files}");
     }
 }
 

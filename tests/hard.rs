@@ -93,14 +93,9 @@ impl Case {
     }
 }
 
-fn first_difference(a: &Image, b: &Image) -> Option<(u32, u32, [f32; 4], [f32; 4])> {
-    let i = a.pixels.iter().zip(&b.pixels).position(|(p, q)| p.map(f32::to_bits) != q.map(f32::to_bits))?;
-    Some((i as u32 % a.width, i as u32 / a.width, a.pixels[i], b.pixels[i]))
-}
-
 /// Asserts two renders of one backend are identical: every pixel bit and every ray count.
 fn assert_identical(name: &str, what: &str, a: &Rendered, b: &Rendered) {
-    if let Some((x, y, p, q)) = first_difference(&a.image, &b.image) {
+    if let Some((x, y, p, q)) = common::first_difference(&a.image, &b.image) {
         let files =
             common::save_failure(&format!("{name}-{what}"), &[("a", &a.image), ("b", &b.image)], None);
         panic!("{name}: {what}: pixel ({x}, {y}) {p:?} vs {q:?}; images: {files}");
@@ -847,12 +842,12 @@ fn a_light_on_and_inside_geometry() {
     let g = renderer().render(&without, &c.opts, &hidden()).unwrap();
     let k = reference::render(&without, &c.opts, &hidden()).unwrap();
     assert_eq!(
-        first_difference(&g.image, &c.gpu.image),
+        common::first_difference(&g.image, &c.gpu.image),
         None,
         "GPU: light 1 inside its sphere lights something"
     );
     assert_eq!(
-        first_difference(&k.image, &c.cpu.image),
+        common::first_difference(&k.image, &c.cpu.image),
         None,
         "CPU: light 1 inside its sphere lights something"
     );
@@ -873,10 +868,12 @@ fn coplanar_overlapping_triangles() {
         Primitive::Triangle(t) => t.p,
         p => panic!("{p:?}"),
     };
-    let inside = |p: DVec3, v: [DVec3; 3]| {
+    // Whether p lies inside triangle v (in z = 0, counter-clockwise), by `margin` in units of
+    // edge length × distance; a negative margin reaches outside it.
+    let inside = |p: DVec3, v: [DVec3; 3], margin: f64| {
         (0..3).all(|i| {
             let (a, b) = (v[i], v[(i + 1) % 3]);
-            (b - a).truncate().perp_dot((p - a).truncate()) > 1e-6
+            (b - a).truncate().perp_dot((p - a).truncate()) > margin
         })
     };
     let mut fights = 0;
@@ -887,7 +884,7 @@ fn coplanar_overlapping_triangles() {
             let (o, d) = c.ray(x, y);
             let p = on_plane_z(o, d, 0.0).unwrap();
             assert!(
-                inside(p, tri(0)) && inside(p, tri(1)),
+                inside(p, tri(0), 1e-6) && inside(p, tri(1), 1e-6),
                 "GPU {g:?} and CPU {k:?} differ at ({x}, {y}) outside the overlap of triangles 0 and 1"
             );
             fights += 1;
@@ -909,20 +906,14 @@ fn coplanar_overlapping_triangles() {
     for (x, y) in c.pixels() {
         let (o, d) = c.ray(x, y);
         let p = on_plane_z(o, d, 0.0).unwrap();
-        let near = |v: [DVec3; 3]| {
-            (0..3).all(|i| {
-                let (a, b) = (v[i], v[(i + 1) % 3]);
-                (b - a).truncate().perp_dot((p - a).truncate()) > -0.05
-            })
-        };
-        if !(near(tri(0)) && near(tri(1))) {
+        if !(inside(p, tri(0), -0.05) && inside(p, tri(1), -0.05)) {
             let (g, k) = (c.gpu.image.get(x, y), c.cpu.image.get(x, y));
             worst = (0..3).map(|i| (g[i] - k[i]).abs()).fold(worst, f32::max);
         }
     }
     assert!(worst <= 2.0 / 255.0, "GPU and CPU differ by {worst} outside the overlap");
     let again = renderer().render_aov(&c.scene, &c.opts, Aov::Id, &hidden()).unwrap();
-    assert_eq!(first_difference(&again.image, &c.gpu_id), None, "a second render differs");
+    assert_eq!(common::first_difference(&again.image, &c.gpu_id), None, "a second render differs");
     eprintln!(
         "hard-case coplanar_triangles: GPU pixels by id {counts:?} (id 2, the twin, never); GPU and CPU pick \
          apart triangles 0 and 1 at {fights} pixels of their overlap, nowhere else; elsewhere they differ by \

@@ -66,6 +66,15 @@ pub fn save_failure(
     written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")
 }
 
+/// The first pixel (x, y) where two images differ in any bit, with both values.
+pub fn first_difference(
+    a: &cuberay::output::Image,
+    b: &cuberay::output::Image,
+) -> Option<(u32, u32, [f32; 4], [f32; 4])> {
+    let i = a.pixels.iter().zip(&b.pixels).position(|(p, q)| p.map(f32::to_bits) != q.map(f32::to_bits))?;
+    Some((i as u32 % a.width, i as u32 / a.width, a.pixels[i], b.pixels[i]))
+}
+
 /// One test per case, in a module of the cases' name: a failure names its case and hides no
 /// other. `cases!(module: function { test_name => (arguments...), ... })`.
 #[macro_export]
