@@ -1,6 +1,6 @@
-//! What the self-hits of a scene are: renders it on the GPU with the default spawn offset and
-//! with fixed offsets from 4e-4 down by factors of 4, and prints `rays.self_hits` and the
-//! blocked shadow rays of each in one Markdown table.
+//! What the self-hits of a scene are: renders it on the GPU with spawn offsets of 2⁻¹⁶ to
+//! 2⁻²⁴ of the magnitude behind each hit point (the default is 2⁻²¹), and prints
+//! `rays.self_hits` and the blocked shadow rays of each in one Markdown table.
 //!
 //! Self-hits that fall with the offset while the blocked shadow rays stay put are rays
 //! meeting a neighbour that touches their surface (tangent spheres, a cylinder's end in its
@@ -29,16 +29,15 @@ fn main() -> anyhow::Result<()> {
     if args.is_empty() {
         bail!("usage: self_hits [--size N] SCENE...");
     }
-    let mut policies = vec![SpawnPolicy::Scaled];
-    policies.extend((0..7).map(|k| SpawnPolicy::Fixed(4e-4 / 4f32.powi(k))));
+    let exponents = [16, 18, 19, 20, 21, 22, 23, 24];
+    let policies: Vec<SpawnPolicy> =
+        exponents.iter().map(|&k| SpawnPolicy::Relative(2f32.powi(-k))).collect();
     let gpu = GpuRenderer::new()?;
     println!("{size}×{size}, corners, depth 5; each cell: self-hits / blocked shadow rays\n");
     print!("| scene | spawned rays |");
-    for p in &policies {
-        match p {
-            SpawnPolicy::Scaled => print!(" default (2⁻¹⁶·scale) |"),
-            SpawnPolicy::Fixed(e) => print!(" {e:.2e} |"),
-        }
+    for (k, p) in exponents.iter().zip(&policies) {
+        let default = if p.rel_abs() == SpawnPolicy::Scaled.rel_abs() { " (default)" } else { "" };
+        print!(" 2^-{k}{default} |");
     }
     println!("\n|---|---|{}", "---|".repeat(policies.len()));
     let hidden = ProgressBar::hidden();
@@ -49,7 +48,7 @@ fn main() -> anyhow::Result<()> {
         for &spawn in &policies {
             let opts = RenderOptions { spawn, sampling: Sampling::Corners, ..RenderOptions::new(size, size) };
             let r = gpu.render(&scene, &opts, &hidden)?.stats.rays;
-            if spawn == SpawnPolicy::Scaled {
+            if spawn.rel_abs() == SpawnPolicy::Scaled.rel_abs() {
                 spawned = r.shadow + r.reflect + r.refract;
             }
             cells.push(format!("{} / {}", r.self_hits, r.shadow_blocked));

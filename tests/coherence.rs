@@ -14,7 +14,7 @@ use cuberay::coherence::walk::{self, AnyHit};
 use cuberay::coherence::{self, bench, BuildParams, OriginKey, ShadowMode, Tables, WalkCount};
 use cuberay::kernel::closest::{brute_nearest, no_closest, test_prim};
 use cuberay::kernel::geometry::{make_ray, Prim32, PrimHit, Ray, Surface};
-use cuberay::kernel::spawn::{offset_bound, spawn_origin, SpawnPolicy, SPAWN_OFFSET_REL};
+use cuberay::kernel::spawn::{recentred_magnitude, spawn_origin, SpawnPolicy};
 use cuberay::kernel::{FAR, NO_ID};
 use cuberay::scene::{
     Camera, Cylinder, FovSpan, Light, Material, Primitive, Projection, Scene, Sphere, Triangle,
@@ -106,11 +106,10 @@ impl World {
 
     fn of(scene: &Scene, tables: Tables) -> World {
         let shift = scene.camera.eye;
-        let (w, h) = tables.eye_image;
-        // `offset_bound` assumes scale ≤ (1 + 2√3)·M, M the scene's re-centred magnitude
-        // (image-plane corners included); rays here take that largest scale.
-        let m = offset_bound(scene, w, h, SpawnPolicy::Scaled) / 1.01 / (SPAWN_OFFSET_REL as f64);
-        World { prims: Prim32::from_scene(scene, shift), tables, shift, worst_scale: (m * 0.999) as f32 }
+        // `offset_bound` assumes scale ≤ M, the scene's re-centred magnitude; rays here take
+        // that largest scale.
+        let m = recentred_magnitude(scene);
+        World { prims: Prim32::from_scene(scene, shift), tables, shift, worst_scale: m as f32 }
     }
 
     fn p(&self, p: DVec3) -> Vec3 {

@@ -288,17 +288,21 @@ fn shadow_ray(q: vec3<f32>, to_light: vec3<f32>, light: u32) -> ShadowRay {
 }
 #endif
 
+// The surface at hit `h` of `prim` (twin: kernel::geometry::surface). The point comes from
+// the primitive, not the ray: interpolated from the barycentrics on a triangle, `o + t·d`
+// projected back onto a sphere or cone, so that its rounding error scales with the
+// primitive's coordinates (`scale`) and not with how far the ray travelled.
 fn surface(prim: Prim, ray: Ray, h: PrimHit) -> Surface {
     var s: Surface;
     s.has_uv = false;
     s.uv = vec2<f32>(0.0);
-    let scale_ray = max3(abs(ray.o)) + h.t;
     switch prim.kind {
         case KIND_SPHERE: {
-            s.p = ray.o + ray.d * h.t;
-            s.ng = normalize(s.p - prim.a.xyz);
+            let v = ray.o + ray.d * h.t - prim.a.xyz;
+            s.ng = v / length(v);
+            s.p = prim.a.xyz + s.ng * prim.a.w;
             s.ns = s.ng;
-            s.scale = max(max(max3(abs(s.p)), scale_ray), max3(abs(prim.a.xyz)) + prim.a.w);
+            s.scale = max(max3(abs(s.p)), max3(abs(prim.a.xyz)) + prim.a.w);
         }
         case KIND_TRIANGLE: {
             let b0 = 1.0 - h.b1 - h.b2;
@@ -320,19 +324,27 @@ fn surface(prim: Prim, ray: Ray, h: PrimHit) -> Surface {
                 s.has_uv = true;
             }
             let extent = max(max3(abs(prim.a.xyz)), max(max3(abs(prim.b.xyz)), max3(abs(prim.c.xyz))));
-            s.scale = max(max(max3(abs(s.p)), scale_ray), extent);
+            s.scale = max(max3(abs(s.p)), extent);
         }
         default: {
-            s.p = ray.o + ray.d * h.t;
             let v = prim.b.xyz - prim.a.xyz;
             let height = length(v);
             let axis = v / height;
             let slope = (prim.b.w - prim.a.w) / height;
-            let w = s.p - prim.a.xyz;
-            s.ng = cone_normal(axis, slope, w - axis * dot(w, axis));
+            let w = ray.o + ray.d * h.t - prim.a.xyz;
+            let along = dot(w, axis);
+            let radial = w - axis * along;
+            s.ng = cone_normal(axis, slope, radial);
             s.ns = s.ng;
+            let len = length(radial);
+            let radius = prim.a.w + slope * along;
+            if len > 0.0 {
+                s.p = prim.a.xyz + axis * along + radial * (radius / len);
+            } else {
+                s.p = prim.a.xyz + w;
+            }
             let extent = max(max3(abs(prim.a.xyz)), max3(abs(prim.b.xyz)));
-            s.scale = max(max(max3(abs(s.p)), scale_ray), extent);
+            s.scale = max(max3(abs(s.p)), extent);
         }
     }
     return s;
@@ -340,8 +352,8 @@ fn surface(prim: Prim, ray: Ray, h: PrimHit) -> Surface {
 
 // The origin of a ray leaving surface `s` towards `dir`: the hit point moved along the
 // geometric normal to the side `dir` goes to, by `s.scale * params.spawn_rel +
-// params.spawn_abs` (the render's spawn policy; by default 2⁻¹⁶ of the magnitude of the
-// numbers behind the hit point, about 128 f32 rounding units of that magnitude).
+// params.spawn_abs` (the render's spawn policy; by default 2⁻²¹ of the magnitude of the
+// numbers behind the hit point, 4 f32 ulps of that magnitude: kernel::spawn says why).
 fn spawn_origin(s: Surface, dir: vec3<f32>) -> vec3<f32> {
     let side = select(-s.ng, s.ng, dot(dir, s.ng) >= 0.0);
     return s.p + side * spawn_offset(s);

@@ -95,7 +95,6 @@ impl BuildParams {
 
     /// The spawn offset the origins are inflated by.
     pub fn spawn_offset(&self, scene: &Scene) -> f64 {
-        let (w, h) = self.eye_image(scene);
-        self.spawn_offset.unwrap_or_else(|| offset_bound(scene, w, h, self.spawn))
+        self.spawn_offset.unwrap_or_else(|| offset_bound(scene, self.spawn))
     }
 }
