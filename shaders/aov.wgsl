@@ -14,10 +14,8 @@
 fn aov(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let k = gid.x;
     if k < params.point_count {
-        let point = params.first_point + k;
-        let i = point % params.grid_w;
-        let j = point / params.grid_w;
-        let ray = camera_ray(vec2<f32>(f32(i) + 0.5, f32(j) + 0.5));
+        let point = window_point(params.first_point + k);
+        let ray = camera_ray(vec2<f32>(f32(point.x) + 0.5, f32(point.y) + 0.5));
         count(C_RAYS + RAY_EYE);
         let h = closest(ray, FAR, RAY_EYE, NO_ID, NO_ID);
         var v = vec4<f32>(0.0);

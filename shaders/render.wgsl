@@ -23,12 +23,10 @@
 fn render(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let k = gid.x;
     if k < params.point_count {
-        let point = params.first_point + k;
+        let point = window_point(params.first_point + k);
         state = states[k];
         if state.sp == 0u && params.sample_first + state.sample < params.sample_end {
-            let i = point % params.grid_w;
-            let j = point / params.grid_w;
-            let eye = camera_ray(sample_position(i, j, params.sample_first + state.sample));
+            let eye = camera_ray(sample_position(point.x, point.y, params.sample_first + state.sample));
             state.stack[0] = Pending(eye.o, RAY_EYE | (1u << RAY_DEPTH_SHIFT), eye.d, 0.0, vec3<f32>(1.0), NO_ID);
             state.sp = 1u;
             state.sample += 1u;
@@ -41,6 +39,9 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocati
         }
         states[k] = state;
         out_color[k] = vec4<f32>(state.color, 1.0);
+        if point.z == 0u {
+            drop_counts();
+        }
     }
     flush_counters(lid);
 }

@@ -36,6 +36,9 @@ pub enum Error {
     /// Render options that cannot be rendered (an empty image, `--spp 0`...).
     #[error("{0}")]
     Options(String),
+    /// A partial image (`cuberay merge`) that cannot be read or does not fit the others.
+    #[error("{}: {message}", path.display())]
+    Part { path: PathBuf, message: String },
     /// An output file name whose extension names no format cuberay writes.
     #[error("{}: unknown image format (expected a .png or .exr file name)", path.display())]
     UnknownImageFormat { path: PathBuf },

@@ -13,6 +13,7 @@ use crate::output::Image;
 use crate::sampling::Sampling;
 use crate::scene::{Scene, Transfer};
 use crate::stats::{self, Stats};
+pub use crate::window::Window;
 
 /// Which acceleration structure to use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -45,6 +46,33 @@ pub struct RenderOptions {
     pub spawn: SpawnPolicy,
     /// How a PNG encodes the values; `None`: the scene's ([`Scene::transfer`]).
     pub transfer: Option<Transfer>,
+    /// The part of the image to render (`--tile`, `--crop`); `None`: all of it. The
+    /// window changes which grid points are traced, never how: every pixel of it gets the
+    /// samples, seeds and tables of the whole render.
+    pub window: Option<Window>,
+}
+
+/// The grid points a windowed render traces: `size` points from grid point `origin`, of
+/// which those with local coordinates below `owned` are its own (counted in its statistics).
+/// With corner sampling a window traces the corners on its right and bottom edges too, to
+/// average its pixels, but owns them only at the image's edge: the neighbour owns the rest,
+/// so the counts of the parts of an image add up to those of the whole.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GridWindow {
+    pub origin: (u32, u32),
+    pub size: (u32, u32),
+    pub owned: (u32, u32),
+}
+
+impl GridWindow {
+    pub fn points(&self) -> u64 {
+        self.size.0 as u64 * self.size.1 as u64
+    }
+
+    /// Whether local point (`i`, `j`) is counted.
+    pub fn owns(&self, i: u32, j: u32) -> bool {
+        i < self.owned.0 && j < self.owned.1
+    }
 }
 
 impl RenderOptions {
@@ -60,6 +88,7 @@ impl RenderOptions {
             accel: AccelKind::Auto,
             spawn: SpawnPolicy::Scaled,
             transfer: None,
+            window: None,
         }
     }
 
@@ -81,14 +110,42 @@ impl RenderOptions {
         if self.max_depth == 0 {
             return bad("--max-depth must be at least 1 (the eye ray)".into());
         }
+        if let Some(w) = self.window {
+            if w.x0 >= w.x1 || w.y0 >= w.y1 || w.x1 > self.width || w.y1 > self.height {
+                return bad(format!(
+                    "the window {w} (x0,y0,x1,y1) is not a non-empty part of the {}x{} image",
+                    self.width, self.height
+                ));
+            }
+        }
         Ok(())
     }
 
-    /// The grid of eye-ray points: the pixels, or the (W+1)×(H+1) pixel corners.
+    /// The pixels this job renders: its window, or the whole image.
+    pub fn window(&self) -> Window {
+        self.window.unwrap_or(Window::full(self.width, self.height))
+    }
+
+    /// The grid of eye-ray points of the whole image: the pixels, or the (W+1)×(H+1) pixel
+    /// corners.
     pub fn grid(&self) -> (u32, u32) {
         match self.sampling {
             Sampling::Corners => (self.width + 1, self.height + 1),
             Sampling::Center => (self.width, self.height),
+        }
+    }
+
+    /// The grid points this job traces and owns ([`GridWindow`]).
+    pub fn grid_window(&self) -> GridWindow {
+        let w = self.window();
+        let (ww, wh) = (w.width(), w.height());
+        match self.sampling {
+            Sampling::Corners => GridWindow {
+                origin: (w.x0, w.y0),
+                size: (ww + 1, wh + 1),
+                owned: (ww + (w.x1 == self.width) as u32, wh + (w.y1 == self.height) as u32),
+            },
+            Sampling::Center => GridWindow { origin: (w.x0, w.y0), size: (ww, wh), owned: (ww, wh) },
         }
     }
 
@@ -112,6 +169,7 @@ impl RenderOptions {
             seed: self.seed,
             max_depth: self.max_depth,
             transfer: self.transfer_for(scene),
+            window: self.window.filter(|w| !w.is_full(self.width, self.height)),
         }
     }
 
@@ -126,11 +184,13 @@ impl RenderOptions {
 }
 
 /// The image of a render of `scene` from its grid of eye-ray points (one summed RGB per
-/// point, as the kernels leave them): each pixel the mean of its four corners with SPD
-/// sampling, else its sum over `samples` samples divided by `samples` (in f64).
+/// point of [`RenderOptions::grid_window`], as the kernels leave them): each pixel the mean
+/// of its four corners with SPD sampling, else its sum over `samples` samples divided by
+/// `samples` (in f64). The image is the window's size.
 pub fn grid_image(opts: &RenderOptions, scene: &Scene, values: &[[f32; 4]], samples: u32) -> Image {
-    let (w, h) = (opts.width, opts.height);
-    let gw = opts.grid().0;
+    let win = opts.window();
+    let (w, h) = (win.width(), win.height());
+    let gw = opts.grid_window().size.0;
     let corners = opts.sampling == Sampling::Corners;
     let at = |i: u32, j: u32| {
         let p = values[(j * gw + i) as usize];

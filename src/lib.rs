@@ -10,7 +10,8 @@
 //!
 //! Layers, each using only those before it: [`scene`] ← [`load`]; [`scene`] ← [`kernel`] ←
 //! [`coherence`] ← [`layout`] ← [`gpu`] ← [`preview`]; the CPU [`reference`](mod@reference) beside them.
-//! [`job`], [`sampling`], [`stats`], [`output`] and [`error`] are shared by both backends.
+//! [`job`], [`sampling`], [`stats`], [`output`], [`window`], [`part`] and [`error`] are
+//! shared by both backends.
 //!
 //! - [`scene`]: the plain-data scene model both renderers read;
 //! - [`load`]: NFF and glTF loaders that produce a validated [`scene::Scene`];
@@ -24,6 +25,8 @@
 //! - [`reference`](mod@reference): the independent CPU renderer in f64;
 //! - [`stats`], [`output`], [`compare`], [`info`]: statistics, image files, image
 //!   comparison, scene summaries;
+//! - [`window`], [`part`]: the part of an image a render covers (`--tile`, `--crop`), and
+//!   the partial EXRs that `cuberay merge` assembles;
 //! - [`error`]: the library's one error type.
 
 pub mod coherence;
@@ -37,10 +40,12 @@ pub mod kernel;
 pub mod layout;
 pub mod load;
 pub mod output;
+pub mod part;
 pub mod preview;
 pub mod reference;
 pub mod sampling;
 pub mod scene;
 pub mod stats;
+pub mod window;
 
 pub use error::{Error, Result};

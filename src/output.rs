@@ -124,20 +124,26 @@ pub fn write(img: &Image, path: &Path) -> Result<(), Error> {
     if img.has_alpha && format == OutputFormat::Png {
         return Err(Error::AovNeedsExr { path: path.to_owned() });
     }
-    write_atomically(path, |w| match format {
-        OutputFormat::Png => to_rgb8(img).write_to(w, ImageFormat::Png),
-        OutputFormat::Exr if img.has_alpha => {
-            let buf: ImageBuffer<Rgba<f32>, Vec<f32>> =
-                ImageBuffer::from_fn(img.width, img.height, |x, y| Rgba(img.get(x, y)));
-            buf.write_to(w, ImageFormat::OpenExr)
-        }
-        OutputFormat::Exr => {
-            let buf: ImageBuffer<Rgb<f32>, Vec<f32>> = ImageBuffer::from_fn(img.width, img.height, |x, y| {
-                let p = img.get(x, y);
-                Rgb([p[0], p[1], p[2]])
-            });
-            buf.write_to(w, ImageFormat::OpenExr)
-        }
+    let encoded = |r: Result<(), image::ImageError>| {
+        r.map_err(|source| Error::Encode { path: path.to_owned(), source })
+    };
+    write_atomically(path, |w| {
+        encoded(match format {
+            OutputFormat::Png => to_rgb8(img).write_to(w, ImageFormat::Png),
+            OutputFormat::Exr if img.has_alpha => {
+                let buf: ImageBuffer<Rgba<f32>, Vec<f32>> =
+                    ImageBuffer::from_fn(img.width, img.height, |x, y| Rgba(img.get(x, y)));
+                buf.write_to(w, ImageFormat::OpenExr)
+            }
+            OutputFormat::Exr => {
+                let buf: ImageBuffer<Rgb<f32>, Vec<f32>> =
+                    ImageBuffer::from_fn(img.width, img.height, |x, y| {
+                        let p = img.get(x, y);
+                        Rgb([p[0], p[1], p[2]])
+                    });
+                buf.write_to(w, ImageFormat::OpenExr)
+            }
+        })
     })
 }
 
@@ -146,13 +152,16 @@ pub fn write(img: &Image, path: &Path) -> Result<(), Error> {
 pub fn write_rgb8(width: u32, height: u32, rgb: Vec<u8>, path: &Path) -> Result<(), Error> {
     let buf: ImageBuffer<Rgb<u8>, Vec<u8>> =
         ImageBuffer::from_raw(width, height, rgb).expect("3 bytes per pixel of a width x height image");
-    write_atomically(path, |w| buf.write_to(w, ImageFormat::Png))
+    write_atomically(path, |w| {
+        buf.write_to(w, ImageFormat::Png).map_err(|source| Error::Encode { path: path.to_owned(), source })
+    })
 }
 
-/// Runs `encode` into a temporary file beside `path` and renames it to `path` on success.
-fn write_atomically(
+/// Runs `encode` into a temporary file beside `path` and renames it to `path` on success
+/// (on failure or a stop asked for, the temporary file is removed and `path` is untouched).
+pub fn write_atomically(
     path: &Path,
-    encode: impl FnOnce(&mut BufWriter<&std::fs::File>) -> Result<(), image::ImageError>,
+    encode: impl FnOnce(&mut BufWriter<&std::fs::File>) -> Result<(), Error>,
 ) -> Result<(), Error> {
     let io = |source| Error::Io { path: path.to_owned(), source };
     let dir = match path.parent() {
@@ -167,7 +176,7 @@ fn write_atomically(
     })?;
     {
         let mut w = BufWriter::new(tmp.as_file());
-        encode(&mut w).map_err(|source| Error::Encode { path: path.to_owned(), source })?;
+        encode(&mut w)?;
         w.flush().map_err(io)?;
     }
     tmp.as_file().sync_all().map_err(io)?;

@@ -25,7 +25,7 @@
 
 use std::ops::AddAssign;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// The kinds of rays a Whitted renderer traces.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -54,7 +54,7 @@ impl RayKind {
 }
 
 /// Primitive intersection tests, by primitive type.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct TestCounts {
     pub sphere: u64,
     pub triangle: u64,
@@ -83,7 +83,7 @@ impl AddAssign for TestCounts {
 
 /// Raw counters a tracer accumulates (per thread, then summed): rays by kind and the
 /// primitive tests made by the rays of each kind.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Counters {
     /// Rays traced, indexed by [`RayKind::index`].
     pub rays: [u64; 4],
@@ -144,7 +144,7 @@ pub struct TestsPerRay {
 }
 
 /// Wall-clock times in seconds.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Times {
     /// Building the acceleration structure (BVH, candidate tables...), after loading.
     pub preprocess_s: f64,
@@ -167,14 +167,14 @@ pub struct Times {
 }
 
 /// GPU time per kernel, seconds.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct KernelTimes {
     pub render: Option<f64>,
     pub aov: Option<f64>,
 }
 
 /// The settings a render ran with.
-#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Settings {
     /// `cpu` or `gpu`.
     pub backend: String,
@@ -191,6 +191,11 @@ pub struct Settings {
     pub max_depth: u32,
     /// How a PNG encodes the values: `srgb` or `display` (see [`crate::scene::Transfer`]).
     pub transfer: crate::scene::Transfer,
+    /// `--tile` or `--crop`: the pixels rendered, `{x0, y0, x1, y1}` (ends exclusive) of the
+    /// `size` image; absent for a whole image. The counts are those of the grid points the
+    /// window owns ([`crate::job::GridWindow`]), so the parts' counts add up to the whole's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub window: Option<crate::window::Window>,
 }
 
 /// Everything `--stats` reports.
@@ -205,6 +210,10 @@ pub struct Stats {
     /// Group bounding-sphere tests per ray, by kind (see [`TestCounts::bound`]).
     pub bound_tests_per_ray: TestsPerRay,
     pub time: Times,
+    /// The raw counters the report was made from (not printed: a partial render records
+    /// them, so that merged parts add up exactly).
+    #[serde(skip)]
+    pub counters: Counters,
 }
 
 impl Stats {
@@ -248,6 +257,7 @@ impl Stats {
                 all: per(tests.bound, total_rays),
             },
             time,
+            counters: *c,
         }
     }
 
@@ -268,6 +278,9 @@ impl Stats {
             "render:   {} backend, accel {}, {}x{}, sampling {}, {} spp, seed {}, max depth {}, transfer {:?}\n",
             s.backend, s.accel, s.size[0], s.size[1], s.sampling, s.spp, s.seed, s.max_depth, s.transfer
         );
+        if let Some(w) = s.window {
+            o += &format!("window:   pixels x {}..{}, y {}..{} of the image\n", w.x0, w.x1, w.y0, w.y1);
+        }
         o += &format!("effects:  {effects}\n");
         o += &format!(
             "rays:     {} in all: {} eye ({} hit), {} reflect, {} refract, {} shadow ({} blocked); {} self-hits\n",

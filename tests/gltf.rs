@@ -44,7 +44,7 @@ fn model(rel: &str) -> PathBuf {
 }
 
 fn load_with(path: &Path, camera: Option<usize>) -> Loaded {
-    match load::load(path, &LoadOptions { camera }) {
+    match load::load(path, &LoadOptions { camera, time: None }) {
         Ok(l) => l,
         Err(e) => panic!("{} failed to load: {e}", path.display()),
     }
@@ -316,7 +316,7 @@ fn cameras_perspective_and_orthographic() {
     assert_eq!(cam1.aspect_hint, Some(1.0));
     assert!(close(cam1.eye, DVec3::new(0.5, 0.5, 3.0), 1e-6));
 
-    let err = load::load(&path, &LoadOptions { camera: Some(2) }).unwrap_err().to_string();
+    let err = load::load(&path, &LoadOptions { camera: Some(2), time: None }).unwrap_err().to_string();
     assert!(err.contains("camera 2") && err.contains("2 camera nodes"), "{err}");
 }
 
@@ -325,7 +325,7 @@ fn toy_car_cameras_are_selectable_and_extensions_warned_once() {
     let path = model("ToyCar/ToyCar.gltf");
     let loaded = load_with(&path, Some(7));
     assert!(matches!(loaded.scene.camera.projection, Projection::Perspective { .. }));
-    assert!(load::load(&path, &LoadOptions { camera: Some(8) }).is_err());
+    assert!(load::load(&path, &LoadOptions { camera: Some(8), time: None }).is_err());
     for ext in ["KHR_texture_transform", "KHR_materials_clearcoat", "KHR_materials_sheen"] {
         let n = loaded.warnings.iter().filter(|w| w.contains(ext)).count();
         assert_eq!(n, 1, "{ext}: {:?}", loaded.warnings);

@@ -39,8 +39,15 @@ struct Params {
     // The spawn offset is scale * spawn_rel + spawn_abs (geometry.wgsl, spawn_origin).
     spawn_rel: f32,
     spawn_abs: f32,
+    // The grid points traced (--tile, --crop): win_w points a row from grid point
+    // (win_x, win_y); those with local coordinates below (own_w, own_h) are counted.
+    // grid_w stays the whole image's, for the sample hash.
+    win_x: u32,
+    win_y: u32,
+    win_w: u32,
+    own_w: u32,
+    own_h: u32,
     _pad0: u32,
-    _pad1: u32,
 }
 
 // One primitive (kind KIND_*). Sphere: a = (centre, radius). Triangle: a, b, c = vertices.
@@ -268,6 +275,21 @@ fn count_test(ray_kind: u32, prim_kind: u32) {
 
 fn count_bound(ray_kind: u32) {
     local_counts[C_BOUNDS + ray_kind] += 1u;
+}
+
+// The grid point of window point `point` (row-major in the window), and whether the window
+// owns it (counts its rays: the corners on a window's far edges belong to its neighbour).
+fn window_point(point: u32) -> vec3<u32> {
+    let li = point % params.win_w;
+    let lj = point / params.win_w;
+    return vec3<u32>(params.win_x + li, params.win_y + lj, u32(li < params.own_w && lj < params.own_h));
+}
+
+// Forgets what this invocation counted (a point its window does not own).
+fn drop_counts() {
+    for (var i = 0u; i < COUNTER_COUNT; i++) {
+        local_counts[i] = 0u;
+    }
 }
 
 // Sums the invocations' counters per workgroup, then adds them to the 64-bit totals.

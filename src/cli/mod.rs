@@ -10,6 +10,7 @@ use cuberay::info::SceneInfo;
 use cuberay::load::{self, LoadOptions, Loaded};
 
 mod compare;
+mod merge;
 mod preview;
 mod render;
 
@@ -42,6 +43,8 @@ enum Command {
     Compare(compare::CompareArgs),
     /// Open a window that refines the scene progressively (orbit, pan, zoom, fly).
     Preview(preview::PreviewArgs),
+    /// Assemble the parts of a render split with --tile or --crop into the whole image.
+    Merge(merge::MergeArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -95,7 +98,7 @@ fn quiet_device_selection() {
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Info { scene, json, camera, tables } => {
-            let loaded = load_scene(&scene, camera)?;
+            let loaded = load_scene(&scene, camera, None)?;
             let info = SceneInfo::of(&loaded.scene);
             let stats = match tables {
                 true => Some(cuberay::coherence::TableStats::of(&cuberay::coherence::build(
@@ -121,12 +124,13 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Render(args) => render::run(args),
         Command::Compare(args) => compare::run(args),
         Command::Preview(args) => preview::run(args),
+        Command::Merge(args) => merge::run(args),
     }
 }
 
 /// Loads a scene and reports the loader's warnings on stderr.
-fn load_scene(path: &std::path::Path, camera: Option<usize>) -> anyhow::Result<Loaded> {
-    let loaded = load::load(path, &LoadOptions { camera }).context("cannot load the scene")?;
+fn load_scene(path: &std::path::Path, camera: Option<usize>, time: Option<f64>) -> anyhow::Result<Loaded> {
+    let loaded = load::load(path, &LoadOptions { camera, time }).context("cannot load the scene")?;
     for w in &loaded.warnings {
         log::warn!("{}: {w}", path.display());
     }

@@ -9,9 +9,10 @@ use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use cuberay::gpu::GpuRenderer;
-use cuberay::job::{AccelKind, RenderOptions};
+use cuberay::job::{AccelKind, RenderOptions, Window};
 use cuberay::load::{self, Loaded};
 use cuberay::output::{self, Aov, OutputFormat};
+use cuberay::part::{self, PartInfo, SceneId};
 use cuberay::reference;
 use cuberay::sampling::Sampling;
 use cuberay::scene::Transfer;
@@ -51,6 +52,47 @@ pub struct RenderArgs {
     /// Print statistics after the render: text (default) or one JSON object on stdout.
     #[arg(long, value_enum, num_args = 0..=1, default_missing_value = "text")]
     pub stats: Option<StatsFormat>,
+    /// Render band I of N (0-based): rows I·⌈H/N⌉ up to (I+1)·⌈H/N⌉. To an .exr, the part
+    /// records its window, the image size and the settings for `cuberay merge`.
+    #[arg(long, value_parser = parse_tile, conflicts_with = "crop", value_name = "I/N")]
+    pub tile: Option<(u32, u32)>,
+    /// Render only pixels X0..X1 × Y0..Y1 (ends exclusive) of the image, as --tile does.
+    #[arg(long, value_parser = parse_crop, value_name = "X0,Y0,X1,Y1")]
+    pub crop: Option<Window>,
+    /// Render frames A to B (both included) of a glTF file's animation, sampled at
+    /// t = frame / --fps, one file a frame: a run of `#` in the output's name becomes the
+    /// frame number (`shot_####.png`), else `_NNNN` goes before the extension.
+    #[arg(long, value_parser = parse_frames, value_name = "A..B")]
+    pub frames: Option<(u32, u32)>,
+    /// Frames per second of --frames.
+    #[arg(long, default_value_t = 24.0, requires = "frames")]
+    pub fps: f64,
+}
+
+/// `--tile I/N`.
+fn parse_tile(s: &str) -> Result<(u32, u32), String> {
+    let (i, n) = s.split_once('/').ok_or_else(|| format!("{s:?} is not I/N (for example 0/4)"))?;
+    let num = |t: &str| t.trim().parse::<u32>().map_err(|_| format!("{t:?} in {s:?} is not a whole number"));
+    let (i, n) = (num(i)?, num(n)?);
+    if n == 0 || i >= n {
+        return Err(format!("{s:?}: the tile index must be in 0..{n} (tiles count from 0)"));
+    }
+    Ok((i, n))
+}
+
+/// `--crop X0,Y0,X1,Y1`.
+fn parse_crop(s: &str) -> Result<Window, String> {
+    let v = s
+        .split(',')
+        .map(|t| t.trim().parse::<u32>().map_err(|_| format!("{t:?} in {s:?} is not a pixel coordinate")))
+        .collect::<Result<Vec<_>, _>>()?;
+    let [x0, y0, x1, y1] = v[..] else {
+        return Err(format!("{s:?} is not X0,Y0,X1,Y1 (four pixel coordinates)"));
+    };
+    if x0 >= x1 || y0 >= y1 {
+        return Err(format!("{s:?}: the window is empty (it needs X0 < X1 and Y0 < Y1)"));
+    }
+    Ok(Window { x0, y0, x1, y1 })
 }
 
 /// The options shared by `render` and `compare`: which scene camera, image size and
@@ -95,9 +137,18 @@ impl TraceArgs {
     /// Loads the scene (the showcase without a path) and turns the options into
     /// validated render options. Returns the name to use in messages too.
     pub fn load(&self, scene: &Option<PathBuf>) -> anyhow::Result<(PathBuf, Loaded, RenderOptions)> {
+        self.load_at(scene, None)
+    }
+
+    /// [`TraceArgs::load`] with a glTF file's animated nodes posed at `time` seconds.
+    pub fn load_at(
+        &self,
+        scene: &Option<PathBuf>,
+        time: Option<f64>,
+    ) -> anyhow::Result<(PathBuf, Loaded, RenderOptions)> {
         let scene_name = scene.clone().unwrap_or_else(|| PathBuf::from(load::SHOWCASE_NAME));
         let loaded = match scene {
-            Some(path) => super::load_scene(path, self.camera)?,
+            Some(path) => super::load_scene(path, self.camera, time)?,
             None => load::showcase().context("the built-in showcase scene does not load")?,
         };
         let (dw, dh) = loaded.scene.resolution.unwrap_or_else(|| loaded.scene.camera.default_resolution());
@@ -138,30 +189,126 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if args.aov.is_some() && format != OutputFormat::Exr {
         bail!(cuberay::Error::AovNeedsExr { path: args.output.clone() });
     }
-    let (scene_name, loaded, opts) = args.trace.load(&args.scene)?;
+    if !(args.fps.is_finite() && args.fps > 0.0) {
+        bail!("--fps {} is not a positive number of frames per second", args.fps);
+    }
+    let frames: Vec<Option<u32>> = match args.frames {
+        None => vec![None],
+        Some((a, b)) => {
+            let is_gltf = args
+                .scene
+                .as_ref()
+                .and_then(|p| p.extension())
+                .and_then(|e| e.to_str())
+                .is_some_and(|e| e.eq_ignore_ascii_case("gltf") || e.eq_ignore_ascii_case("glb"));
+            if !is_gltf {
+                bail!("--frames samples a glTF file's animation: give a .gltf or .glb scene");
+            }
+            (a..=b).map(Some).collect()
+        }
+    };
+    // One device (and its compiled kernels) for every frame.
+    let gpu = match args.backend {
+        Backend::Gpu => Some(GpuRenderer::new()?),
+        Backend::Cpu => None,
+    };
+    for frame in frames {
+        let output = match frame {
+            Some(f) => frame_path(&args.output, f),
+            None => args.output.clone(),
+        };
+        render_one(&args, gpu.as_ref(), frame, format, &output)?;
+    }
+    Ok(())
+}
+
+/// `--frames A..B`: both ends included, as animation tools count frames.
+fn parse_frames(s: &str) -> Result<(u32, u32), String> {
+    let (a, b) = s.split_once("..").ok_or_else(|| format!("{s:?} is not A..B (for example 0..47)"))?;
+    let num = |t: &str| t.trim().parse::<u32>().map_err(|_| format!("{t:?} in {s:?} is not a frame number"));
+    let (a, b) = (num(a)?, num(b)?);
+    if a > b {
+        return Err(format!("{s:?}: the first frame is after the last"));
+    }
+    Ok((a, b))
+}
+
+/// The file of frame `f`: the run of `#` in the file name replaced by the frame number,
+/// zero-padded to the run's length (`shot_####.png` → `shot_0012.png`); without one,
+/// `_NNNN` before the extension (`shot.png` → `shot_0012.png`).
+pub fn frame_path(path: &std::path::Path, f: u32) -> PathBuf {
+    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or_default();
+    let named = match name.find('#') {
+        Some(start) => {
+            let run = name[start..].chars().take_while(|&c| c == '#').count();
+            format!("{}{f:0run$}{}", &name[..start], &name[start + run..])
+        }
+        None => {
+            let stem = path.file_stem().and_then(|n| n.to_str()).unwrap_or_default();
+            let ext = path.extension().and_then(|n| n.to_str()).unwrap_or_default();
+            format!("{stem}_{f:04}.{ext}")
+        }
+    };
+    path.with_file_name(named)
+}
+
+/// Renders one image (one frame of `--frames`, or the only one) to `output`.
+fn render_one(
+    args: &RenderArgs,
+    gpu: Option<&GpuRenderer>,
+    frame: Option<u32>,
+    format: OutputFormat,
+    output: &std::path::Path,
+) -> anyhow::Result<()> {
+    let time = frame.map(|f| f as f64 / args.fps);
+    let (scene_name, loaded, mut opts) = args.trace.load_at(&args.scene, time)?;
+    opts.window = match (args.tile, args.crop) {
+        (Some((i, n)), _) => Some(Window::band(i, n, opts.width, opts.height)?),
+        (None, crop) => crop,
+    };
+    opts.validate()?;
+    let part = opts.window.is_some() && format == OutputFormat::Exr;
+    // A part names its scene by content, so that `merge` can refuse parts of another one.
+    let scene_id = match part {
+        false => None,
+        true => Some(match &args.scene {
+            Some(path) => {
+                let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+                SceneId {
+                    frame,
+                    time_s: time,
+                    ..SceneId::of(&path.display().to_string(), &bytes, args.trace.camera)
+                }
+            }
+            None => SceneId::of(load::SHOWCASE_NAME, load::SHOWCASE_SOURCE.as_bytes(), None),
+        }),
+    };
     let scene = &loaded.scene;
     let progress = progress_bar("rendering");
-    let rendered = match args.backend {
-        Backend::Cpu => match args.aov {
+    let rendered = match gpu {
+        None => match args.aov {
             Some(aov) => reference::render_aov(scene, &opts, aov, &progress),
             None => reference::render(scene, &opts, &progress),
         }
         .with_context(|| format!("cannot render {}", scene_name.display()))?,
-        Backend::Gpu => {
-            let gpu = GpuRenderer::new()?;
-            match args.aov {
-                Some(aov) => gpu.render_aov(scene, &opts, aov, &progress),
-                None => gpu.render(scene, &opts, &progress),
-            }
-            .with_context(|| format!("cannot render {} on the GPU", scene_name.display()))?
+        Some(gpu) => match args.aov {
+            Some(aov) => gpu.render_aov(scene, &opts, aov, &progress),
+            None => gpu.render(scene, &opts, &progress),
         }
+        .with_context(|| format!("cannot render {} on the GPU", scene_name.display()))?,
     };
     progress.finish_and_clear();
 
     if !rendered.image.is_finite() {
         bail!("the render produced a non-finite pixel; nothing written (this is a renderer bug)");
     }
-    output::write(&rendered.image, &args.output)?;
+    match scene_id {
+        Some(id) => {
+            let aov = args.aov.and_then(|a| a.to_possible_value()).map(|v| v.get_name().to_string());
+            part::write_part(&rendered.image, &PartInfo::new(id, &rendered.stats, aov), output)?
+        }
+        None => output::write(&rendered.image, output)?,
+    }
     match args.stats {
         Some(StatsFormat::Json) => println!("{}", rendered.stats.to_json()),
         Some(StatsFormat::Text) => print!("{}", rendered.stats.to_text()),

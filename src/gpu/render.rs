@@ -214,7 +214,7 @@ impl GpuRenderer {
             scene,
             &packed,
             tables.as_ref(),
-            opts.grid(),
+            opts.grid_window().size,
             progress,
         )?;
         let trace_s = start.elapsed().as_secs_f64();
@@ -238,7 +238,7 @@ impl GpuRenderer {
         aov: Aov,
         progress: &ProgressBar,
     ) -> Result<Rendered> {
-        let (w, h) = (opts.width, opts.height);
+        let (w, h) = (opts.window().width(), opts.window().height());
         let Prepared { kernel, variant, pipeline, mut packed, tables, start } =
             self.prepare(scene, opts, true)?;
         let center = RenderOptions { spp: 1, sampling: Sampling::Center, max_depth: 1, ..opts.clone() };

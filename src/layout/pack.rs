@@ -179,9 +179,15 @@ pub fn pack(scene: &Scene, width: u32, height: u32, spawn: SpawnPolicy) -> Packe
 /// grid of eye-ray points, the sample lattice and seed, the depth, and samples `0..spp`.
 pub fn job_params(opts: &RenderOptions, base: Params) -> Params {
     let (grid_w, grid_h) = opts.grid();
+    let win = opts.grid_window();
     Params {
         grid_w,
         grid_h,
+        win_x: win.origin.0,
+        win_y: win.origin.1,
+        win_w: win.size.0,
+        own_w: win.owned.0,
+        own_h: win.owned.1,
         spp: opts.spp,
         lattice_g: if opts.spp > 1 { sampling::lattice_generator(opts.spp) } else { 1 },
         seed_hash: sampling::seed_hash(opts.seed),

@@ -45,8 +45,15 @@ pub struct Params {
     /// The spawn offset is `scale·spawn_rel + spawn_abs` ([`crate::kernel::spawn`]).
     pub spawn_rel: f32,
     pub spawn_abs: f32,
+    /// The grid points traced (`--tile`, `--crop`): `win_w` points a row from grid point
+    /// (`win_x`, `win_y`); those with local coordinates below (`own_w`, `own_h`) are counted
+    /// ([`crate::job::GridWindow`]). `grid_w` stays the whole image's, for the sample hash.
+    pub win_x: u32,
+    pub win_y: u32,
+    pub win_w: u32,
+    pub own_w: u32,
+    pub own_h: u32,
     pub _pad0: u32,
-    pub _pad1: u32,
 }
 
 /// One primitive (WGSL `Prim`, keep in sync with `shaders/shared/layout.wgsl`): sphere `a` =

@@ -20,6 +20,9 @@ pub struct LoadOptions {
     /// roots in scene order, children in file order). Default: the first; with none, a
     /// camera framing the scene's bounds.
     pub camera: Option<usize>,
+    /// glTF: pose the animated nodes at this time in seconds (`--frames`); `None`: the
+    /// nodes' own transforms. A file without animations is refused when it is given.
+    pub time: Option<f64>,
 }
 
 /// A loaded scene and the warnings the loader gathered (dropped degenerate triangles,
@@ -43,8 +46,12 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, Error> {
 /// Where the built-in showcase scene comes from (shown in messages).
 pub const SHOWCASE_NAME: &str = "scenes/showcase.nff";
 
+/// The text of the built-in showcase scene, compiled into the binary from
+/// `scenes/showcase.nff`.
+pub const SHOWCASE_SOURCE: &str = include_str!("../../scenes/showcase.nff");
+
 /// The built-in showcase scene (`cuberay render` without a scene): mirrors, glass,
-/// shadows and three lights, compiled into the binary from `scenes/showcase.nff`.
+/// shadows and three lights.
 pub fn showcase() -> Result<Loaded, Error> {
-    nff::parse(include_str!("../../scenes/showcase.nff"), Path::new(SHOWCASE_NAME))
+    nff::parse(SHOWCASE_SOURCE, Path::new(SHOWCASE_NAME))
 }

@@ -91,69 +91,61 @@ pub fn render(scene: &Scene, opts: &RenderOptions, progress: &ProgressBar) -> Re
     };
 
     let start = Instant::now();
-    let mut image = Image::new(w, h, false);
+    let win = opts.window();
+    let grid = opts.grid_window();
+    let (x0, y0) = grid.origin;
+    let (gw, gh) = grid.size;
+    let (ww, wh) = (win.width() as usize, win.height() as usize);
+    let mut image = Image::new(win.width(), win.height(), false);
     image.transfer = opts.transfer_for(scene);
     let mut counters = Counters::default();
-    match opts.sampling {
-        Sampling::Corners => {
-            progress.set_length(h as u64 + 1);
-            // Radiance at the (W+1)×(H+1) corners, one row of corners per task.
-            let rows: Vec<(Vec<DVec3>, Counters)> = (0..=h)
-                .into_par_iter()
-                .map(|j| {
-                    let mut c = Counters::default();
-                    let row = (0..=w)
-                        .map(|i| {
-                            if stopped() {
-                                DVec3::ZERO
-                            } else {
-                                tracer.eye(&eye_ray(i as f64, j as f64), &mut c)
-                            }
-                        })
-                        .collect();
-                    progress.inc(1);
-                    (row, c)
-                })
-                .collect();
-            for (_, c) in &rows {
-                counters += *c;
-            }
-            for j in 0..h as usize {
-                for i in 0..w as usize {
-                    let (top, bottom) = (&rows[j].0, &rows[j + 1].0);
-                    let mean = (top[i] + top[i + 1] + bottom[i] + bottom[i + 1]) * 0.25;
-                    image.pixels[j * w as usize + i] = to_pixel(mean);
-                }
-            }
-        }
-        Sampling::Center => {
-            progress.set_length(h as u64);
-            let spp = opts.spp;
-            let rows: Vec<(Vec<[f32; 4]>, Counters)> = (0..h)
-                .into_par_iter()
-                .map(|j| {
-                    let mut c = Counters::default();
-                    let row = (0..w)
-                        .map(|i| {
+    // One task per row of the window's grid points; a point the window does not own (a
+    // corner on its far edges) is traced for its pixels but counted by its owner.
+    progress.set_length(gh as u64);
+    let rows: Vec<(Vec<DVec3>, Counters)> = (0..gh)
+        .into_par_iter()
+        .map(|lj| {
+            let mut c = Counters::default();
+            let mut elsewhere = Counters::default();
+            let row = (0..gw)
+                .map(|li| {
+                    let counted = if grid.owns(li, lj) { &mut c } else { &mut elsewhere };
+                    let (i, j) = (x0 + li, y0 + lj);
+                    match opts.sampling {
+                        Sampling::Corners if stopped() => DVec3::ZERO,
+                        Sampling::Corners => tracer.eye(&eye_ray(i as f64, j as f64), counted),
+                        Sampling::Center => {
                             let mut sum = DVec3::ZERO;
-                            for s in 0..spp {
+                            for s in 0..opts.spp {
                                 if stopped() {
                                     break;
                                 }
-                                let (x, y) = sampling::sample_position(i, j, w, s, spp, opts.seed);
-                                sum += tracer.eye(&eye_ray(x, y), &mut c);
+                                let (x, y) = sampling::sample_position(i, j, w, s, opts.spp, opts.seed);
+                                sum += tracer.eye(&eye_ray(x, y), counted);
                             }
-                            to_pixel(sum / spp as f64)
-                        })
-                        .collect();
-                    progress.inc(1);
-                    (row, c)
+                            sum / opts.spp as f64
+                        }
+                    }
                 })
                 .collect();
-            for (j, (row, c)) in rows.into_iter().enumerate() {
-                counters += c;
-                image.pixels[j * w as usize..(j + 1) * w as usize].copy_from_slice(&row);
-            }
+            progress.inc(1);
+            (row, c)
+        })
+        .collect();
+    for (_, c) in &rows {
+        counters += *c;
+    }
+    for j in 0..wh {
+        for i in 0..ww {
+            let v = match opts.sampling {
+                // Each pixel the mean of its four corners.
+                Sampling::Corners => {
+                    let (top, bottom) = (&rows[j].0, &rows[j + 1].0);
+                    (top[i] + top[i + 1] + bottom[i] + bottom[i + 1]) * 0.25
+                }
+                Sampling::Center => rows[j].0[i],
+            };
+            image.pixels[j * ww + i] = to_pixel(v);
         }
     }
     crate::interrupt::check()?;
@@ -177,12 +169,13 @@ pub fn render_aov(scene: &Scene, opts: &RenderOptions, aov: Aov, progress: &Prog
     let preprocess_s = start.elapsed().as_secs_f64();
     let tracer = Tracer { scene, accel: accel.as_ref(), max_depth: 1 };
     let start = Instant::now();
-    progress.set_length(h as u64);
-    let rows: Vec<(Vec<[f32; 4]>, Counters)> = (0..h)
+    let win = opts.window();
+    progress.set_length(win.height() as u64);
+    let rows: Vec<(Vec<[f32; 4]>, Counters)> = (win.y0..win.y1)
         .into_par_iter()
         .map(|j| {
             let mut c = Counters::default();
-            let row = (0..w)
+            let row = (win.x0..win.x1)
                 .map(|i| {
                     let (o, d) = scene.camera.ray(i as f64 + 0.5, j as f64 + 0.5, w, h);
                     if stopped() {
@@ -205,11 +198,12 @@ pub fn render_aov(scene: &Scene, opts: &RenderOptions, aov: Aov, progress: &Prog
             (row, c)
         })
         .collect();
-    let mut image = Image::new(w, h, true);
+    let mut image = Image::new(win.width(), win.height(), true);
     let mut counters = Counters::default();
+    let ww = win.width() as usize;
     for (j, (row, c)) in rows.into_iter().enumerate() {
         counters += c;
-        image.pixels[j * w as usize..(j + 1) * w as usize].copy_from_slice(&row);
+        image.pixels[j * ww..(j + 1) * ww].copy_from_slice(&row);
     }
     crate::interrupt::check()?;
     let trace_s = start.elapsed().as_secs_f64();

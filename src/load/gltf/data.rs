@@ -407,6 +407,32 @@ impl Reader<'_> {
         Ok(out)
     }
 
+    /// Reads an accessor of `dims` whose component types are among `allowed` as f32s, the
+    /// components of each element in a row, every value finite (animation keyframes).
+    pub fn floats(
+        &self,
+        acc: &gltf::Accessor,
+        loc: &str,
+        dims: Dimensions,
+        allowed: &[(DataType, bool)],
+    ) -> Result<Vec<f32>, Error> {
+        self.check_format(acc, loc, dims, allowed)?;
+        let (t, n) = (acc.data_type(), acc.normalized());
+        let k = dims.multiplicity();
+        let rows = self.collect(acc, loc, |b| {
+            let mut row = [0.0f32; 4];
+            for (c, v) in row.iter_mut().enumerate().take(k) {
+                *v = component_f32(b, t, n, c);
+            }
+            row
+        })?;
+        let out: Vec<f32> = rows.iter().flat_map(|r| r[..k].iter().copied()).collect();
+        if let Some(i) = out.iter().position(|v| !v.is_finite()) {
+            return Err(self.err(loc, format!("value {} (element {}) is not finite", out[i], i / k)));
+        }
+        Ok(out)
+    }
+
     /// Reads indices: SCALAR UNSIGNED_BYTE/SHORT/INT. Ranges are checked by the caller,
     /// which knows the vertex count.
     pub fn indices(&self, acc: &gltf::Accessor, loc: &str) -> Result<Vec<u32>, Error> {

@@ -14,6 +14,7 @@ use gltf::mesh::Mode;
 use gltf::{Document, Semantic};
 use rayon::prelude::*;
 
+use super::animation::Pose;
 use super::data::Reader;
 use super::materials::MaterialTable;
 use super::Ctx;
@@ -37,8 +38,9 @@ pub struct Hierarchy {
     pub skinned: usize,
 }
 
-/// The local transform of a node (matrix, or T·R·S with the rotation renormalised).
-fn local_matrix(ctx: &Ctx, node: &gltf::Node) -> Result<DMat4, Error> {
+/// The local transform of a node (matrix, or T·R·S with the rotation renormalised), with
+/// the animated parts of `pose` in place of the file's.
+fn local_matrix(ctx: &Ctx, node: &gltf::Node, pose: &Pose) -> Result<DMat4, Error> {
     let loc = format!("nodes[{}]", node.index());
     match node.transform() {
         gltf::scene::Transform::Matrix { matrix } => {
@@ -55,9 +57,10 @@ fn local_matrix(ctx: &Ctx, node: &gltf::Node) -> Result<DMat4, Error> {
             Ok(m)
         }
         gltf::scene::Transform::Decomposed { translation, rotation, scale } => {
-            let t = DVec3::from(translation.map(f64::from));
-            let s = DVec3::from(scale.map(f64::from));
-            let q = DQuat::from_array(rotation.map(f64::from));
+            let animated = pose.nodes.get(&node.index()).copied().unwrap_or_default();
+            let t = animated.translation.unwrap_or(DVec3::from(translation.map(f64::from)));
+            let s = animated.scale.unwrap_or(DVec3::from(scale.map(f64::from)));
+            let q = animated.rotation.unwrap_or(DQuat::from_array(rotation.map(f64::from)));
             if !(t.is_finite() && s.is_finite() && q.is_finite()) {
                 return Err(ctx.err(loc, "translation, rotation or scale is not finite"));
             }
@@ -70,8 +73,9 @@ fn local_matrix(ctx: &Ctx, node: &gltf::Node) -> Result<DMat4, Error> {
     }
 }
 
-/// Walks the default scene (or scene 0, or every root node when the file has no scene).
-pub fn walk(ctx: &Ctx, doc: &Document) -> Result<Hierarchy, Error> {
+/// Walks the default scene (or scene 0, or every root node when the file has no scene),
+/// its animated nodes posed by `pose`.
+pub fn walk(ctx: &Ctx, doc: &Document, pose: &Pose) -> Result<Hierarchy, Error> {
     let (label, roots): (String, Vec<usize>) = match doc.default_scene().or_else(|| doc.scenes().next()) {
         Some(s) => (format!("scenes[{}]", s.index()), s.nodes().map(|n| n.index()).collect()),
         None => {
@@ -98,7 +102,7 @@ pub fn walk(ctx: &Ctx, doc: &Document) -> Result<Hierarchy, Error> {
             ));
         }
         let node = &nodes[i];
-        let world = parent * local_matrix(ctx, node)?;
+        let world = parent * local_matrix(ctx, node, pose)?;
         if let Some(mesh) = node.mesh() {
             h.meshes.push(Placed { node: i, item: mesh.index(), world });
             h.skinned += node.skin().is_some() as usize;

@@ -15,6 +15,8 @@
 //!   the material's base colour texture; degenerate triangles are dropped with a count;
 //! - cameras: the first camera node in traversal order, or the N-th with
 //!   [`LoadOptions::camera`]; without one, a camera framing the scene (with a warning);
+//! - with [`LoadOptions::time`], the nodes' translation, rotation and scale animation
+//!   channels sampled at that time ([`animation`]), cameras and lights as well as meshes;
 //! - KHR_lights_punctual point, spot and directional lights; without any light, the
 //!   documented default headlight ([`Light::default_for`], with a warning);
 //! - metallic-roughness materials with KHR_materials_transmission, KHR_materials_ior and
@@ -32,6 +34,7 @@ use super::{LoadOptions, Loaded};
 use crate::error::Error;
 use crate::scene::{Light, Scene, Transfer};
 
+mod animation;
 mod data;
 mod geometry;
 mod materials;
@@ -159,9 +162,16 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, Error> {
     }
 
     let buffers = data::Buffers::load(&ctx, &doc, blob)?;
-    let hierarchy = geometry::walk(&ctx, &doc)?;
-    let table = materials::build(&ctx, &doc, &buffers, &used_materials(&doc, &hierarchy), &mut warnings)?;
     let reader = data::Reader { ctx: &ctx, buffers: &buffers };
+    let pose = match options.time {
+        None => animation::Pose::default(),
+        Some(_) if !animation::has_animations(&doc) => {
+            return Err(ctx.invalid("the file has no animations to sample frames of (--frames)"))
+        }
+        Some(t) => animation::pose_at(&reader, &doc, t, &mut warnings)?,
+    };
+    let hierarchy = geometry::walk(&ctx, &doc, &pose)?;
+    let table = materials::build(&ctx, &doc, &buffers, &used_materials(&doc, &hierarchy), &mut warnings)?;
     let primitives = geometry::triangles(&reader, &doc, &hierarchy, &table, &mut warnings)?;
     if primitives.is_empty() {
         return Err(ctx.invalid(format!(

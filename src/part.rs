@@ -1,0 +1,406 @@
+//! Partial renders and merging them: the EXR file a `--tile` or `--crop` render writes, and
+//! `cuberay merge`, which assembles such parts into the whole image and its statistics.
+//!
+//! A part is an OpenEXR file whose data window is the part's [`Window`] and whose display
+//! window is the whole image, so other EXR tools place it correctly. Its header carries one
+//! text attribute, `cuberay`, holding a JSON [`PartInfo`]: which scene (the file's name,
+//! length and SHA-256), the render's settings (window included), the effects, the raw
+//! counters and the times. The pixels are the f32 values the renderer produced, unchanged.
+//!
+//! [`merge`] refuses parts of different scenes or settings, overlapping parts and parts that
+//! leave a pixel uncovered, naming the part; it sums the counters (each grid point is
+//! counted by exactly one part, see [`crate::job::GridWindow`]), so the merged statistics
+//! equal those of a single render, and the merged pixels are those a single render gives.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+
+use crate::error::Error;
+use crate::output::{self, Image};
+use crate::scene::Effects;
+use crate::stats::{Counters, Settings, Stats, Times};
+use crate::window::Window;
+
+/// The value of [`PartInfo::format`]: the layout of the attribute, versioned.
+pub const PART_FORMAT: &str = "cuberay-part/1";
+
+/// The EXR header attribute that holds the [`PartInfo`] JSON.
+pub const PART_ATTRIBUTE: &str = "cuberay";
+
+/// Which scene a part shows: the file as given on the command line, its length and digest,
+/// and what selects within it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SceneId {
+    /// The path as given (for messages; parts rendered on different machines may name the
+    /// same file differently, so only the digest is compared).
+    pub name: String,
+    pub bytes: u64,
+    /// SHA-256 of the file's bytes, hex.
+    pub sha256: String,
+    /// glTF: `--camera`.
+    pub camera: Option<usize>,
+    /// `--frames`: the frame and its time in seconds.
+    pub frame: Option<u32>,
+    pub time_s: Option<f64>,
+}
+
+impl SceneId {
+    /// The identity of scene file `name` with contents `bytes`.
+    pub fn of(name: &str, bytes: &[u8], camera: Option<usize>) -> SceneId {
+        let digest = Sha256::digest(bytes);
+        let sha256 = digest.iter().map(|b| format!("{b:02x}")).collect();
+        SceneId { name: name.into(), bytes: bytes.len() as u64, sha256, camera, frame: None, time_s: None }
+    }
+
+    /// Whether both name the same scene content, camera and frame.
+    fn same_as(&self, o: &SceneId) -> bool {
+        self.sha256 == o.sha256
+            && self.bytes == o.bytes
+            && self.camera == o.camera
+            && self.frame == o.frame
+            && self.time_s == o.time_s
+    }
+
+    fn describe(&self) -> String {
+        let mut s = format!("{} ({} bytes, sha256 {}…)", self.name, self.bytes, &self.sha256[..12]);
+        if let Some(c) = self.camera {
+            s += &format!(", camera {c}");
+        }
+        if let Some(f) = self.frame {
+            s += &format!(", frame {f}");
+        }
+        s
+    }
+}
+
+/// Everything a part records besides its pixels.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PartInfo {
+    pub format: String,
+    pub scene: SceneId,
+    /// The render's settings; `settings.window` is the part's pixels.
+    pub settings: Settings,
+    /// `--aov`: which auxiliary output (`depth`, `normal`, `id`), else none.
+    pub aov: Option<String>,
+    pub effects: Vec<String>,
+    /// The raw counters of the grid points the part owns.
+    pub counters: Counters,
+    pub time: Times,
+}
+
+impl PartInfo {
+    /// The record of a windowed render with statistics `stats`.
+    pub fn new(scene: SceneId, stats: &Stats, aov: Option<String>) -> PartInfo {
+        PartInfo {
+            format: PART_FORMAT.into(),
+            scene,
+            settings: stats.settings.clone(),
+            aov,
+            effects: stats.effects.iter().map(|e| e.to_string()).collect(),
+            counters: stats.counters,
+            time: stats.time,
+        }
+    }
+
+    fn window(&self) -> Window {
+        let [w, h] = self.settings.size;
+        self.settings.window.unwrap_or(Window::full(w, h))
+    }
+}
+
+/// JSON with every non-ASCII character escaped (`\uXXXX`), as EXR text attributes hold
+/// bytes, not UTF-8.
+fn ascii_json(value: &impl Serialize) -> String {
+    let json = serde_json::to_string(value).expect("part records always serialise");
+    let mut out = String::with_capacity(json.len());
+    for c in json.chars() {
+        if c.is_ascii() {
+            out.push(c);
+        } else {
+            let mut units = [0u16; 2];
+            for u in c.encode_utf16(&mut units) {
+                out += &format!("\\u{u:04x}");
+            }
+        }
+    }
+    out
+}
+
+/// Writes `image` (the window's pixels) as a partial EXR with `info`, atomically.
+pub fn write_part(image: &Image, info: &PartInfo, path: &Path) -> Result<(), Error> {
+    use exr::prelude as x;
+    use x::traits::WritableImage;
+    let win = info.window();
+    if (image.width, image.height) != (win.width(), win.height()) {
+        return Err(Error::Options(format!(
+            "internal: a {}x{} image for the window {win}",
+            image.width, image.height
+        )));
+    }
+    let [full_w, full_h] = info.settings.size;
+    let text = x::Text::new_or_none(ascii_json(info)).expect("ASCII JSON is valid EXR text");
+    let mut attributes = x::LayerAttributes {
+        layer_position: x::Vec2(win.x0 as i32, win.y0 as i32),
+        software_name: Some(x::Text::from("cuberay")),
+        ..Default::default()
+    };
+    attributes.other.insert(x::Text::from(PART_ATTRIBUTE), x::AttributeValue::Text(text));
+    let mut image_attributes =
+        x::ImageAttributes::new(x::IntegerBounds::from_dimensions((full_w as usize, full_h as usize)));
+    image_attributes.pixel_aspect = 1.0;
+    let size = (image.width as usize, image.height as usize);
+    let at = |p: x::Vec2<usize>| image.pixels[p.y() * image.width as usize + p.x()];
+    let encode_err =
+        |e: exr::error::Error| Error::Part { path: path.to_owned(), message: format!("cannot encode: {e}") };
+    output::write_atomically(path, |w| {
+        if image.has_alpha {
+            let channels = x::SpecificChannels::rgba(|p: x::Vec2<usize>| {
+                let v = at(p);
+                (v[0], v[1], v[2], v[3])
+            });
+            let layer = x::Layer::new(size, attributes, x::Encoding::SMALL_LOSSLESS, channels);
+            x::Image::new(image_attributes, layer).write().to_buffered(w).map_err(encode_err)
+        } else {
+            let channels = x::SpecificChannels::rgb(|p: x::Vec2<usize>| {
+                let v = at(p);
+                (v[0], v[1], v[2])
+            });
+            let layer = x::Layer::new(size, attributes, x::Encoding::SMALL_LOSSLESS, channels);
+            x::Image::new(image_attributes, layer).write().to_buffered(w).map_err(encode_err)
+        }
+    })
+}
+
+/// A part read back: its record and its pixels.
+pub struct Part {
+    pub path: PathBuf,
+    pub info: PartInfo,
+    pub image: Image,
+}
+
+/// Reads a partial EXR written by [`write_part`].
+pub fn read_part(path: &Path) -> Result<Part, Error> {
+    use exr::prelude as x;
+    use x::traits::*;
+    let bad = |m: String| Error::Part { path: path.to_owned(), message: m };
+    if !path.exists() {
+        return Err(bad("no such file".into()));
+    }
+    let read = x::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .specific_channels()
+        .required("R")
+        .required("G")
+        .required("B")
+        .optional("A", 1.0f32)
+        .collect_pixels(
+            |size: x::Vec2<usize>, _| (size.width(), vec![[0.0f32; 4]; size.area()]),
+            |(w, px): &mut (usize, Vec<[f32; 4]>), p: x::Vec2<usize>, (r, g, b, a): (f32, f32, f32, f32)| {
+                px[p.y() * *w + p.x()] = [r, g, b, a]
+            },
+        )
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| bad(format!("not a readable RGB EXR file: {e}")))?;
+    let layer = &read.layer_data;
+    let text = match layer.attributes.other.get(&x::Text::from(PART_ATTRIBUTE)) {
+        Some(x::AttributeValue::Text(t)) => t.to_string(),
+        _ => {
+            return Err(bad(format!(
+                "not a cuberay part (its header has no `{PART_ATTRIBUTE}` attribute): render parts with --tile or --crop to .exr"
+            )))
+        }
+    };
+    let info: PartInfo = serde_json::from_str(&text)
+        .map_err(|e| bad(format!("its `{PART_ATTRIBUTE}` record is malformed: {e}")))?;
+    if info.format != PART_FORMAT {
+        return Err(bad(format!(
+            "its record is in format {:?}; this cuberay reads {PART_FORMAT:?}",
+            info.format
+        )));
+    }
+    let win = info.window();
+    let pos = layer.attributes.layer_position;
+    let (w, h) = (layer.size.width(), layer.size.height());
+    if (pos.x(), pos.y()) != (win.x0 as i32, win.y0 as i32)
+        || (w, h) != (win.width() as usize, win.height() as usize)
+    {
+        return Err(bad(format!(
+            "its pixels ({w}x{h} at {}, {}) do not fill the window its record names ({win})",
+            pos.x(),
+            pos.y()
+        )));
+    }
+    let mut image = Image::new(win.width(), win.height(), info.aov.is_some());
+    image.transfer = info.settings.transfer;
+    image.pixels = layer.channel_data.pixels.1.clone();
+    if !image.is_finite() {
+        return Err(bad("it holds a non-finite value".into()));
+    }
+    Ok(Part { path: path.to_owned(), info, image })
+}
+
+/// The merged image and statistics of `parts`.
+pub struct Merged {
+    pub image: Image,
+    pub stats: Stats,
+}
+
+/// The settings of two parts that must agree, as JSON, without the window and the backend-
+/// independent bits that do not change pixels.
+fn comparable(s: &Settings) -> serde_json::Map<String, serde_json::Value> {
+    let mut v = match serde_json::to_value(s).expect("settings serialise") {
+        serde_json::Value::Object(m) => m,
+        _ => unreachable!("settings serialise to an object"),
+    };
+    v.remove("window");
+    v
+}
+
+/// The `&'static` name of a known effect.
+fn effect_name(name: &str) -> Option<&'static str> {
+    let all = Effects { shadows: true, reflection: true, refraction: true, textures: true, emission: true };
+    all.names().into_iter().find(|n| *n == name)
+}
+
+/// Assembles `parts` (at least one) into the whole image: checks that they come from one
+/// scene and one set of settings and cover every pixel exactly once, and adds up their
+/// counters and times.
+pub fn merge(parts: &[Part]) -> Result<Merged, Error> {
+    let Some(first) = parts.first() else {
+        return Err(Error::Options("merge needs at least one part".into()));
+    };
+    let bad = |p: &Part, m: String| Error::Part { path: p.path.clone(), message: m };
+    let name = |p: &Part| p.path.display().to_string();
+    let reference = comparable(&first.info.settings);
+    for p in &parts[1..] {
+        if !p.info.scene.same_as(&first.info.scene) {
+            return Err(bad(
+                p,
+                format!(
+                    "it shows {}, but {} shows {}",
+                    p.info.scene.describe(),
+                    name(first),
+                    first.info.scene.describe()
+                ),
+            ));
+        }
+        if p.info.aov != first.info.aov {
+            let what = |a: &Option<String>| match a {
+                Some(a) => format!("the {a} AOV"),
+                None => "the image".to_string(),
+            };
+            return Err(bad(
+                p,
+                format!(
+                    "it holds {}, but {} holds {}",
+                    what(&p.info.aov),
+                    name(first),
+                    what(&first.info.aov)
+                ),
+            ));
+        }
+        let theirs = comparable(&p.info.settings);
+        if theirs != reference {
+            let differ: Vec<String> = reference
+                .iter()
+                .filter(|(k, v)| theirs.get(*k) != Some(*v))
+                .map(|(k, v)| {
+                    format!(
+                        "{k} {} (against {v} in {})",
+                        theirs.get(k).cloned().unwrap_or_default(),
+                        name(first)
+                    )
+                })
+                .collect();
+            return Err(bad(p, format!("it was rendered with other settings: {}", differ.join(", "))));
+        }
+    }
+    let [w, h] = first.info.settings.size;
+    for (i, a) in parts.iter().enumerate() {
+        for b in &parts[i + 1..] {
+            if a.path == b.path {
+                return Err(bad(b, "it is named twice".into()));
+            }
+            let (wa, wb) = (a.info.window(), b.info.window());
+            if wa.overlaps(&wb) {
+                return Err(bad(
+                    b,
+                    format!(
+                        "its pixels ({wb}) overlap those of {} ({wa}); each pixel must come from one part",
+                        name(a)
+                    ),
+                ));
+            }
+        }
+    }
+    let covered: u64 = parts.iter().map(|p| p.info.window().pixels()).sum();
+    if covered != w as u64 * h as u64 {
+        let gap = (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .find(|&(x, y)| {
+                !parts.iter().any(|p| {
+                    let win = p.info.window();
+                    (win.x0..win.x1).contains(&x) && (win.y0..win.y1).contains(&y)
+                })
+            })
+            .unwrap_or((0, 0));
+        return Err(Error::Options(format!(
+            "the {} parts cover {covered} of the {w}x{h} image's {} pixels: pixel ({}, {}) is in none of them",
+            parts.len(),
+            w as u64 * h as u64,
+            gap.0,
+            gap.1
+        )));
+    }
+
+    let mut image = Image::new(w, h, first.image.has_alpha);
+    image.transfer = first.image.transfer;
+    let mut counters = Counters::default();
+    let mut time = Times::default();
+    for p in parts {
+        let win = p.info.window();
+        for y in 0..win.height() {
+            let src = &p.image.pixels[(y * win.width()) as usize..((y + 1) * win.width()) as usize];
+            let at = ((win.y0 + y) * w + win.x0) as usize;
+            image.pixels[at..at + src.len()].copy_from_slice(src);
+        }
+        counters += p.info.counters;
+        time = add_times(time, &p.info.time);
+    }
+    let effects = first
+        .info
+        .effects
+        .iter()
+        .map(|e| effect_name(e).ok_or_else(|| bad(first, format!("it names an unknown effect {e:?}"))))
+        .collect::<Result<Vec<_>, _>>()?;
+    let settings = Settings { window: None, ..first.info.settings.clone() };
+    Ok(Merged { image, stats: Stats::new(settings, effects, &counters, time) })
+}
+
+/// The times of work done in parts: what it cost in all (the longest submission: the
+/// longest of any part).
+fn add_times(a: Times, b: &Times) -> Times {
+    let sum = |x: Option<f64>, y: Option<f64>| match (x, y) {
+        (None, None) => None,
+        (x, y) => Some(x.unwrap_or(0.0) + y.unwrap_or(0.0)),
+    };
+    Times {
+        preprocess_s: a.preprocess_s + b.preprocess_s,
+        trace_s: a.trace_s + b.trace_s,
+        gpu_s: sum(a.gpu_s, b.gpu_s),
+        gpu_kernel_s: crate::stats::KernelTimes {
+            render: sum(a.gpu_kernel_s.render, b.gpu_kernel_s.render),
+            aov: sum(a.gpu_kernel_s.aov, b.gpu_kernel_s.aov),
+        },
+        compile_s: sum(a.compile_s, b.compile_s),
+        longest_submit_s: match (a.longest_submit_s, b.longest_submit_s) {
+            (Some(x), Some(y)) => Some(x.max(y)),
+            (x, y) => x.or(y),
+        },
+    }
+}

@@ -1,0 +1,72 @@
+//! The part of an image a render covers: a [`Window`] of pixels, from `--crop` or from the
+//! bands of `--tile I/N`. It is plain data that the job, the statistics and the partial
+//! images of `cuberay merge` share, and imports nothing but the error type.
+
+use crate::error::{Error, Result};
+
+/// A rectangle of pixels `x0..x1` × `y0..y1` (ends exclusive) of a `width`×`height` image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct Window {
+    pub x0: u32,
+    pub y0: u32,
+    pub x1: u32,
+    pub y1: u32,
+}
+
+impl Window {
+    /// The whole `width`×`height` image.
+    pub fn full(width: u32, height: u32) -> Window {
+        Window { x0: 0, y0: 0, x1: width, y1: height }
+    }
+
+    /// Band `index` of `count` (0-based) of a `height`-row image: rows
+    /// `index·⌈H/N⌉ .. min((index+1)·⌈H/N⌉, H)`. A band past the last row would be empty:
+    /// it is refused, with the largest count that leaves none empty.
+    pub fn band(index: u32, count: u32, width: u32, height: u32) -> Result<Window> {
+        if count == 0 || index >= count {
+            return Err(Error::Options(format!("--tile {index}/{count}: the index must be in 0..{count}")));
+        }
+        if count > height {
+            return Err(Error::Options(format!(
+                "--tile {index}/{count}: {count} bands of a {height}-row image would leave some empty"
+            )));
+        }
+        let rows = height.div_ceil(count);
+        let y0 = index * rows;
+        if y0 >= height {
+            let most = (1..count).rev().find(|&n| (n - 1) * height.div_ceil(n) < height).unwrap_or(1);
+            return Err(Error::Options(format!(
+                "--tile {index}/{count}: bands of {rows} rows cover the {height} rows before band {index}, \
+                 which would be empty: use at most {most} tiles"
+            )));
+        }
+        Ok(Window { x0: 0, y0, x1: width, y1: ((index + 1) * rows).min(height) })
+    }
+
+    pub fn width(&self) -> u32 {
+        self.x1 - self.x0
+    }
+
+    pub fn height(&self) -> u32 {
+        self.y1 - self.y0
+    }
+
+    pub fn pixels(&self) -> u64 {
+        self.width() as u64 * self.height() as u64
+    }
+
+    pub fn is_full(&self, width: u32, height: u32) -> bool {
+        *self == Window::full(width, height)
+    }
+
+    /// Whether `other` shares a pixel with this window.
+    pub fn overlaps(&self, other: &Window) -> bool {
+        self.x0 < other.x1 && other.x0 < self.x1 && self.y0 < other.y1 && other.y0 < self.y1
+    }
+}
+
+impl std::fmt::Display for Window {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{},{},{},{}", self.x0, self.y0, self.x1, self.y1)
+    }
+}

@@ -1,0 +1,319 @@
+//! Renders split into parts (`--tile`, `--crop`), merged back (`cuberay merge`), and
+//! animation frames (`--frames`): a merged image must equal the single render byte for
+//! byte and its counts add up to the single render's exactly, on both backends; bad parts
+//! get a clear error and no output.
+//!
+//! GPU tests run on lavapipe in CI and fail with an install hint without an adapter.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use cuberay::gpu::GpuRenderer;
+use cuberay::job::{RenderOptions, Rendered, Window};
+use cuberay::load;
+use cuberay::output::Aov;
+use cuberay::part::{self, PartInfo, SceneId};
+use cuberay::reference;
+use cuberay::sampling::Sampling;
+use cuberay::scene::Scene;
+use indicatif::ProgressBar;
+
+use common::{cuberay, shared};
+
+fn renderer() -> &'static GpuRenderer {
+    static R: OnceLock<GpuRenderer> = OnceLock::new();
+    R.get_or_init(|| GpuRenderer::new().unwrap_or_else(|e| panic!("{e}")))
+}
+
+#[derive(Clone, Copy, Debug)]
+enum Backend {
+    Gpu,
+    Cpu,
+}
+
+fn render(backend: Backend, scene: &Scene, opts: &RenderOptions, aov: Option<Aov>) -> Rendered {
+    let p = ProgressBar::hidden();
+    let r = match (backend, aov) {
+        (Backend::Gpu, None) => renderer().render(scene, opts, &p),
+        (Backend::Gpu, Some(a)) => renderer().render_aov(scene, opts, a, &p),
+        (Backend::Cpu, None) => reference::render(scene, opts, &p),
+        (Backend::Cpu, Some(a)) => reference::render_aov(scene, opts, a, &p),
+    };
+    r.unwrap_or_else(|e| panic!("{backend:?} render failed: {e}"))
+}
+
+/// Renders `windows` of the image as parts through the EXR files `cuberay merge` reads,
+/// merges them, and checks the result against the whole render: every pixel bit for bit,
+/// every count exactly.
+fn check_split(
+    name: &str,
+    backend: Backend,
+    scene: &Scene,
+    opts: &RenderOptions,
+    aov: Option<Aov>,
+    windows: &[Window],
+) {
+    let whole = render(backend, scene, opts, aov);
+    let dir = tempfile::tempdir().unwrap();
+    let id = SceneId::of(name, name.as_bytes(), None);
+    let aov_name = aov.map(|a| format!("{a:?}").to_lowercase());
+    let parts: Vec<part::Part> = windows
+        .iter()
+        .enumerate()
+        .map(|(k, w)| {
+            let o = RenderOptions { window: Some(*w), ..opts.clone() };
+            let r = render(backend, scene, &o, aov);
+            assert_eq!((r.image.width, r.image.height), (w.width(), w.height()), "{name}: part {w}");
+            let path = dir.path().join(format!("part{k}.exr"));
+            part::write_part(&r.image, &PartInfo::new(id.clone(), &r.stats, aov_name.clone()), &path)
+                .unwrap();
+            part::read_part(&path).unwrap_or_else(|e| panic!("{name}: {e}"))
+        })
+        .collect();
+    let merged = part::merge(&parts).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let (a, b) = (&whole.image, &merged.image);
+    assert_eq!((a.width, a.height, a.has_alpha), (b.width, b.height, b.has_alpha));
+    if let Some(i) =
+        (0..a.pixels.len()).find(|&i| a.pixels[i].map(f32::to_bits) != b.pixels[i].map(f32::to_bits))
+    {
+        panic!(
+            "{name} ({backend:?}): merged pixel ({}, {}) is {:?}, the whole render's {:?}",
+            i as u32 % a.width,
+            i as u32 / a.width,
+            b.pixels[i],
+            a.pixels[i]
+        );
+    }
+    assert_eq!(merged.stats.rays, whole.stats.rays, "{name} ({backend:?}): rays");
+    assert_eq!(merged.stats.tests, whole.stats.tests, "{name} ({backend:?}): tests");
+    assert_eq!(merged.stats.settings, whole.stats.settings, "{name} ({backend:?}): settings");
+    assert_eq!(merged.stats.effects, whole.stats.effects);
+}
+
+fn bands(n: u32, w: u32, h: u32) -> Vec<Window> {
+    (0..n).map(|i| Window::band(i, n, w, h).unwrap()).collect()
+}
+
+/// A 2×2 split at an uneven point, so that parts meet in both directions.
+fn quarters(w: u32, h: u32) -> Vec<Window> {
+    let (x, y) = (w * 3 / 7, h * 4 / 9);
+    vec![
+        Window { x0: 0, y0: 0, x1: x, y1: y },
+        Window { x0: x, y0: 0, x1: w, y1: y },
+        Window { x0: 0, y0: y, x1: x, y1: h },
+        Window { x0: x, y0: y, x1: w, y1: h },
+    ]
+}
+
+fn spd(name: &str) -> Scene {
+    load::load(&shared(&format!("spd/nff/{name}.nff")), &Default::default())
+        .unwrap_or_else(|e| panic!("{name}: {e}"))
+        .scene
+}
+
+/// The seven SPD kinds, at size 1, with the SPD procedure (corner rays, depth 5): bands and
+/// quarters, on both backends.
+macro_rules! spd_split_tests {
+    ($($test:ident: $scene:literal,)*) => {$(
+        #[test]
+        fn $test() {
+            let scene = spd($scene);
+            let (w, h) = (45, 37);
+            let opts = RenderOptions { sampling: Sampling::Corners, ..RenderOptions::new(w, h) };
+            for backend in [Backend::Gpu, Backend::Cpu] {
+                check_split($scene, backend, &scene, &opts, None, &bands(3, w, h));
+                check_split($scene, backend, &scene, &opts, None, &quarters(w, h));
+            }
+        }
+    )*};
+}
+
+spd_split_tests! {
+    balls_parts_equal_the_whole: "balls_s1",
+    gears_parts_equal_the_whole: "gears_s1",
+    mount_parts_equal_the_whole: "mount_s1",
+    rings_parts_equal_the_whole: "rings_s1",
+    teapot_parts_equal_the_whole: "teapot_s1",
+    tetra_parts_equal_the_whole: "tetra_s1",
+    tree_parts_equal_the_whole: "tree_s1",
+}
+
+#[test]
+fn jittered_samples_and_aovs_split_too() {
+    let scene = load::showcase().unwrap().scene;
+    let (w, h) = (40, 30);
+    let opts = RenderOptions { spp: 3, seed: 7, ..RenderOptions::new(w, h) };
+    for backend in [Backend::Gpu, Backend::Cpu] {
+        check_split("showcase", backend, &scene, &opts, None, &quarters(w, h));
+        check_split("showcase", backend, &scene, &opts, Some(Aov::Depth), &bands(4, w, h));
+    }
+}
+
+#[test]
+fn bands_cover_the_rows_once() {
+    for (n, h) in [(1, 1), (3, 37), (4, 40), (4, 8), (5, 513)] {
+        let b = bands(n, 10, h);
+        assert_eq!(b.len(), n as usize);
+        assert_eq!(b[0].y0, 0);
+        assert_eq!(b.last().unwrap().y1, h);
+        for pair in b.windows(2) {
+            assert_eq!(pair[0].y1, pair[1].y0, "{n} bands of {h}");
+        }
+        let rows = h.div_ceil(n);
+        assert!(b.iter().all(|w| w.height() <= rows && w.height() > 0), "{n} bands of {h}: {b:?}");
+    }
+    // More bands than rows, bands of ⌈8/7⌉ = 2 rows of which the last three would be empty,
+    // and an index out of range.
+    assert!(Window::band(0, 9, 10, 8).is_err());
+    assert!(Window::band(4, 7, 10, 8).unwrap_err().to_string().contains("at most 4 tiles"));
+    assert!(Window::band(3, 3, 10, 8).is_err());
+    // 4 bands of 10 rows: 3, 3, 3, 1.
+    assert_eq!(Window::band(3, 4, 10, 10).unwrap(), Window { x0: 0, y0: 9, x1: 10, y1: 10 });
+}
+
+// ---- The command line: render parts, merge, bad parts. ----
+
+fn run(args: &[&str], dir: &Path) -> std::process::Output {
+    let out = cuberay().args(args).current_dir(dir).output().unwrap();
+    out
+}
+
+fn args(v: &[String]) -> Vec<&str> {
+    v.iter().map(String::as_str).collect()
+}
+
+fn ok(args: &[&str], dir: &Path) -> String {
+    let out = run(args, dir);
+    assert!(out.status.success(), "cuberay {args:?} failed: {}", String::from_utf8_lossy(&out.stderr));
+    String::from_utf8(out.stdout).unwrap()
+}
+
+fn fails(args: &[&str], dir: &Path, says: &str) {
+    let out = run(args, dir);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "cuberay {args:?} should fail");
+    assert!(err.contains(says), "cuberay {args:?}: expected {says:?} in: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+#[test]
+fn merged_tiles_are_the_render_byte_for_byte_on_the_command_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = shared("spd/nff/rings_s1.nff");
+    let scene = scene.to_str().unwrap();
+    let common = ["--backend", "cpu", "--width", "50", "--height", "41", "--sampling", "corners"];
+    let with = |extra: &[&str]| -> Vec<String> {
+        ["render", scene].iter().chain(common.iter()).chain(extra.iter()).map(|s| s.to_string()).collect()
+    };
+    let whole = with(&["-o", "whole.png", "--stats", "json"]);
+    let whole_stats: serde_json::Value = serde_json::from_str(&ok(&args(&whole), d)).unwrap();
+    ok(&args(&with(&["-o", "whole.exr"])), d);
+    for i in 0..3 {
+        let tile = format!("{i}/3");
+        let out = format!("t{i}.exr");
+        ok(&args(&with(&["--tile", &tile, "-o", &out])), d);
+    }
+    let merged: serde_json::Value = serde_json::from_str(&ok(
+        &["merge", "t0.exr", "t1.exr", "t2.exr", "-o", "merged.png", "--stats", "json"],
+        d,
+    ))
+    .unwrap();
+    ok(&["merge", "t2.exr", "t0.exr", "t1.exr", "-o", "merged.exr"], d);
+    let read = |f: &str| std::fs::read(d.join(f)).unwrap();
+    assert!(read("whole.png") == read("merged.png"), "the merged PNG differs from the whole render's");
+    assert!(read("whole.exr") == read("merged.exr"), "the merged EXR differs from the whole render's");
+    for key in ["rays", "tests", "settings", "effects"] {
+        assert_eq!(merged[key], whole_stats[key], "{key}");
+    }
+    // The part is a valid EXR of its window, placed in the whole image.
+    let meta = std::fs::read(d.join("t1.exr")).unwrap();
+    assert!(meta.windows(7).any(|w| w == b"cuberay"), "the part records its settings");
+
+    // Bad parts: each refused with the part's name, and nothing written.
+    ok(&args(&with(&["--crop", "0,0,30,14", "-o", "c0.exr"])), d);
+    ok(&args(&with(&["--crop", "0,0,50,14", "--max-depth", "2", "-o", "depth2.exr"])), d);
+    let other: Vec<String> = ["render", shared("spd/nff/balls_s1.nff").to_str().unwrap()]
+        .iter()
+        .map(|s| s.to_string())
+        .chain(common.iter().map(|s| s.to_string()))
+        .chain(["--tile", "0/3", "-o", "other.exr"].iter().map(|s| s.to_string()))
+        .collect();
+    ok(&args(&other), d);
+    fails(&["merge", "t0.exr", "t1.exr", "-o", "bad.png"], d, "pixel (0, 28) is in none of them");
+    fails(&["merge", "t0.exr", "t1.exr", "t2.exr", "c0.exr", "-o", "bad.png"], d, "overlap");
+    fails(
+        &["merge", "depth2.exr", "t1.exr", "t2.exr", "-o", "bad.png"],
+        d,
+        "t1.exr: it was rendered with other settings: max_depth 5",
+    );
+    fails(&["merge", "other.exr", "t1.exr", "t2.exr", "-o", "bad.png"], d, "t1.exr: it shows");
+    fails(&["merge", "whole.exr", "-o", "bad.png"], d, "whole.exr: not a cuberay part");
+    fails(&["merge", "t0.exr", "t1.exr", "t2.exr", "-o", "bad.jpg"], d, "unknown image format");
+    fails(&["merge", "t0.exr", "missing.exr", "-o", "bad.png"], d, "missing.exr: no such file");
+    std::fs::write(d.join("junk.exr"), b"not an image").unwrap();
+    fails(&["merge", "junk.exr", "-o", "bad.png"], d, "junk.exr: not a readable RGB EXR file");
+    assert!(!d.join("bad.png").exists() && !d.join("bad.jpg").exists());
+    let leftovers: Vec<PathBuf> = std::fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.file_name().unwrap().to_str().unwrap().starts_with(".cuberay-"))
+        .collect();
+    assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
+
+    // Bad tile and crop options.
+    fails(&args(&with(&["--tile", "3/3", "-o", "x.exr"])), d, "the tile index must be in 0..3");
+    fails(&args(&with(&["--tile", "0/50", "-o", "x.exr"])), d, "would leave some empty");
+    fails(
+        &args(&with(&["--crop", "0,0,60,10", "-o", "x.exr"])),
+        d,
+        "is not a non-empty part of the 50x41 image",
+    );
+    fails(&args(&with(&["--crop", "5,5,5,9", "-o", "x.exr"])), d, "the window is empty");
+    fails(&args(&with(&["--crop", "1,2,3", "-o", "x.exr"])), d, "is not X0,Y0,X1,Y1");
+}
+
+#[test]
+fn frames_sample_the_animation_one_file_each() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let orbit = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/orbit.gltf");
+    let orbit = orbit.to_str().unwrap();
+    let size = ["--backend", "cpu", "--width", "40", "--height", "30"];
+    let render = |extra: &[&str]| {
+        let mut a = vec!["render", orbit];
+        a.extend_from_slice(&size);
+        a.extend_from_slice(extra);
+        ok(&a, d)
+    };
+    render(&["--frames", "0..2", "--fps", "1", "-o", "f_###.png"]);
+    render(&["-o", "rest.png"]);
+    render(&["--frames", "2..2", "--fps", "2", "-o", "half.png"]);
+    let read = |f: &str| std::fs::read(d.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"));
+    // At t = 0 every channel is at its first keyframe, which is the rest pose.
+    assert!(read("f_000.png") == read("rest.png"), "frame 0 is not the rest pose");
+    // Frame 2 at 2 fps is t = 1 s, frame 1 at 1 fps: the same pose.
+    assert!(read("f_001.png") == read("half_0002.png"), "frames of the same time differ");
+    // The camera has turned half a circle by frame 2.
+    let differ = |a: &str, b: &str| {
+        let (a, b) =
+            (image::open(d.join(a)).unwrap().into_rgb8(), image::open(d.join(b)).unwrap().into_rgb8());
+        a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count()
+    };
+    assert!(differ("f_000.png", "f_002.png") > 40 * 30 / 4, "the animation does not move the camera");
+    assert!(!d.join("f_003.png").exists());
+
+    // Frames of a file that has no animation, or is not glTF, are refused.
+    let bx = shared("gltf/Box/Box.gltf");
+    fails(&["render", bx.to_str().unwrap(), "--frames", "0..1", "-o", "b.png"], d, "has no animations");
+    let nff = shared("spd/nff/balls_s1.nff");
+    fails(
+        &["render", nff.to_str().unwrap(), "--frames", "0..1", "-o", "b.png"],
+        d,
+        "give a .gltf or .glb scene",
+    );
+    fails(&["render", orbit, "--frames", "3..1", "-o", "b.png"], d, "the first frame is after the last");
+    fails(&["render", orbit, "--frames", "0..1", "--fps", "0", "-o", "b.png"], d, "is not a positive number");
+}
