@@ -7,7 +7,9 @@
 //!   light intensities were chosen for a [0, 1] frame buffer: so the SPD renders look like
 //!   their reference images).
 //! - **EXR**: linear f32 values as rendered: RGB for radiance, RGBA for AOVs (A = 1 where
-//!   the pixel's ray hit something, 0 where it missed; see [`Aov`] for the values).
+//!   the pixel's ray hit something, 0 where it missed; see [`Aov`] for the values),
+//!   ZIP-compressed scan lines written in order, so that equal images give equal files
+//!   ([`encode_exr`], which the partial images of [`crate::part`] use too).
 //!
 //! The format is chosen by the file extension (`.png`, `.exr`, any case);
 //! [`OutputFormat::from_path`] rejects anything else, so a command can check it before
@@ -18,7 +20,7 @@
 use std::io::{BufWriter, Write};
 use std::path::Path;
 
-use image::{ImageBuffer, ImageFormat, Rgb, Rgba};
+use image::{ImageBuffer, ImageFormat, Rgb};
 
 use crate::error::Error;
 pub use crate::scene::Transfer;
@@ -124,27 +126,55 @@ pub fn write(img: &Image, path: &Path) -> Result<(), Error> {
     if img.has_alpha && format == OutputFormat::Png {
         return Err(Error::AovNeedsExr { path: path.to_owned() });
     }
-    let encoded = |r: Result<(), image::ImageError>| {
-        r.map_err(|source| Error::Encode { path: path.to_owned(), source })
-    };
-    write_atomically(path, |w| {
-        encoded(match format {
-            OutputFormat::Png => to_rgb8(img).write_to(w, ImageFormat::Png),
-            OutputFormat::Exr if img.has_alpha => {
-                let buf: ImageBuffer<Rgba<f32>, Vec<f32>> =
-                    ImageBuffer::from_fn(img.width, img.height, |x, y| Rgba(img.get(x, y)));
-                buf.write_to(w, ImageFormat::OpenExr)
-            }
-            OutputFormat::Exr => {
-                let buf: ImageBuffer<Rgb<f32>, Vec<f32>> =
-                    ImageBuffer::from_fn(img.width, img.height, |x, y| {
-                        let p = img.get(x, y);
-                        Rgb([p[0], p[1], p[2]])
-                    });
-                buf.write_to(w, ImageFormat::OpenExr)
-            }
-        })
+    write_atomically(path, |w| match format {
+        OutputFormat::Png => to_rgb8(img)
+            .write_to(w, ImageFormat::Png)
+            .map_err(|source| Error::Encode { path: path.to_owned(), source }),
+        OutputFormat::Exr => encode_exr(w, img, (0, 0), (img.width, img.height), Vec::new())
+            .map_err(|e| Error::Options(format!("{}: cannot encode the image: {e}", path.display()))),
     })
+}
+
+/// Encodes `img` as OpenEXR: f32 RGB (RGBA for AOVs), ZIP-compressed scan lines in
+/// increasing order, so that equal pixels give equal files (the compression runs in
+/// parallel, but the chunks are written sorted). Its data window starts at `position` of a
+/// display window `display` pixels wide and high; `attributes` go into the header, beside
+/// `software` = `cuberay`.
+pub fn encode_exr(
+    w: &mut (impl Write + std::io::Seek),
+    img: &Image,
+    position: (u32, u32),
+    display: (u32, u32),
+    attributes: Vec<(exr::meta::attribute::Text, exr::meta::attribute::AttributeValue)>,
+) -> exr::error::UnitResult {
+    use exr::prelude as x;
+    use x::traits::WritableImage;
+    let mut layer_attributes = x::LayerAttributes {
+        layer_position: x::Vec2(position.0 as i32, position.1 as i32),
+        software_name: Some(x::Text::from("cuberay")),
+        ..Default::default()
+    };
+    layer_attributes.other.extend(attributes);
+    let mut image_attributes =
+        x::ImageAttributes::new(x::IntegerBounds::from_dimensions((display.0 as usize, display.1 as usize)));
+    image_attributes.pixel_aspect = 1.0;
+    let size = (img.width as usize, img.height as usize);
+    let at = |p: x::Vec2<usize>| img.pixels[p.y() * img.width as usize + p.x()];
+    if img.has_alpha {
+        let channels = x::SpecificChannels::rgba(|p: x::Vec2<usize>| {
+            let v = at(p);
+            (v[0], v[1], v[2], v[3])
+        });
+        let layer = x::Layer::new(size, layer_attributes, x::Encoding::SMALL_LOSSLESS, channels);
+        x::Image::new(image_attributes, layer).write().to_buffered(w)
+    } else {
+        let channels = x::SpecificChannels::rgb(|p: x::Vec2<usize>| {
+            let v = at(p);
+            (v[0], v[1], v[2])
+        });
+        let layer = x::Layer::new(size, layer_attributes, x::Encoding::SMALL_LOSSLESS, channels);
+        x::Image::new(image_attributes, layer).write().to_buffered(w)
+    }
 }
 
 /// Writes an 8-bit RGB image (row-major, 3 bytes a pixel, e.g. a heat map) as a PNG,
@@ -210,6 +240,26 @@ mod tests {
         }
         assert_eq!(png_value(0.5, Transfer::Srgb), 188);
         assert_eq!(png_value(0.5, Transfer::Display), 128);
+    }
+
+    #[test]
+    fn equal_images_give_equal_exr_files() {
+        // Big enough for many compressed chunks, which are compressed in parallel.
+        let mut img = Image::new(300, 200, false);
+        for (i, p) in img.pixels.iter_mut().enumerate() {
+            *p = [(i % 7) as f32 * 0.1, (i % 300) as f32 / 300.0, ((i * 31) % 97) as f32, 1.0];
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let files: Vec<Vec<u8>> = (0..4)
+            .map(|k| {
+                let p = dir.path().join(format!("x{k}.exr"));
+                write(&img, &p).unwrap();
+                std::fs::read(&p).unwrap()
+            })
+            .collect();
+        assert!(files.windows(2).all(|w| w[0] == w[1]), "the EXR bytes vary between writes");
+        let back = image::open(dir.path().join("x0.exr")).unwrap().into_rgb32f();
+        assert_eq!(back.get_pixel(17, 3).0, [img.get(17, 3)[0], img.get(17, 3)[1], img.get(17, 3)[2]]);
     }
 
     #[test]
