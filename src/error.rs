@@ -36,6 +36,10 @@ pub enum Error {
     /// Render options that cannot be rendered (an empty image, `--spp 0`...).
     #[error("{0}")]
     Options(String),
+    /// A stored tables file (`render --tables`) that cannot be read or was built for
+    /// another render.
+    #[error("{}: {message}", path.display())]
+    Tables { path: PathBuf, message: String },
     /// A partial image (`cuberay merge`) that cannot be read or does not fit the others.
     #[error("{}: {message}", path.display())]
     Part { path: PathBuf, message: String },

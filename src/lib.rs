@@ -27,6 +27,8 @@
 //!   comparison, scene summaries;
 //! - [`window`], [`part`]: the part of an image a render covers (`--tile`, `--crop`), and
 //!   the partial EXRs that `cuberay merge` assembles;
+//! - [`tablefile`]: candidate tables stored on disk, so that the tasks of a split render
+//!   share one build;
 //! - [`error`]: the library's one error type.
 
 pub mod coherence;
@@ -46,6 +48,7 @@ pub mod reference;
 pub mod sampling;
 pub mod scene;
 pub mod stats;
+pub mod tablefile;
 pub mod window;
 
 pub use error::{Error, Result};

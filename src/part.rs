@@ -54,6 +54,12 @@ impl SceneId {
         SceneId { name: name.into(), bytes: bytes.len() as u64, sha256, camera, frame: None, time_s: None }
     }
 
+    /// A string that changes with the scene's content, camera and frame (the name aside):
+    /// what stored tables are keyed by ([`crate::tablefile::key`]).
+    pub fn fingerprint(&self) -> String {
+        format!("{} {} {:?} {:?} {:?}", self.sha256, self.bytes, self.camera, self.frame, self.time_s)
+    }
+
     /// Whether both name the same scene content, camera and frame.
     fn same_as(&self, o: &SceneId) -> bool {
         self.sha256 == o.sha256
@@ -64,7 +70,8 @@ impl SceneId {
     }
 
     fn describe(&self) -> String {
-        let mut s = format!("{} ({} bytes, sha256 {}…)", self.name, self.bytes, &self.sha256[..12]);
+        let short = self.sha256.get(..12).unwrap_or(&self.sha256);
+        let mut s = format!("{} ({} bytes, sha256 {short}…)", self.name, self.bytes);
         if let Some(c) = self.camera {
             s += &format!(", camera {c}");
         }
@@ -79,6 +86,10 @@ impl SceneId {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PartInfo {
     pub format: String,
+    /// What rendered it: the cuberay version and the backend (the GPU adapter and driver,
+    /// or the CPU reference). Parts of different renderers are not merged: their pixels
+    /// could differ in the last bits, and the merged image would match no single render.
+    pub renderer: String,
     pub scene: SceneId,
     /// The render's settings; `settings.window` is the part's pixels.
     pub settings: Settings,
@@ -91,10 +102,12 @@ pub struct PartInfo {
 }
 
 impl PartInfo {
-    /// The record of a windowed render with statistics `stats`.
-    pub fn new(scene: SceneId, stats: &Stats, aov: Option<String>) -> PartInfo {
+    /// The record of a windowed render with statistics `stats`, by `backend` (the GPU
+    /// adapter and driver, or `cpu`).
+    pub fn new(scene: SceneId, stats: &Stats, aov: Option<String>, backend: &str) -> PartInfo {
         PartInfo {
             format: PART_FORMAT.into(),
+            renderer: format!("cuberay {} on {backend}", env!("CARGO_PKG_VERSION")),
             scene,
             settings: stats.settings.clone(),
             aov,
@@ -130,8 +143,7 @@ fn ascii_json(value: &impl Serialize) -> String {
 
 /// Writes `image` (the window's pixels) as a partial EXR with `info`, atomically.
 pub fn write_part(image: &Image, info: &PartInfo, path: &Path) -> Result<(), Error> {
-    use exr::prelude as x;
-    use x::traits::WritableImage;
+    use exr::meta::attribute::{AttributeValue, Text};
     let win = info.window();
     if (image.width, image.height) != (win.width(), win.height()) {
         return Err(Error::Options(format!(
@@ -140,36 +152,11 @@ pub fn write_part(image: &Image, info: &PartInfo, path: &Path) -> Result<(), Err
         )));
     }
     let [full_w, full_h] = info.settings.size;
-    let text = x::Text::new_or_none(ascii_json(info)).expect("ASCII JSON is valid EXR text");
-    let mut attributes = x::LayerAttributes {
-        layer_position: x::Vec2(win.x0 as i32, win.y0 as i32),
-        software_name: Some(x::Text::from("cuberay")),
-        ..Default::default()
-    };
-    attributes.other.insert(x::Text::from(PART_ATTRIBUTE), x::AttributeValue::Text(text));
-    let mut image_attributes =
-        x::ImageAttributes::new(x::IntegerBounds::from_dimensions((full_w as usize, full_h as usize)));
-    image_attributes.pixel_aspect = 1.0;
-    let size = (image.width as usize, image.height as usize);
-    let at = |p: x::Vec2<usize>| image.pixels[p.y() * image.width as usize + p.x()];
-    let encode_err =
-        |e: exr::error::Error| Error::Part { path: path.to_owned(), message: format!("cannot encode: {e}") };
+    let text = Text::new_or_none(ascii_json(info)).expect("ASCII JSON is valid EXR text");
+    let attributes = vec![(Text::from(PART_ATTRIBUTE), AttributeValue::Text(text))];
     output::write_atomically(path, |w| {
-        if image.has_alpha {
-            let channels = x::SpecificChannels::rgba(|p: x::Vec2<usize>| {
-                let v = at(p);
-                (v[0], v[1], v[2], v[3])
-            });
-            let layer = x::Layer::new(size, attributes, x::Encoding::SMALL_LOSSLESS, channels);
-            x::Image::new(image_attributes, layer).write().to_buffered(w).map_err(encode_err)
-        } else {
-            let channels = x::SpecificChannels::rgb(|p: x::Vec2<usize>| {
-                let v = at(p);
-                (v[0], v[1], v[2])
-            });
-            let layer = x::Layer::new(size, attributes, x::Encoding::SMALL_LOSSLESS, channels);
-            x::Image::new(image_attributes, layer).write().to_buffered(w).map_err(encode_err)
-        }
+        output::encode_exr(w, image, (win.x0, win.y0), (full_w, full_h), attributes)
+            .map_err(|e| Error::Part { path: path.to_owned(), message: format!("cannot encode: {e}") })
     })
 }
 
@@ -223,7 +210,35 @@ pub fn read_part(path: &Path) -> Result<Part, Error> {
             info.format
         )));
     }
+    let [full_w, full_h] = info.settings.size;
     let win = info.window();
+    if full_w == 0
+        || full_h == 0
+        || win.x0 >= win.x1
+        || win.y0 >= win.y1
+        || win.x1 > full_w
+        || win.y1 > full_h
+    {
+        return Err(bad(format!(
+            "its record names the window {},{},{},{}, which is not a non-empty part of its {full_w}x{full_h} image",
+            win.x0, win.y0, win.x1, win.y1
+        )));
+    }
+    if info.scene.sha256.len() != 64 || !info.scene.sha256.bytes().all(|b| b.is_ascii_hexdigit()) {
+        return Err(bad("its record's scene digest is not a SHA-256".into()));
+    }
+    let display = read.attributes.display_window;
+    if (display.position.x(), display.position.y(), display.size.width(), display.size.height())
+        != (0, 0, full_w as usize, full_h as usize)
+    {
+        return Err(bad(format!(
+            "its display window ({}x{} at {}, {}) is not the {full_w}x{full_h} image its record names",
+            display.size.width(),
+            display.size.height(),
+            display.position.x(),
+            display.position.y()
+        )));
+    }
     let pos = layer.attributes.layer_position;
     let (w, h) = (layer.size.width(), layer.size.height());
     if (pos.x(), pos.y()) != (win.x0 as i32, win.y0 as i32)
@@ -250,8 +265,7 @@ pub struct Merged {
     pub stats: Stats,
 }
 
-/// The settings of two parts that must agree, as JSON, without the window and the backend-
-/// independent bits that do not change pixels.
+/// The settings of two parts that must agree, as JSON: all but the window.
 fn comparable(s: &Settings) -> serde_json::Map<String, serde_json::Value> {
     let mut v = match serde_json::to_value(s).expect("settings serialise") {
         serde_json::Value::Object(m) => m,
@@ -286,6 +300,17 @@ pub fn merge(parts: &[Part]) -> Result<Merged, Error> {
                     p.info.scene.describe(),
                     name(first),
                     first.info.scene.describe()
+                ),
+            ));
+        }
+        if p.info.renderer != first.info.renderer {
+            return Err(bad(
+                p,
+                format!(
+                    "it was rendered by {}, but {} by {}",
+                    p.info.renderer,
+                    name(first),
+                    first.info.renderer
                 ),
             ));
         }
@@ -340,21 +365,11 @@ pub fn merge(parts: &[Part]) -> Result<Merged, Error> {
     }
     let covered: u64 = parts.iter().map(|p| p.info.window().pixels()).sum();
     if covered != w as u64 * h as u64 {
-        let gap = (0..h)
-            .flat_map(|y| (0..w).map(move |x| (x, y)))
-            .find(|&(x, y)| {
-                !parts.iter().any(|p| {
-                    let win = p.info.window();
-                    (win.x0..win.x1).contains(&x) && (win.y0..win.y1).contains(&y)
-                })
-            })
-            .unwrap_or((0, 0));
+        let (x, y) = first_gap(parts.iter().map(|p| p.info.window()).collect(), w, h);
         return Err(Error::Options(format!(
-            "the {} parts cover {covered} of the {w}x{h} image's {} pixels: pixel ({}, {}) is in none of them",
+            "the {} parts cover {covered} of the {w}x{h} image's {} pixels: pixel ({x}, {y}) is in none of them",
             parts.len(),
             w as u64 * h as u64,
-            gap.0,
-            gap.1
         )));
     }
 
@@ -380,6 +395,26 @@ pub fn merge(parts: &[Part]) -> Result<Merged, Error> {
         .collect::<Result<Vec<_>, _>>()?;
     let settings = Settings { window: None, ..first.info.settings.clone() };
     Ok(Merged { image, stats: Stats::new(settings, effects, &counters, time) })
+}
+
+/// The first pixel, in row order, that none of `windows` (which do not overlap and lie in
+/// the `w`×`h` image, but cover less than it) holds: per row, the windows' column ranges
+/// sorted, and the first hole between them.
+fn first_gap(mut windows: Vec<Window>, w: u32, h: u32) -> (u32, u32) {
+    windows.sort_by_key(|win| win.x0);
+    for y in 0..h {
+        let mut x = 0;
+        for win in windows.iter().filter(|win| (win.y0..win.y1).contains(&y)) {
+            if win.x0 > x {
+                return (x, y);
+            }
+            x = x.max(win.x1);
+        }
+        if x < w {
+            return (x, y);
+        }
+    }
+    (0, 0)
 }
 
 /// The times of work done in parts: what it cost in all (the longest submission: the

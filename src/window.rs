@@ -20,27 +20,32 @@ impl Window {
     }
 
     /// Band `index` of `count` (0-based) of a `height`-row image: rows
-    /// `index·⌈H/N⌉ .. min((index+1)·⌈H/N⌉, H)`. A band past the last row would be empty:
-    /// it is refused, with the largest count that leaves none empty.
+    /// `index·⌈H/N⌉ .. min((index+1)·⌈H/N⌉, H)`. A count that would leave any band empty
+    /// is refused for every index (so that no task of a split render starts in vain), with
+    /// the nearest counts that work.
     pub fn band(index: u32, count: u32, width: u32, height: u32) -> Result<Window> {
         if count == 0 || index >= count {
             return Err(Error::Options(format!("--tile {index}/{count}: the index must be in 0..{count}")));
         }
-        if count > height {
+        if !Self::bands_fill(count, height) {
+            let below = (1..count).rev().find(|&n| Self::bands_fill(n, height));
+            let above = (count + 1..=height).find(|&n| Self::bands_fill(n, height));
+            let near: Vec<String> = below.into_iter().chain(above).map(|n| n.to_string()).collect();
             return Err(Error::Options(format!(
-                "--tile {index}/{count}: {count} bands of a {height}-row image would leave some empty"
+                "--tile {index}/{count}: {count} bands of ⌈{height}/{count}⌉ = {} rows would leave the last \
+                 ones of the {height}-row image empty; {} would not",
+                height.div_ceil(count),
+                near.join(" or ")
             )));
         }
         let rows = height.div_ceil(count);
         let y0 = index * rows;
-        if y0 >= height {
-            let most = (1..count).rev().find(|&n| (n - 1) * height.div_ceil(n) < height).unwrap_or(1);
-            return Err(Error::Options(format!(
-                "--tile {index}/{count}: bands of {rows} rows cover the {height} rows before band {index}, \
-                 which would be empty: use at most {most} tiles"
-            )));
-        }
         Ok(Window { x0: 0, y0, x1: width, y1: ((index + 1) * rows).min(height) })
+    }
+
+    /// Whether `count` bands of ⌈H/N⌉ rows leave none of a `height`-row image's bands empty.
+    fn bands_fill(count: u32, height: u32) -> bool {
+        count <= height && (count - 1) * height.div_ceil(count) < height
     }
 
     pub fn width(&self) -> u32 {

@@ -67,8 +67,12 @@ fn check_split(
             let r = render(backend, scene, &o, aov);
             assert_eq!((r.image.width, r.image.height), (w.width(), w.height()), "{name}: part {w}");
             let path = dir.path().join(format!("part{k}.exr"));
-            part::write_part(&r.image, &PartInfo::new(id.clone(), &r.stats, aov_name.clone()), &path)
-                .unwrap();
+            part::write_part(
+                &r.image,
+                &PartInfo::new(id.clone(), &r.stats, aov_name.clone(), &format!("{backend:?}")),
+                &path,
+            )
+            .unwrap();
             part::read_part(&path).unwrap_or_else(|e| panic!("{name}: {e}"))
         })
         .collect();
@@ -152,6 +156,66 @@ fn jittered_samples_and_aovs_split_too() {
 }
 
 #[test]
+fn parts_whose_record_does_not_fit_their_image_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = load::showcase().unwrap().scene;
+    let opts =
+        RenderOptions { window: Some(Window { x0: 0, y0: 0, x1: 8, y1: 4 }), ..RenderOptions::new(8, 8) };
+    let r = render(Backend::Cpu, &scene, &opts, None);
+    let id = SceneId::of("showcase", b"showcase", None);
+    let good = PartInfo::new(id, &r.stats, None, "cpu");
+    // A window that reaches past the image (it would wrap into the next row when merged).
+    let mut past = good.clone();
+    past.settings.window = Some(Window { x0: 4, y0: 0, x1: 12, y1: 4 });
+    let path = dir.path().join("past.exr");
+    part::write_part(&r.image, &past, &path).unwrap();
+    let err = part::read_part(&path).err().expect("a window past the image is refused").to_string();
+    assert!(err.contains("not a non-empty part of its 8x8 image"), "{err}");
+    // A digest that is not one.
+    let mut digest = good.clone();
+    digest.scene.sha256 = "short".into();
+    part::write_part(&r.image, &digest, &path).unwrap();
+    assert!(part::read_part(&path).err().unwrap().to_string().contains("not a SHA-256"));
+    // Parts of two renderers are not merged.
+    let mut other = good.clone();
+    other.renderer = "cuberay 0.0.0 on something else".into();
+    other.settings.window = Some(Window { x0: 0, y0: 4, x1: 8, y1: 8 });
+    let (a, b) = (dir.path().join("a.exr"), dir.path().join("b.exr"));
+    part::write_part(&r.image, &good, &a).unwrap();
+    part::write_part(&r.image, &other, &b).unwrap();
+    let parts = [part::read_part(&a).unwrap(), part::read_part(&b).unwrap()];
+    let err = part::merge(&parts).err().expect("parts of two renderers").to_string();
+    assert!(err.contains("it was rendered by cuberay 0.0.0 on something else"), "{err}");
+}
+
+#[test]
+fn frames_between_keyframes_follow_the_channels() {
+    // scenes/orbit.gltf at t = 0.5 s: the rig has turned 45° of its LINEAR 90°-a-second
+    // rotation, and the camera has moved a quarter of the way along its CUBICSPLINE dolly
+    // from (0, 1.5, 6) to (0, 1.2, 4.5) with zero tangents: h01(¼) = 0.15625 of it.
+    let orbit = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/orbit.gltf");
+    let opts = load::LoadOptions { camera: None, time: Some(0.5) };
+    let cam = load::load(&orbit, &opts).unwrap().scene.camera;
+    let along = 6.0 - 0.15625 * 1.5;
+    let height = 1.5 - 0.15625 * 0.3;
+    let s = std::f64::consts::FRAC_1_SQRT_2;
+    let expect = glam::DVec3::new(along * s, height, along * s);
+    assert!((cam.eye - expect).length() < 1e-6, "eye {:?}, expected {expect:?}", cam.eye);
+    // The red box (object ids 2 and 3 are its first triangles) turns in STEPs of 30° a
+    // second: at 1.5 s it shows the 30° key, at 2 s the 60° one.
+    let tri = |t: f64| match &load::load(&orbit, &load::LoadOptions { camera: None, time: Some(t) })
+        .unwrap()
+        .scene
+        .primitives[2]
+    {
+        cuberay::scene::Primitive::Triangle(tr) => tr.p[0],
+        p => panic!("not a triangle: {p:?}"),
+    };
+    assert_eq!(tri(1.0), tri(1.5), "STEP holds its key until the next");
+    assert_ne!(tri(1.5), tri(2.0));
+}
+
+#[test]
 fn bands_cover_the_rows_once() {
     for (n, h) in [(1, 1), (3, 37), (4, 40), (4, 8), (5, 513)] {
         let b = bands(n, 10, h);
@@ -167,7 +231,10 @@ fn bands_cover_the_rows_once() {
     // More bands than rows, bands of ⌈8/7⌉ = 2 rows of which the last three would be empty,
     // and an index out of range.
     assert!(Window::band(0, 9, 10, 8).is_err());
-    assert!(Window::band(4, 7, 10, 8).unwrap_err().to_string().contains("at most 4 tiles"));
+    let err = Window::band(0, 7, 10, 8).unwrap_err().to_string();
+    assert!(err.contains("4 or 8 would not"), "{err}");
+    // 6 bands of 10 rows: 2 rows each, band 5 empty; every index is refused.
+    assert!((0..6).all(|i| Window::band(i, 6, 10, 10).is_err()));
     assert!(Window::band(3, 3, 10, 8).is_err());
     // 4 bands of 10 rows: 3, 3, 3, 1.
     assert_eq!(Window::band(3, 4, 10, 10).unwrap(), Window { x0: 0, y0: 9, x1: 10, y1: 10 });
@@ -176,8 +243,7 @@ fn bands_cover_the_rows_once() {
 // ---- The command line: render parts, merge, bad parts. ----
 
 fn run(args: &[&str], dir: &Path) -> std::process::Output {
-    let out = cuberay().args(args).current_dir(dir).output().unwrap();
-    out
+    cuberay().args(args).current_dir(dir).output().unwrap()
 }
 
 fn args(v: &[String]) -> Vec<&str> {
@@ -228,9 +294,13 @@ fn merged_tiles_are_the_render_byte_for_byte_on_the_command_line() {
     for key in ["rays", "tests", "settings", "effects"] {
         assert_eq!(merged[key], whole_stats[key], "{key}");
     }
-    // The part is a valid EXR of its window, placed in the whole image.
-    let meta = std::fs::read(d.join("t1.exr")).unwrap();
-    assert!(meta.windows(7).any(|w| w == b"cuberay"), "the part records its settings");
+    // The part is an EXR of its window (rows 14..28, ⌈41/3⌉ = 14 a band), placed in the whole
+    // image (read_part checks the data and display windows against its record).
+    let t1 = part::read_part(&d.join("t1.exr")).unwrap();
+    assert_eq!(t1.info.settings.window, Some(Window { x0: 0, y0: 14, x1: 50, y1: 28 }));
+    assert_eq!(t1.info.settings.size, [50, 41]);
+    assert_eq!((t1.image.width, t1.image.height), (50, 14));
+    assert!(t1.info.renderer.contains("CPU reference"), "{}", t1.info.renderer);
 
     // Bad parts: each refused with the part's name, and nothing written.
     ok(&args(&with(&["--crop", "0,0,30,14", "-o", "c0.exr"])), d);
@@ -263,9 +333,39 @@ fn merged_tiles_are_the_render_byte_for_byte_on_the_command_line() {
         .collect();
     assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
 
+    // Tables built once and read by the tiles (the GPU backend): the same image, and tables
+    // built with other options, or given to the CPU, are refused.
+    let gpu_common = ["--width", "50", "--height", "41", "--sampling", "corners"];
+    let gpu_with = |extra: &[&str]| -> Vec<String> {
+        ["render", scene].iter().chain(gpu_common.iter()).chain(extra.iter()).map(|s| s.to_string()).collect()
+    };
+    let mut build = vec!["tables", scene];
+    build.extend_from_slice(&gpu_common);
+    build.extend_from_slice(&["-o", "rings.tables"]);
+    ok(&build, d);
+    ok(&args(&gpu_with(&["-o", "gpu_whole.png"])), d);
+    for i in 0..2 {
+        let (tile, out) = (format!("{i}/2"), format!("g{i}.exr"));
+        ok(&args(&gpu_with(&["--tables", "rings.tables", "--tile", &tile, "-o", &out])), d);
+    }
+    ok(&["merge", "g0.exr", "g1.exr", "-o", "gpu_merged.png"], d);
+    assert!(read("gpu_whole.png") == read("gpu_merged.png"), "tiles traced with stored tables differ");
+    fails(
+        &args(&gpu_with(&["--max-depth", "1", "--tables", "rings.tables", "-o", "x.png"])),
+        d,
+        "another scene or other settings",
+    );
+    fails(&args(&with(&["--tables", "rings.tables", "-o", "x.png"])), d, "the CPU reference builds its own");
+    fails(&args(&gpu_with(&["--tables", "whole.png", "-o", "x.png"])), d, "not a cuberay tables file");
+    assert!(!d.join("x.png").exists());
+
     // Bad tile and crop options.
     fails(&args(&with(&["--tile", "3/3", "-o", "x.exr"])), d, "the tile index must be in 0..3");
-    fails(&args(&with(&["--tile", "0/50", "-o", "x.exr"])), d, "would leave some empty");
+    fails(
+        &args(&with(&["--tile", "0/50", "-o", "x.exr"])),
+        d,
+        "would leave the last ones of the 41-row image empty",
+    );
     fails(
         &args(&with(&["--crop", "0,0,60,10", "-o", "x.exr"])),
         d,

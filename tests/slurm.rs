@@ -1,7 +1,8 @@
 //! The Slurm job scripts of `examples/slurm` on a real Slurm: a single-node cluster (munged,
 //! slurmctld, slurmd) started on localhost by `examples/slurm/local-cluster.sh` for this
-//! test and stopped after it. A job array renders the tiles and a dependent job merges
-//! them; the result must be the local render byte for byte. A second array renders frames.
+//! test and stopped after it. A job builds the tables once, a job array renders the tiles
+//! reading them, and a dependent job merges the tiles; the result must be the local render
+//! byte for byte. A second array renders frames.
 //!
 //! Needs Debian's `slurm-wlm` and `munge` (`bash .ci/setup` installs them) and root (the
 //! daemons run as root); without them the test fails and says so.
@@ -128,14 +129,15 @@ fn a_slurm_job_array_renders_tiles_and_frames_as_one_machine_does() {
     let image = ["--width", "64", "--height", "48", "--sampling", "corners"];
 
     // Four tiles on the GPU backend, then the merge job.
-    let merged = work.join("out/rings.png");
+    let merged = work.join("out/rings.exr");
     let mut args = vec!["--tiles", "4", rings, merged.to_str().unwrap()];
     args.extend_from_slice(&image);
     let jobs = cluster.submit(&args);
-    assert_eq!(jobs.len(), 2, "submit.sh prints the array's and the merge's job ids: {jobs:?}");
-    let parts = work.join("out/rings.png.parts");
+    assert_eq!(jobs.len(), 3, "submit.sh prints the tables', the array's and the merge's job ids: {jobs:?}");
+    let parts = work.join("out/rings.exr.parts");
     cluster.wait(&jobs, &parts);
-    let local = work.join("local.png");
+    // EXR: the f32 values as rendered, so equal files mean equal pixels to the last bit.
+    let local = work.join("local.exr");
     let mut args = vec![rings, "-o", local.to_str().unwrap()];
     args.extend_from_slice(&image);
     render_locally(&args);
@@ -152,6 +154,7 @@ fn a_slurm_job_array_renders_tiles_and_frames_as_one_machine_does() {
         .filter(|e| e.path().extension().is_some_and(|x| x == "exr"))
         .count();
     assert_eq!(tiles, 4);
+    assert!(parts.join("scene.tables").is_file(), "the tables job wrote the shared tables");
 
     // An animation: one array task per frame, on the CPU backend.
     let orbit = repo().join("scenes/orbit.gltf");

@@ -119,7 +119,7 @@ stop_pidfile() {
 port_free() {
     local port=$1
     if command -v ss >/dev/null 2>&1; then
-        ! ss -Htln "sport = :$port" | grep -q .
+        [[ -z $(ss -Htln "sport = :$port") ]]
     else
         ! (exec 3<>"/dev/tcp/127.0.0.1/$port") 2>/dev/null
     fi
@@ -350,7 +350,7 @@ cmd_stop() {
     local d pid
     for d in /proc/[0-9]*; do
         [[ $(cat "$d/comm" 2>/dev/null) == slurmstepd ]] || continue
-        tr '\0' '\n' <"$d/environ" 2>/dev/null | grep -qxF "SLURM_CONF=$CONF" || continue
+        grep -qxF "SLURM_CONF=$CONF" < <(tr '\0' '\n' <"$d/environ" 2>/dev/null) || continue
         pid=${d#/proc/}
         log "killing leftover slurmstepd $pid"
         kill -KILL "$pid" 2>/dev/null || true
@@ -373,7 +373,9 @@ cmd_wait() {
     local ids timeout=${SLURM_LOCAL_WAIT_TIMEOUT:-600} deadline id states rc=0
     ids=$(IFS=,; echo "$*")
     deadline=$((SECONDS + timeout))
-    while squeue -h -j "$ids" 2>/dev/null | grep -q .; do
+    # (A test of the captured output, not `squeue | grep -q`: under pipefail, grep quitting
+    # early would end the loop through squeue's SIGPIPE.)
+    while [[ -n $(squeue -h -j "$ids" 2>/dev/null) ]]; do
         ((SECONDS < deadline)) || die "jobs $ids still queued after ${timeout}s"
         sleep 0.5
     done

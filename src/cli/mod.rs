@@ -13,6 +13,7 @@ mod compare;
 mod merge;
 mod preview;
 mod render;
+mod tables;
 
 #[derive(Parser, Debug)]
 #[command(name = "cuberay", version, about = "GPU Whitted ray tracing with direction-cube candidate tables")]
@@ -45,6 +46,8 @@ enum Command {
     Preview(preview::PreviewArgs),
     /// Assemble the parts of a render split with --tile or --crop into the whole image.
     Merge(merge::MergeArgs),
+    /// Build a GPU render's candidate tables once and store them (render --tables reads them).
+    Tables(tables::TablesArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -125,6 +128,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Compare(args) => compare::run(args),
         Command::Preview(args) => preview::run(args),
         Command::Merge(args) => merge::run(args),
+        Command::Tables(args) => tables::run(args),
     }
 }
 

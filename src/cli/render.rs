@@ -16,6 +16,7 @@ use cuberay::part::{self, PartInfo, SceneId};
 use cuberay::reference;
 use cuberay::sampling::Sampling;
 use cuberay::scene::Transfer;
+use cuberay::tablefile;
 
 /// Which renderer to run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -64,6 +65,11 @@ pub struct RenderArgs {
     /// frame number (`shot_####.png`), else `_NNNN` goes before the extension.
     #[arg(long, value_parser = parse_frames, value_name = "A..B")]
     pub frames: Option<(u32, u32)>,
+    /// Trace the candidate tables stored in this file (`cuberay tables` with the same scene
+    /// and options) instead of building them: the tasks of a split render share one build.
+    /// GPU backend only; a file built for another scene or other options is refused.
+    #[arg(long, value_name = "FILE")]
+    pub tables: Option<PathBuf>,
     /// Frames per second of --frames.
     #[arg(long, default_value_t = 24.0, requires = "frames")]
     pub fps: f64,
@@ -192,8 +198,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if !(args.fps.is_finite() && args.fps > 0.0) {
         bail!("--fps {} is not a positive number of frames per second", args.fps);
     }
-    let frames: Vec<Option<u32>> = match args.frames {
-        None => vec![None],
+    let frames: Box<dyn Iterator<Item = Option<u32>>> = match args.frames {
+        None => Box::new(std::iter::once(None)),
         Some((a, b)) => {
             let is_gltf = args
                 .scene
@@ -204,7 +210,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             if !is_gltf {
                 bail!("--frames samples a glTF file's animation: give a .gltf or .glb scene");
             }
-            (a..=b).map(Some).collect()
+            frame_path(&args.output, a)?;
+            Box::new((a..=b).map(Some))
         }
     };
     // One device (and its compiled kernels) for every frame.
@@ -214,7 +221,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     };
     for frame in frames {
         let output = match frame {
-            Some(f) => frame_path(&args.output, f),
+            Some(f) => frame_path(&args.output, f)?,
             None => args.output.clone(),
         };
         render_one(&args, gpu.as_ref(), frame, format, &output)?;
@@ -236,8 +243,10 @@ fn parse_frames(s: &str) -> Result<(u32, u32), String> {
 /// The file of frame `f`: the run of `#` in the file name replaced by the frame number,
 /// zero-padded to the run's length (`shot_####.png` → `shot_0012.png`); without one,
 /// `_NNNN` before the extension (`shot.png` → `shot_0012.png`).
-pub fn frame_path(path: &std::path::Path, f: u32) -> PathBuf {
-    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or_default();
+pub fn frame_path(path: &std::path::Path, f: u32) -> anyhow::Result<PathBuf> {
+    let Some(name) = path.file_name().and_then(|n| n.to_str()) else {
+        bail!("{}: --frames needs an output file name in UTF-8, to number the frames", path.display());
+    };
     let named = match name.find('#') {
         Some(start) => {
             let run = name[start..].chars().take_while(|&c| c == '#').count();
@@ -249,7 +258,23 @@ pub fn frame_path(path: &std::path::Path, f: u32) -> PathBuf {
             format!("{stem}_{f:04}.{ext}")
         }
     };
-    path.with_file_name(named)
+    Ok(path.with_file_name(named))
+}
+
+/// The identity of the scene file (`None`: the built-in showcase) at `frame`.
+pub fn scene_identity(
+    scene: &Option<PathBuf>,
+    camera: Option<usize>,
+    frame: Option<u32>,
+    time: Option<f64>,
+) -> anyhow::Result<SceneId> {
+    Ok(match scene {
+        Some(path) => {
+            let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+            SceneId { frame, time_s: time, ..SceneId::of(&path.display().to_string(), &bytes, camera) }
+        }
+        None => SceneId::of(load::SHOWCASE_NAME, load::SHOWCASE_SOURCE.as_bytes(), None),
+    })
 }
 
 /// Renders one image (one frame of `--frames`, or the only one) to `output`.
@@ -268,22 +293,27 @@ fn render_one(
     };
     opts.validate()?;
     let part = opts.window.is_some() && format == OutputFormat::Exr;
-    // A part names its scene by content, so that `merge` can refuse parts of another one.
-    let scene_id = match part {
+    // A part names its scene by content, so that `merge` can refuse parts of another one;
+    // stored tables are keyed by it.
+    let scene_id = match part || args.tables.is_some() {
         false => None,
-        true => Some(match &args.scene {
-            Some(path) => {
-                let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
-                SceneId {
-                    frame,
-                    time_s: time,
-                    ..SceneId::of(&path.display().to_string(), &bytes, args.trace.camera)
-                }
-            }
-            None => SceneId::of(load::SHOWCASE_NAME, load::SHOWCASE_SOURCE.as_bytes(), None),
-        }),
+        true => Some(scene_identity(&args.scene, args.trace.camera, frame, time)?),
     };
     let scene = &loaded.scene;
+    let read_start = std::time::Instant::now();
+    let stored = match (&args.tables, gpu, &scene_id) {
+        (None, _, _) => None,
+        (Some(_), None, _) => {
+            bail!("--tables holds tables for the GPU backend; the CPU reference builds its own")
+        }
+        (Some(path), Some(_), Some(id)) => {
+            let params = GpuRenderer::build_params(scene, &opts, args.aov.is_some())
+                .context("--tables: this render traces no tables (--accel brute)")?;
+            Some(tablefile::read(path, &tablefile::key(&id.fingerprint(), &params))?)
+        }
+        (Some(_), Some(_), None) => unreachable!("a scene identity is made whenever --tables is given"),
+    };
+    let read_s = read_start.elapsed().as_secs_f64();
     let progress = progress_bar("rendering");
     let rendered = match gpu {
         None => match args.aov {
@@ -292,20 +322,27 @@ fn render_one(
         }
         .with_context(|| format!("cannot render {}", scene_name.display()))?,
         Some(gpu) => match args.aov {
-            Some(aov) => gpu.render_aov(scene, &opts, aov, &progress),
-            None => gpu.render(scene, &opts, &progress),
+            Some(aov) => gpu.render_aov_with(scene, &opts, aov, stored, &progress),
+            None => gpu.render_with(scene, &opts, stored, &progress),
         }
         .with_context(|| format!("cannot render {} on the GPU", scene_name.display()))?,
     };
+    // Reading stored tables is this render's preprocessing.
+    let mut rendered = rendered;
+    rendered.stats.time.preprocess_s += read_s;
     progress.finish_and_clear();
 
     if !rendered.image.is_finite() {
         bail!("the render produced a non-finite pixel; nothing written (this is a renderer bug)");
     }
-    match scene_id {
+    match scene_id.filter(|_| part) {
         Some(id) => {
             let aov = args.aov.and_then(|a| a.to_possible_value()).map(|v| v.get_name().to_string());
-            part::write_part(&rendered.image, &PartInfo::new(id, &rendered.stats, aov), output)?
+            let backend = match gpu {
+                Some(g) => format!("{} ({})", g.ctx.info.name, g.ctx.info.driver_info),
+                None => "the CPU reference".into(),
+            };
+            part::write_part(&rendered.image, &PartInfo::new(id, &rendered.stats, aov, &backend), output)?
         }
         None => output::write(&rendered.image, output)?,
     }

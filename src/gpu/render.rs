@@ -16,7 +16,8 @@ use super::kernels::{first_compile_marker, mark_compiled, Kernels};
 use super::schedule::{self, Pacing, Progress, Schedule};
 use super::shaders::{Kernel, Queries, Variant};
 use super::GpuContext;
-use crate::coherence::{self, FlatTables, Tables};
+use crate::coherence::reach::WalkBounds;
+use crate::coherence::{self, BuildParams, FlatTables, Tables};
 use crate::error::{Error, Result};
 use crate::job::{grid_image, simulated_effects, AccelKind, RenderOptions, Rendered};
 use crate::layout::budget::{self, check_loop_budget, table_params, MAX_DEPTH, TESTS_PER_DISPATCH};
@@ -26,6 +27,7 @@ use crate::output::{Aov, Image};
 use crate::sampling::Sampling;
 use crate::scene::{Effects, Scene};
 use crate::stats::{self, Counters, Stats};
+use crate::tablefile::StoredTables;
 
 /// An open device with its kernels, compiled once per kernel and [`Variant`] and cached.
 pub struct GpuRenderer {
@@ -70,8 +72,30 @@ struct Prepared {
     variant: Variant,
     pipeline: std::sync::Arc<wgpu::ComputePipeline>,
     packed: Packed,
-    tables: Option<Tables>,
+    tables: Option<TableSet>,
     start: Instant,
+}
+
+/// The tables a render traces: built for it, or read from a file (`render --tables`).
+pub enum TableSet {
+    Built(Tables),
+    Stored(StoredTables),
+}
+
+impl TableSet {
+    pub fn flat(&self) -> &FlatTables {
+        match self {
+            TableSet::Built(t) => &t.flat,
+            TableSet::Stored(t) => &t.flat,
+        }
+    }
+
+    pub fn walks(&self) -> &WalkBounds {
+        match self {
+            TableSet::Built(t) => &t.walks,
+            TableSet::Stored(t) => &t.walks,
+        }
+    }
 }
 
 impl GpuRenderer {
@@ -101,19 +125,51 @@ impl GpuRenderer {
         Variant::for_effects(effects, max_depth).with_queries(queries)
     }
 
-    /// What both renders do first: check the options, pick and compile the kernel, then
-    /// (timed as preprocessing) pack the scene and build the tables it traces (`aov`: the AOV
-    /// pass, which traces eye rays only, so its kernel and tables have no effects).
-    fn prepare(&self, scene: &Scene, opts: &RenderOptions, aov: bool) -> Result<Prepared> {
-        check(scene, opts)?;
+    /// The variant of a render (`aov`: the AOV pass, which traces eye rays only, so its
+    /// kernel and tables have no effects).
+    fn job_variant(scene: &Scene, opts: &RenderOptions, aov: bool) -> Variant {
         let effects = if aov { Effects::default() } else { scene.effects() };
         let depth = if aov { 1 } else { opts.max_depth };
-        let variant = Self::variant(effects, depth, opts.accel);
+        Self::variant(effects, depth, opts.accel)
+    }
+
+    /// The parameters the render of `scene` with `opts` builds its tables with (`aov`: the
+    /// AOV pass), or `None` when it traces none: what `cuberay tables` builds, and what a
+    /// stored table file must have been built with.
+    pub fn build_params(scene: &Scene, opts: &RenderOptions, aov: bool) -> Option<BuildParams> {
+        let variant = Self::job_variant(scene, opts, aov);
+        variant.tables().then(|| table_params(scene, opts.width, opts.height, variant.effects(), opts.spawn))
+    }
+
+    /// What both renders do first: check the options, pick and compile the kernel, then
+    /// (timed as preprocessing) pack the scene and build the tables it traces, or take
+    /// `stored` ones (built with [`GpuRenderer::build_params`], checked here).
+    fn prepare(
+        &self,
+        scene: &Scene,
+        opts: &RenderOptions,
+        aov: bool,
+        stored: Option<StoredTables>,
+    ) -> Result<Prepared> {
+        check(scene, opts)?;
+        let variant = Self::job_variant(scene, opts, aov);
         let kernel = if aov { Kernel::Aov } else { Kernel::Render };
         let pipeline = self.kernel(kernel, variant)?;
         let start = Instant::now();
         let mut packed = pack(scene, opts.width, opts.height, opts.spawn);
-        let tables = self.tables(scene, opts, variant, &mut packed)?;
+        let tables = match stored {
+            None => self.tables(scene, opts, variant, &mut packed)?.map(TableSet::Built),
+            Some(_) if !variant.tables() => {
+                return Err(Error::Options(
+                    "stored tables are for --accel cube (or auto); this render traces none".into(),
+                ))
+            }
+            Some(t) => {
+                t.flat.check(scene.primitives.len())?;
+                point_at(&mut packed.params, &t.flat);
+                Some(TableSet::Stored(t))
+            }
+        };
         Ok(Prepared { kernel, variant, pipeline, packed, tables, start })
     }
 
@@ -191,19 +247,31 @@ impl GpuRenderer {
     pub fn check_loop_budget(
         &self,
         scene: &Scene,
-        tables: Option<&Tables>,
+        walks: Option<&WalkBounds>,
         max_depth: Option<u32>,
     ) -> Result<()> {
         if !self.ctx.is_lavapipe() {
             return Ok(());
         }
-        check_loop_budget(scene, tables.map(|t| &t.walks), max_depth)
+        check_loop_budget(scene, walks, max_depth)
     }
 
     /// Renders `scene` to linear radiance on the GPU.
     pub fn render(&self, scene: &Scene, opts: &RenderOptions, progress: &ProgressBar) -> Result<Rendered> {
+        self.render_with(scene, opts, None, progress)
+    }
+
+    /// [`GpuRenderer::render`] with `stored` tables instead of building them (see
+    /// [`crate::tablefile`]; the caller has checked that they were built for this render).
+    pub fn render_with(
+        &self,
+        scene: &Scene,
+        opts: &RenderOptions,
+        stored: Option<StoredTables>,
+        progress: &ProgressBar,
+    ) -> Result<Rendered> {
         let Prepared { kernel, variant, pipeline, mut packed, tables, start } =
-            self.prepare(scene, opts, false)?;
+            self.prepare(scene, opts, false, stored)?;
         packed.params = job_params(opts, packed.params);
         let preprocess_s = start.elapsed().as_secs_f64();
         let start = Instant::now();
@@ -238,9 +306,21 @@ impl GpuRenderer {
         aov: Aov,
         progress: &ProgressBar,
     ) -> Result<Rendered> {
+        self.render_aov_with(scene, opts, aov, None, progress)
+    }
+
+    /// [`GpuRenderer::render_aov`] with `stored` tables (built for the AOV pass).
+    pub fn render_aov_with(
+        &self,
+        scene: &Scene,
+        opts: &RenderOptions,
+        aov: Aov,
+        stored: Option<StoredTables>,
+        progress: &ProgressBar,
+    ) -> Result<Rendered> {
         let (w, h) = (opts.window().width(), opts.window().height());
         let Prepared { kernel, variant, pipeline, mut packed, tables, start } =
-            self.prepare(scene, opts, true)?;
+            self.prepare(scene, opts, true, stored)?;
         let center = RenderOptions { spp: 1, sampling: Sampling::Center, max_depth: 1, ..opts.clone() };
         packed.params = job_params(&center, packed.params);
         packed.params.aov = match aov {
@@ -276,15 +356,15 @@ impl GpuRenderer {
         max_depth: Option<u32>,
         scene: &Scene,
         packed: &Packed,
-        tables: Option<&Tables>,
+        tables: Option<&TableSet>,
         grid: (u32, u32),
         progress: &ProgressBar,
     ) -> Result<RunOutput> {
-        self.check_loop_budget(scene, tables, max_depth)?;
+        self.check_loop_budget(scene, tables.map(TableSet::walks), max_depth)?;
         let stepped = max_depth.is_some();
         let total = grid.0 as u64 * grid.1 as u64;
-        let tile = budget::tile_points(scene, tables.map(|t| &t.walks), TESTS_PER_DISPATCH);
-        let buffers = self.upload(packed, tables.map(|t| &t.flat), tile, stepped)?;
+        let tile = budget::tile_points(scene, tables.map(TableSet::walks), TESTS_PER_DISPATCH);
+        let buffers = self.upload(packed, tables.map(TableSet::flat), tile, stepped)?;
         let compile_s = self.warm_up(which.0, which.1, pipeline, &buffers, &packed.params)?;
         let readback = self.ctx.readback_buffer("readback", buffers.tile * 16);
         let mut schedule = Schedule::new(&self.ctx, total, buffers.tile, stepped, Pacing::Fixed, true);

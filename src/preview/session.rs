@@ -142,7 +142,7 @@ impl Session {
         // or deepening the trees needs none.
         let all = GpuRenderer::variant(scene.effects(), MAX_DEPTH, opts.accel);
         let tables = gpu.tables(&scene, &opts, all, &mut packed)?;
-        gpu.check_loop_budget(&scene, tables.as_ref(), Some(MAX_DEPTH))?;
+        gpu.check_loop_budget(&scene, tables.as_ref().map(|t| &t.walks), Some(MAX_DEPTH))?;
         let first = variant(&scene, toggles, opts.max_depth, opts.accel);
         let pipeline = gpu.kernel(Kernel::Render, first)?;
         let tile = tile_points(&scene, tables.as_ref().map(|t| &t.walks), TESTS_PER_DISPATCH);
@@ -269,7 +269,7 @@ impl Session {
                 }
             };
             gpu::point_at(&mut packed.params, &tables.flat);
-            self.gpu.check_loop_budget(&self.scene, Some(&tables), Some(MAX_DEPTH))?;
+            self.gpu.check_loop_budget(&self.scene, Some(&tables.walks), Some(MAX_DEPTH))?;
             log::debug!("tables for the new eye in {:.3} s (eye table only: {eye_only})", tables.build_s);
             self.buffers = self.gpu.upload(&packed, Some(&tables.flat), self.buffers.tile, true)?;
             self.tables = Some(tables);

@@ -76,8 +76,9 @@ impl Track {
         match self.interpolation {
             Interpolation::Step => a.to_vec(),
             Interpolation::Linear if rotation => {
-                let q0 = DQuat::from_xyzw(a[0], a[1], a[2], a[3]);
-                let q1 = DQuat::from_xyzw(b[0], b[1], b[2], b[3]);
+                // Keyframes stored as normalized integers are only close to unit length.
+                let q0 = DQuat::from_xyzw(a[0], a[1], a[2], a[3]).normalize();
+                let q1 = DQuat::from_xyzw(b[0], b[1], b[2], b[3]).normalize();
                 q0.slerp(q1, u).to_array().to_vec()
             }
             Interpolation::Linear => a.iter().zip(b).map(|(x, y)| x + (y - x) * u).collect(),
@@ -152,9 +153,17 @@ fn track(reader: &Reader, channel: &gltf::animation::Channel, loc: &str) -> Resu
     Ok(Track { times, values, width, interpolation })
 }
 
+/// The time `t` as keyframe times are stored: f32. An exporter writes frame k at 24 fps as
+/// f32(k/24), which is often a little more than k/24; compared in f64, frame k would fall
+/// just before its own keyframe and a STEP channel would show the previous key.
+pub fn keyframe_time(t: f64) -> f64 {
+    t as f32 as f64
+}
+
 /// The pose of every animated node at time `t` seconds.
 pub fn pose_at(reader: &Reader, doc: &Document, t: f64, warnings: &mut Vec<String>) -> Result<Pose, Error> {
     let ctx = reader.ctx;
+    let t = keyframe_time(t);
     let mut pose = Pose::default();
     for anim in doc.animations() {
         for channel in anim.channels() {
@@ -220,6 +229,18 @@ mod tests {
         let step = track(&[1.0, 3.0], &[0.0, 10.0, 4.0, 20.0], 2, Interpolation::Step);
         assert_eq!(step.sample(2.9, false), vec![0.0, 10.0]);
         assert_eq!(step.sample(3.0, false), vec![4.0, 20.0]);
+    }
+
+    #[test]
+    fn frame_times_meet_their_f32_keyframes() {
+        // Keyframes at frames 0, 8 and 11 of 24 fps, as an exporter stores them (f32 rounds
+        // both up).
+        let times: Vec<f64> = [0.0, 8.0 / 24.0, 11.0 / 24.0].iter().map(|&t: &f64| t as f32 as f64).collect();
+        let step = track(&times, &[0.0, 1.0, 2.0], 1, Interpolation::Step);
+        assert!(8.0 / 24.0 < times[1], "the f32 keyframe is after the f64 frame time");
+        assert_eq!(step.sample(8.0 / 24.0, false), vec![0.0], "compared in f64, frame 8 misses its key");
+        assert_eq!(step.sample(keyframe_time(8.0 / 24.0), false), vec![1.0]);
+        assert_eq!(step.sample(keyframe_time(11.0 / 24.0), false), vec![2.0]);
     }
 
     #[test]

@@ -1,0 +1,276 @@
+//! Candidate tables on disk: `cuberay tables` builds a render's tables once and writes them,
+//! and `cuberay render --tables FILE` reads them instead of building, so that the tasks of
+//! a split render (`--tile`) share one build.
+//!
+//! The file holds what the GPU renderer uploads and checks: the flat tables
+//! ([`FlatTables`]) and the bounds on their walks ([`WalkBounds`]). It starts with a magic
+//! line and a JSON header (format version, the **key**, the walk bounds, the scalars and
+//! the array lengths), followed by each array's bytes as the GPU takes them
+//! (little-endian, `#[repr(C)]`).
+//!
+//! The key names everything the tables depend on: the caller's identity of the scene (the
+//! command line uses the scene file's SHA-256, camera and frame) and the build parameters
+//! (image size, effects, spawn offset, budgets). Reading with another key is refused:
+//! tables built for another scene or other settings would not be conservative for it.
+
+use std::io::{BufWriter, Read, Write};
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+
+use crate::coherence::reach::WalkBounds;
+use crate::coherence::{BuildParams, FlatTables, GpuEntry, GpuFace, GpuGroup, GpuOrigin};
+use crate::error::Error;
+
+/// The first line of a tables file.
+const MAGIC: &[u8] = b"cuberay tables\n";
+
+/// The layout version; a file of another version is refused.
+const VERSION: u32 = 1;
+
+/// The key of the tables built with `params` for the scene `scene_id` names (any string that
+/// changes with the scene: the command line uses the file's SHA-256, camera and frame).
+pub fn key(scene_id: &str, params: &BuildParams) -> String {
+    let mut h = Sha256::new();
+    h.update(env!("CARGO_PKG_VERSION").as_bytes());
+    h.update([0]);
+    h.update(scene_id.as_bytes());
+    h.update([0]);
+    h.update(format!("{params:?}").as_bytes());
+    h.finalize().iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// Tables read from a file: what the GPU renderer needs of them.
+#[derive(Clone, Debug)]
+pub struct StoredTables {
+    pub flat: FlatTables,
+    pub walks: WalkBounds,
+}
+
+#[derive(Serialize, Deserialize)]
+struct Header {
+    version: u32,
+    key: String,
+    /// The scene as the caller named it (for messages).
+    scene: String,
+    worst_closest: u64,
+    worst_eye: u64,
+    worst_shadow: u64,
+    mean_list: f64,
+    fallback_reachable: bool,
+    eye_origin: u32,
+    fallback_origin: u32,
+    /// Element counts of the arrays that follow, in the order written.
+    origins: usize,
+    faces: usize,
+    cell_start: usize,
+    entries: usize,
+    prim_origin: usize,
+    prim_patches: usize,
+    light_origin: usize,
+    groups: usize,
+    group_prims: usize,
+    patch_tris: usize,
+}
+
+/// Writes `flat` and `walks` with `key` to `path`, atomically.
+pub fn write(
+    path: &Path,
+    key: &str,
+    scene: &str,
+    flat: &FlatTables,
+    walks: &WalkBounds,
+) -> Result<(), Error> {
+    let mut patches: Vec<(u32, [glam::Vec3; 3])> = flat.patch_tris.iter().map(|(k, v)| (*k, *v)).collect();
+    patches.sort_by_key(|p| p.0);
+    let patch_words: Vec<f32> = patches
+        .iter()
+        .flat_map(|(id, tri)| {
+            std::iter::once(f32::from_bits(*id)).chain(tri.iter().flat_map(|v| v.to_array()))
+        })
+        .collect();
+    let header = Header {
+        version: VERSION,
+        key: key.into(),
+        scene: scene.into(),
+        worst_closest: walks.worst_closest,
+        worst_eye: walks.worst_eye,
+        worst_shadow: walks.worst_shadow,
+        mean_list: walks.mean_list,
+        fallback_reachable: walks.fallback_reachable,
+        eye_origin: flat.eye_origin,
+        fallback_origin: flat.fallback_origin,
+        origins: flat.origins.len(),
+        faces: flat.faces.len(),
+        cell_start: flat.cell_start.len(),
+        entries: flat.entries.len(),
+        prim_origin: flat.prim_origin.len(),
+        prim_patches: flat.prim_patches.len(),
+        light_origin: flat.light_origin.len(),
+        groups: flat.groups.len(),
+        group_prims: flat.group_prims.len(),
+        patch_tris: patches.len(),
+    };
+    let json = serde_json::to_vec(&header).expect("the header serialises");
+    let io = |source| Error::Io { path: path.to_owned(), source };
+    crate::output::write_atomically(path, |w: &mut BufWriter<&std::fs::File>| {
+        w.write_all(MAGIC).map_err(io)?;
+        w.write_all(&(json.len() as u64).to_le_bytes()).map_err(io)?;
+        w.write_all(&json).map_err(io)?;
+        let arrays: [&[u8]; 11] = [
+            bytemuck::cast_slice(&flat.origins),
+            bytemuck::cast_slice(&flat.faces),
+            bytemuck::cast_slice(&flat.cell_start),
+            bytemuck::cast_slice(&flat.entries),
+            bytemuck::cast_slice(&flat.prim_origin),
+            bytemuck::cast_slice(&flat.prim_patches),
+            bytemuck::cast_slice(&flat.light_origin),
+            bytemuck::cast_slice(&flat.groups),
+            bytemuck::cast_slice(&flat.group_prims),
+            bytemuck::cast_slice(&patch_words),
+            &[],
+        ];
+        for a in arrays {
+            w.write_all(a).map_err(io)?;
+        }
+        Ok(())
+    })
+}
+
+/// Reads the tables in `path`, refusing a file whose key is not `key`.
+pub fn read(path: &Path, key: &str) -> Result<StoredTables, Error> {
+    let bad = |m: String| Error::Tables { path: path.to_owned(), message: m };
+    let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_owned(), source })?;
+    let mut r: &[u8] = &bytes;
+    let mut magic = [0u8; MAGIC.len()];
+    if r.read_exact(&mut magic).is_err() || magic != MAGIC {
+        return Err(bad("not a cuberay tables file (write one with `cuberay tables`)".into()));
+    }
+    let mut len = [0u8; 8];
+    r.read_exact(&mut len).map_err(|_| bad("it ends inside its header".into()))?;
+    let len = u64::from_le_bytes(len) as usize;
+    if len > r.len() {
+        return Err(bad("it ends inside its header".into()));
+    }
+    let (json, mut rest) = r.split_at(len);
+    let h: Header = serde_json::from_slice(json).map_err(|e| bad(format!("its header is malformed: {e}")))?;
+    if h.version != VERSION {
+        return Err(bad(format!(
+            "it is in format version {}; this cuberay reads version {VERSION}",
+            h.version
+        )));
+    }
+    if h.key != key {
+        return Err(bad(format!(
+            "it holds the tables of another scene or other settings (it was built for {}, and \
+             tables are conservative only for the scene, camera, image size, effects and depth \
+             they were built for): rebuild it with `cuberay tables` and the render's options",
+            h.scene
+        )));
+    }
+    fn take<T: bytemuck::Pod>(rest: &mut &[u8], count: usize, what: &str) -> Result<Vec<T>, String> {
+        let n = count.checked_mul(std::mem::size_of::<T>()).ok_or(format!("{what}: impossible length"))?;
+        if n > rest.len() {
+            return Err(format!("it ends inside its {what} ({count} expected)"));
+        }
+        let (a, b) = rest.split_at(n);
+        *rest = b;
+        Ok(bytemuck::pod_collect_to_vec(a))
+    }
+    let t = |e: String| bad(e);
+    let origins: Vec<GpuOrigin> = take(&mut rest, h.origins, "origins").map_err(t)?;
+    let faces: Vec<GpuFace> = take(&mut rest, h.faces, "faces").map_err(t)?;
+    let cell_start: Vec<u32> = take(&mut rest, h.cell_start, "cell starts").map_err(t)?;
+    let entries: Vec<GpuEntry> = take(&mut rest, h.entries, "entries").map_err(t)?;
+    let prim_origin: Vec<u32> = take(&mut rest, h.prim_origin, "primitive origins").map_err(t)?;
+    let prim_patches: Vec<u32> = take(&mut rest, h.prim_patches, "primitive patches").map_err(t)?;
+    let light_origin: Vec<u32> = take(&mut rest, h.light_origin, "light origins").map_err(t)?;
+    let groups: Vec<GpuGroup> = take(&mut rest, h.groups, "groups").map_err(t)?;
+    let group_prims: Vec<u32> = take(&mut rest, h.group_prims, "group members").map_err(t)?;
+    let words: Vec<f32> = take(&mut rest, h.patch_tris.saturating_mul(10), "patch triangles").map_err(t)?;
+    if !rest.is_empty() {
+        return Err(bad(format!("{} bytes follow its last array", rest.len())));
+    }
+    let patch_tris = words
+        .chunks_exact(10)
+        .map(|c| {
+            let v = |k: usize| glam::Vec3::new(c[k], c[k + 1], c[k + 2]);
+            (c[0].to_bits(), [v(1), v(4), v(7)])
+        })
+        .collect();
+    let flat = FlatTables {
+        origins,
+        faces,
+        cell_start,
+        entries,
+        prim_origin,
+        prim_patches,
+        patch_tris,
+        light_origin,
+        eye_origin: h.eye_origin,
+        fallback_origin: h.fallback_origin,
+        groups,
+        group_prims,
+    };
+    let walks = WalkBounds {
+        worst_closest: h.worst_closest,
+        worst_eye: h.worst_eye,
+        worst_shadow: h.worst_shadow,
+        mean_list: h.mean_list,
+        fallback_reachable: h.fallback_reachable,
+    };
+    Ok(StoredTables { flat, walks })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::coherence;
+    use crate::scene::Scene;
+
+    /// Mirror spheres on a floor, lit by one light.
+    fn scene() -> Scene {
+        let mut nff = String::from(
+            "v\nfrom 0 -6 2\nat 0 0 0\nup 0 0 1\nangle 40\nhither 1\nresolution 32 24\n\
+             l 3 -3 5\nf 0.8 0.6 0.4 0.7 0.3 10 0 1\np 4 -4 -4 -0.4 4 -4 -0.4 4 4 -0.4 -4 4 -0.4\n",
+        );
+        for i in 0..12 {
+            nff += &format!("s {} {} {} 0.3\n", (i % 4) as f64 - 1.5, (i / 4) as f64, 0.3 * (i % 3) as f64);
+        }
+        crate::load::nff::parse(&nff, Path::new("mirrors.nff")).unwrap().scene
+    }
+
+    #[test]
+    fn tables_come_back_as_they_were_written() {
+        let s = scene();
+        let params = BuildParams { image: Some((32, 24)), ..BuildParams::default() };
+        let t = coherence::build(&s, &params).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.tables");
+        let k = key("scene", &params);
+        write(&path, &k, "scene", &t.flat, &t.walks).unwrap();
+        let back = read(&path, &k).unwrap();
+        let (a, b) = (&t.flat, &back.flat);
+        assert_eq!(a.origins, b.origins);
+        assert_eq!(a.faces, b.faces);
+        assert_eq!(a.cell_start, b.cell_start);
+        assert_eq!(bytemuck::cast_slice::<_, u8>(&a.entries), bytemuck::cast_slice::<_, u8>(&b.entries));
+        assert_eq!(a.prim_origin, b.prim_origin);
+        assert_eq!(a.prim_patches, b.prim_patches);
+        assert_eq!(a.patch_tris, b.patch_tris);
+        assert_eq!(a.light_origin, b.light_origin);
+        assert_eq!((a.eye_origin, a.fallback_origin), (b.eye_origin, b.fallback_origin));
+        assert_eq!(bytemuck::cast_slice::<_, u8>(&a.groups), bytemuck::cast_slice::<_, u8>(&b.groups));
+        assert_eq!(a.group_prims, b.group_prims);
+        assert_eq!(t.walks, back.walks);
+        // Another key, a truncated file and a foreign file are refused.
+        let other = key("scene", &BuildParams { image: Some((33, 24)), ..params.clone() });
+        assert!(read(&path, &other).unwrap_err().to_string().contains("another scene or other settings"));
+        let bytes = std::fs::read(&path).unwrap();
+        std::fs::write(&path, &bytes[..bytes.len() - 3]).unwrap();
+        assert!(read(&path, &k).unwrap_err().to_string().contains("ends inside"));
+        std::fs::write(&path, b"P6 something else").unwrap();
+        assert!(read(&path, &k).unwrap_err().to_string().contains("not a cuberay tables file"));
+    }
+}
