@@ -130,7 +130,7 @@ pub fn write(img: &Image, path: &Path) -> Result<(), Error> {
         OutputFormat::Png => to_rgb8(img)
             .write_to(w, ImageFormat::Png)
             .map_err(|source| Error::Encode { path: path.to_owned(), source }),
-        OutputFormat::Exr => encode_exr(w, img, (0, 0), (img.width, img.height), Vec::new())
+        OutputFormat::Exr => encode_exr(w, img, (0, 0), (img.width, img.height), None)
             .map_err(|e| Error::Options(format!("{}: cannot encode the image: {e}", path.display()))),
     })
 }
@@ -138,14 +138,15 @@ pub fn write(img: &Image, path: &Path) -> Result<(), Error> {
 /// Encodes `img` as OpenEXR: f32 RGB (RGBA for AOVs), ZIP-compressed scan lines in
 /// increasing order, so that equal pixels give equal files (the compression runs in
 /// parallel, but the chunks are written sorted). Its data window starts at `position` of a
-/// display window `display` pixels wide and high; `attributes` go into the header, beside
-/// `software` = `cuberay`.
+/// display window `display` pixels wide and high; `attribute`, if any, goes into the header
+/// beside `software` = `cuberay` (one at most: the exr crate keeps them in a hash map, whose
+/// order would vary between runs).
 pub fn encode_exr(
     w: &mut (impl Write + std::io::Seek),
     img: &Image,
     position: (u32, u32),
     display: (u32, u32),
-    attributes: Vec<(exr::meta::attribute::Text, exr::meta::attribute::AttributeValue)>,
+    attribute: Option<(exr::meta::attribute::Text, exr::meta::attribute::AttributeValue)>,
 ) -> exr::error::UnitResult {
     use exr::prelude as x;
     use x::traits::WritableImage;
@@ -154,7 +155,7 @@ pub fn encode_exr(
         software_name: Some(x::Text::from("cuberay")),
         ..Default::default()
     };
-    layer_attributes.other.extend(attributes);
+    layer_attributes.other.extend(attribute);
     let mut image_attributes =
         x::ImageAttributes::new(x::IntegerBounds::from_dimensions((display.0 as usize, display.1 as usize)));
     image_attributes.pixel_aspect = 1.0;

@@ -54,12 +54,6 @@ impl SceneId {
         SceneId { name: name.into(), bytes: bytes.len() as u64, sha256, camera, frame: None, time_s: None }
     }
 
-    /// A string that changes with the scene's content, camera and frame (the name aside):
-    /// what stored tables are keyed by ([`crate::tablefile::key`]).
-    pub fn fingerprint(&self) -> String {
-        format!("{} {} {:?} {:?} {:?}", self.sha256, self.bytes, self.camera, self.frame, self.time_s)
-    }
-
     /// Whether both name the same scene content, camera and frame.
     fn same_as(&self, o: &SceneId) -> bool {
         self.sha256 == o.sha256
@@ -153,9 +147,9 @@ pub fn write_part(image: &Image, info: &PartInfo, path: &Path) -> Result<(), Err
     }
     let [full_w, full_h] = info.settings.size;
     let text = Text::new_or_none(ascii_json(info)).expect("ASCII JSON is valid EXR text");
-    let attributes = vec![(Text::from(PART_ATTRIBUTE), AttributeValue::Text(text))];
+    let attribute = Some((Text::from(PART_ATTRIBUTE), AttributeValue::Text(text)));
     output::write_atomically(path, |w| {
-        output::encode_exr(w, image, (win.x0, win.y0), (full_w, full_h), attributes)
+        output::encode_exr(w, image, (win.x0, win.y0), (full_w, full_h), attribute)
             .map_err(|e| Error::Part { path: path.to_owned(), message: format!("cannot encode: {e}") })
     })
 }
@@ -174,6 +168,19 @@ pub fn read_part(path: &Path) -> Result<Part, Error> {
     let bad = |m: String| Error::Part { path: path.to_owned(), message: m };
     if !path.exists() {
         return Err(bad("no such file".into()));
+    }
+    // The header first: a small file must not make the reader allocate pixels for a huge
+    // data window that no part of an image cuberay renders (32768² at most) could have.
+    let meta = x::MetaData::read_from_file(path, false)
+        .map_err(|e| bad(format!("not a readable RGB EXR file: {e}")))?;
+    if let Some(h) =
+        meta.headers.iter().find(|h| h.layer_size.width() > 32768 || h.layer_size.height() > 32768)
+    {
+        return Err(bad(format!(
+            "its {}x{} pixels are more than any cuberay image holds",
+            h.layer_size.width(),
+            h.layer_size.height()
+        )));
     }
     let read = x::read()
         .no_deep_data()

@@ -74,10 +74,10 @@ impl TestCounts {
 
 impl AddAssign for TestCounts {
     fn add_assign(&mut self, o: TestCounts) {
-        self.sphere += o.sphere;
-        self.triangle += o.triangle;
-        self.cylinder += o.cylinder;
-        self.bound += o.bound;
+        self.sphere = self.sphere.saturating_add(o.sphere);
+        self.triangle = self.triangle.saturating_add(o.triangle);
+        self.cylinder = self.cylinder.saturating_add(o.cylinder);
+        self.bound = self.bound.saturating_add(o.bound);
     }
 }
 
@@ -106,14 +106,15 @@ impl Counters {
 }
 
 impl AddAssign for Counters {
+    /// Saturating: counts read from files (`cuberay merge`) must not wrap or panic.
     fn add_assign(&mut self, o: Counters) {
         for i in 0..4 {
-            self.rays[i] += o.rays[i];
+            self.rays[i] = self.rays[i].saturating_add(o.rays[i]);
             self.tests[i] += o.tests[i];
         }
-        self.eye_hit += o.eye_hit;
-        self.shadow_blocked += o.shadow_blocked;
-        self.self_hits += o.self_hits;
+        self.eye_hit = self.eye_hit.saturating_add(o.eye_hit);
+        self.shadow_blocked = self.shadow_blocked.saturating_add(o.shadow_blocked);
+        self.self_hits = self.self_hits.saturating_add(o.self_hits);
     }
 }
 

@@ -2,16 +2,18 @@
 //! and `cuberay render --tables FILE` reads them instead of building, so that the tasks of
 //! a split render (`--tile`) share one build.
 //!
-//! The file holds what the GPU renderer uploads and checks: the flat tables
-//! ([`FlatTables`]) and the bounds on their walks ([`WalkBounds`]). It starts with a magic
-//! line and a JSON header (format version, the **key**, the walk bounds, the scalars and
-//! the array lengths), followed by each array's bytes as the GPU takes them
-//! (little-endian, `#[repr(C)]`).
+//! The file holds what the GPU renderer uploads: the flat tables ([`FlatTables`]). It starts
+//! with a magic line and a JSON header (format version, the **key**, the scalars and the
+//! array lengths), followed by each array's bytes as the GPU takes them (little-endian,
+//! `#[repr(C)]`). The renderer recomputes the bounds on their walks from the tables and
+//! checks every index against the scene ([`FlatTables::check_scene`]) before upload.
 //!
-//! The key names everything the tables depend on: the caller's identity of the scene (the
-//! command line uses the scene file's SHA-256, camera and frame) and the build parameters
-//! (image size, effects, spawn offset, budgets). Reading with another key is refused:
-//! tables built for another scene or other settings would not be conservative for it.
+//! The key ([`key`]) names everything the tables depend on, as the renderer sees it: the
+//! scene as packed for the GPU (primitives, materials, lights, camera, in f32 around the
+//! eye: the frame the tables are conservative in), the build parameters (image size,
+//! effects, spawn offset, budgets) and the cuberay binary that built them (a changed
+//! builder or kernel may need other tables). Reading with another key is refused: tables
+//! built for another scene, pose or settings would not be conservative for it.
 
 use std::io::{BufWriter, Read, Write};
 use std::path::Path;
@@ -19,9 +21,9 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
-use crate::coherence::reach::WalkBounds;
 use crate::coherence::{BuildParams, FlatTables, GpuEntry, GpuFace, GpuGroup, GpuOrigin};
 use crate::error::Error;
+use crate::scene::Scene;
 
 /// The first line of a tables file.
 const MAGIC: &[u8] = b"cuberay tables\n";
@@ -29,23 +31,41 @@ const MAGIC: &[u8] = b"cuberay tables\n";
 /// The layout version; a file of another version is refused.
 const VERSION: u32 = 1;
 
-/// The key of the tables built with `params` for the scene `scene_id` names (any string that
-/// changes with the scene: the command line uses the file's SHA-256, camera and frame).
-pub fn key(scene_id: &str, params: &BuildParams) -> String {
-    let mut h = Sha256::new();
-    h.update(env!("CARGO_PKG_VERSION").as_bytes());
-    h.update([0]);
-    h.update(scene_id.as_bytes());
-    h.update([0]);
-    h.update(format!("{params:?}").as_bytes());
-    h.finalize().iter().map(|b| format!("{b:02x}")).collect()
+/// The SHA-256 of the running cuberay binary (its version where it cannot be read): stored
+/// tables are valid for the builder and kernels that made them.
+fn build_id() -> &'static str {
+    static ID: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    ID.get_or_init(|| match std::env::current_exe().and_then(std::fs::read) {
+        Ok(bytes) => Sha256::digest(&bytes).iter().map(|b| format!("{b:02x}")).collect(),
+        Err(_) => format!("version {}", env!("CARGO_PKG_VERSION")),
+    })
 }
 
-/// Tables read from a file: what the GPU renderer needs of them.
+/// The key of the tables built with `params` for `scene`: a SHA-256 of the binary's build
+/// id, the scene packed for the GPU at the params' image size and spawn offset, and the
+/// params themselves.
+pub fn key(scene: &Scene, params: &BuildParams) -> String {
+    let (w, h) = params.image.unwrap_or_else(|| scene.camera.default_resolution());
+    let packed = crate::layout::pack(scene, w, h, params.spawn);
+    let mut hash = Sha256::new();
+    let mut part = |bytes: &[u8]| {
+        hash.update((bytes.len() as u64).to_le_bytes());
+        hash.update(bytes);
+    };
+    part(build_id().as_bytes());
+    part(bytemuck::cast_slice(&packed.prims));
+    part(bytemuck::cast_slice(&packed.tri_attrs));
+    part(bytemuck::cast_slice(&packed.materials));
+    part(bytemuck::cast_slice(&packed.lights));
+    part(bytemuck::bytes_of(&packed.params));
+    part(format!("{params:?}").as_bytes());
+    hash.finalize().iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// Tables read from a file: the flat tables the GPU renderer uploads.
 #[derive(Clone, Debug)]
 pub struct StoredTables {
     pub flat: FlatTables,
-    pub walks: WalkBounds,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -54,11 +74,6 @@ struct Header {
     key: String,
     /// The scene as the caller named it (for messages).
     scene: String,
-    worst_closest: u64,
-    worst_eye: u64,
-    worst_shadow: u64,
-    mean_list: f64,
-    fallback_reachable: bool,
     eye_origin: u32,
     fallback_origin: u32,
     /// Element counts of the arrays that follow, in the order written.
@@ -74,14 +89,8 @@ struct Header {
     patch_tris: usize,
 }
 
-/// Writes `flat` and `walks` with `key` to `path`, atomically.
-pub fn write(
-    path: &Path,
-    key: &str,
-    scene: &str,
-    flat: &FlatTables,
-    walks: &WalkBounds,
-) -> Result<(), Error> {
+/// Writes `flat` with `key` to `path`, atomically (`scene` names the scene in messages).
+pub fn write(path: &Path, key: &str, scene: &str, flat: &FlatTables) -> Result<(), Error> {
     let mut patches: Vec<(u32, [glam::Vec3; 3])> = flat.patch_tris.iter().map(|(k, v)| (*k, *v)).collect();
     patches.sort_by_key(|p| p.0);
     let patch_words: Vec<f32> = patches
@@ -94,11 +103,6 @@ pub fn write(
         version: VERSION,
         key: key.into(),
         scene: scene.into(),
-        worst_closest: walks.worst_closest,
-        worst_eye: walks.worst_eye,
-        worst_shadow: walks.worst_shadow,
-        mean_list: walks.mean_list,
-        fallback_reachable: walks.fallback_reachable,
         eye_origin: flat.eye_origin,
         fallback_origin: flat.fallback_origin,
         origins: flat.origins.len(),
@@ -164,8 +168,9 @@ pub fn read(path: &Path, key: &str) -> Result<StoredTables, Error> {
     if h.key != key {
         return Err(bad(format!(
             "it holds the tables of another scene or other settings (it was built for {}, and \
-             tables are conservative only for the scene, camera, image size, effects and depth \
-             they were built for): rebuild it with `cuberay tables` and the render's options",
+             tables are conservative only for the scene, pose, camera, image size and effects \
+             they were built for, by the same cuberay binary): rebuild it with `cuberay tables` \
+             and the render's options",
             h.scene
         )));
     }
@@ -213,14 +218,7 @@ pub fn read(path: &Path, key: &str) -> Result<StoredTables, Error> {
         groups,
         group_prims,
     };
-    let walks = WalkBounds {
-        worst_closest: h.worst_closest,
-        worst_eye: h.worst_eye,
-        worst_shadow: h.worst_shadow,
-        mean_list: h.mean_list,
-        fallback_reachable: h.fallback_reachable,
-    };
-    Ok(StoredTables { flat, walks })
+    Ok(StoredTables { flat })
 }
 
 #[cfg(test)]
@@ -248,8 +246,8 @@ mod tests {
         let t = coherence::build(&s, &params).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("t.tables");
-        let k = key("scene", &params);
-        write(&path, &k, "scene", &t.flat, &t.walks).unwrap();
+        let k = key(&s, &params);
+        write(&path, &k, "scene", &t.flat).unwrap();
         let back = read(&path, &k).unwrap();
         let (a, b) = (&t.flat, &back.flat);
         assert_eq!(a.origins, b.origins);
@@ -263,9 +261,17 @@ mod tests {
         assert_eq!((a.eye_origin, a.fallback_origin), (b.eye_origin, b.fallback_origin));
         assert_eq!(bytemuck::cast_slice::<_, u8>(&a.groups), bytemuck::cast_slice::<_, u8>(&b.groups));
         assert_eq!(a.group_prims, b.group_prims);
-        assert_eq!(t.walks, back.walks);
-        // Another key, a truncated file and a foreign file are refused.
-        let other = key("scene", &BuildParams { image: Some((33, 24)), ..params.clone() });
+        back.flat.check_scene(s.primitives.len(), s.lights.len()).unwrap();
+        // The key changes with the image size and with the scene, by as little as one
+        // sphere's radius; another key, a truncated file and a foreign file are refused.
+        let other = key(&s, &BuildParams { image: Some((33, 24)), ..params.clone() });
+        assert_ne!(other, k);
+        let mut moved = s.clone();
+        if let crate::scene::Primitive::Sphere(sp) = &mut moved.primitives[3] {
+            sp.radius *= 1.001;
+        }
+        assert_ne!(key(&moved, &params), k);
+        assert_eq!(key(&s, &params), k, "the key is a function of the scene and params");
         assert!(read(&path, &other).unwrap_err().to_string().contains("another scene or other settings"));
         let bytes = std::fs::read(&path).unwrap();
         std::fs::write(&path, &bytes[..bytes.len() - 3]).unwrap();

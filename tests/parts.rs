@@ -405,6 +405,28 @@ fn frames_sample_the_animation_one_file_each() {
     assert!(differ("f_000.png", "f_002.png") > 40 * 30 / 4, "the animation does not move the camera");
     assert!(!d.join("f_003.png").exists());
 
+    // One frame's tables, on the GPU: the same image as building them in place; another
+    // frame's pose has another key.
+    let gpu = ["--width", "40", "--height", "30"];
+    let mut build = vec!["tables", orbit, "--frame", "2", "--fps", "1", "-o", "f2.tables"];
+    build.extend_from_slice(&gpu);
+    ok(&build, d);
+    let gpu_frame = |extra: &[&str]| {
+        let mut a = vec!["render", orbit, "--fps", "1"];
+        a.extend_from_slice(&gpu);
+        a.extend_from_slice(extra);
+        a.iter().map(|s| s.to_string()).collect::<Vec<_>>()
+    };
+    ok(&args(&gpu_frame(&["--frames", "2..2", "-o", "g_#.exr"])), d);
+    ok(&args(&gpu_frame(&["--frames", "2..2", "--tables", "f2.tables", "-o", "s_#.exr"])), d);
+    assert!(read("g_2.exr") == read("s_2.exr"), "a frame traced on its stored tables differs");
+    fails(
+        &args(&gpu_frame(&["--frames", "1..1", "--tables", "f2.tables", "-o", "s_#.exr"])),
+        d,
+        "another scene or other settings",
+    );
+    assert!(!d.join("s_1.exr").exists());
+
     // Frames of a file that has no animation, or is not glTF, are refused.
     let bx = shared("gltf/Box/Box.gltf");
     fails(&["render", bx.to_str().unwrap(), "--frames", "0..1", "-o", "b.png"], d, "has no animations");

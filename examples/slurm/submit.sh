@@ -11,15 +11,19 @@
 #       one task per frame of a glTF animation, each writing its own file (OUTPUT's run of
 #       `#`, or `_NNNN`, becomes the frame number).
 #
-# Prints the job ids (the tables job's on the GPU backend, the array's, the merge's). Render options are passed to
-# `cuberay render` as they are (e.g. --width 1024 --height 768 --sampling corners).
+# Prints the job ids (the tables job's on the GPU backend, the array's, the merge's).
+# Render options are passed to `cuberay render` as they are (e.g. --width 1024
+# --height 768 --sampling corners).
 # The cuberay binary is $CUBERAY (default: cuberay on the PATH); the jobs inherit this
-# environment. Extra sbatch options (partition, account, time limit) go in $SBATCH_ARGS.
+# environment. Extra sbatch options for every job (partition, account, time limit, and a
+# GPU where the cluster schedules them: --gres=gpu:1) go in $SBATCH_ARGS; options for the
+# tables job alone (its build uses every CPU it gets: --cpus-per-task=8) in
+# $TABLES_SBATCH_ARGS.
 set -euo pipefail
 
 here=$(cd "$(dirname "$0")" && pwd)
 usage() {
-    sed -n '4,11p' "$0" | sed 's/^# \{0,1\}//' >&2
+    sed -n '4,12p' "$0" | sed 's/^# \{0,1\}//' >&2
     exit 2
 }
 (($# >= 4)) || usage
@@ -35,7 +39,10 @@ submit() {
     out=$(sbatch --parsable "$@")
     echo "${out%%;*}"
 }
+# Arrays are expanded as ${a[@]+"${a[@]}"}: bash before 4.4 (still on some clusters)
+# calls an empty "${a[@]}" unbound under set -u.
 read -r -a extra <<<"${SBATCH_ARGS:-}"
+read -r -a tables_extra <<<"${TABLES_SBATCH_ARGS:-}"
 
 case $mode in
     --tiles)
@@ -43,25 +50,31 @@ case $mode in
         parts=$output.parts
         mkdir -p -- "$parts"
         rm -f -- "$parts"/part_*.exr "$parts"/part_*.json "$parts"/merged.json
-        # On the GPU backend one job builds the candidate tables first and every task reads
-        # them (`render --tables`); the CPU reference builds its own acceleration structure.
+        # On the GPU backend with tables one job builds them first and every task reads them
+        # (`render --tables`); the CPU reference builds its own acceleration structure, and
+        # --accel brute traces no tables.
         gpu=yes
         for ((k = 1; k <= $#; k++)); do
             a=${!k}
-            if [[ $a == --backend=cpu ]]; then gpu=no; fi
-            if [[ $a == --backend ]]; then n=$((k + 1)); [[ ${!n:-} == cpu ]] && gpu=no; fi
+            n=$((k + 1))
+            case $a in
+                --backend=cpu | --accel=brute) gpu=no ;;
+                --backend) [[ ${!n:-} == cpu ]] && gpu=no ;;
+                --accel) [[ ${!n:-} == brute ]] && gpu=no ;;
+            esac
         done
         tables=() after=()
         if [[ $gpu == yes ]]; then
             rm -f -- "$parts/scene.tables"
-            build=$(submit "${extra[@]}" --output="$parts/tables.log" \
+            build=$(submit ${extra[@]+"${extra[@]}"} ${tables_extra[@]+"${tables_extra[@]}"} --output="$parts/tables.log" \
                 "$here/tables.sbatch" "$parts/scene.tables" "$scene" "$@")
             tables=(--tables "$parts/scene.tables")
             after=(--dependency="afterok:$build" --kill-on-invalid-dep=yes)
         fi
-        array=$(submit "${extra[@]}" "${after[@]}" --array="0-$((count - 1))" \
-            --output="$parts/render-%a.log" "$here/render.sbatch" tiles "$count" "$parts" "$scene" "$@" "${tables[@]}")
-        merge=$(submit "${extra[@]}" --dependency="afterok:$array" --kill-on-invalid-dep=yes \
+        array=$(submit ${extra[@]+"${extra[@]}"} ${after[@]+"${after[@]}"} --array="0-$((count - 1))" \
+            --output="$parts/render-%a.log" "$here/render.sbatch" tiles "$count" "$parts" "$scene" "$@" \
+            ${tables[@]+"${tables[@]}"})
+        merge=$(submit ${extra[@]+"${extra[@]}"} --dependency="afterok:$array" --kill-on-invalid-dep=yes \
             --output="$parts/merge.log" "$here/merge.sbatch" "$parts" "$output")
         echo ${build:-} "$array" "$merge"
         ;;
@@ -72,7 +85,7 @@ case $mode in
         first=${BASH_REMATCH[1]} last=${BASH_REMATCH[2]}
         ((first <= last)) || { echo "submit.sh: --frames $count: the first frame is after the last" >&2; exit 2; }
         # Task ids count from 0 (Slurm caps them near 1000 by default), frames from FIRST.
-        array=$(submit "${extra[@]}" --array="0-$((last - first))" \
+        array=$(submit ${extra[@]+"${extra[@]}"} --array="0-$((last - first))" \
             --output="$logs/render-frame-%a.log" "$here/render.sbatch" frames "$first" "$output" "$scene" "$@")
         echo "$array"
         ;;

@@ -293,25 +293,23 @@ fn render_one(
     };
     opts.validate()?;
     let part = opts.window.is_some() && format == OutputFormat::Exr;
-    // A part names its scene by content, so that `merge` can refuse parts of another one;
-    // stored tables are keyed by it.
-    let scene_id = match part || args.tables.is_some() {
+    // A part names its scene by content, so that `merge` can refuse parts of another one.
+    let scene_id = match part {
         false => None,
         true => Some(scene_identity(&args.scene, args.trace.camera, frame, time)?),
     };
     let scene = &loaded.scene;
     let read_start = std::time::Instant::now();
-    let stored = match (&args.tables, gpu, &scene_id) {
-        (None, _, _) => None,
-        (Some(_), None, _) => {
+    let stored = match (&args.tables, gpu) {
+        (None, _) => None,
+        (Some(_), None) => {
             bail!("--tables holds tables for the GPU backend; the CPU reference builds its own")
         }
-        (Some(path), Some(_), Some(id)) => {
+        (Some(path), Some(_)) => {
             let params = GpuRenderer::build_params(scene, &opts, args.aov.is_some())
                 .context("--tables: this render traces no tables (--accel brute)")?;
-            Some(tablefile::read(path, &tablefile::key(&id.fingerprint(), &params))?)
+            Some(tablefile::read(path, &tablefile::key(scene, &params))?)
         }
-        (Some(_), Some(_), None) => unreachable!("a scene identity is made whenever --tables is given"),
     };
     let read_s = read_start.elapsed().as_secs_f64();
     let progress = progress_bar("rendering");

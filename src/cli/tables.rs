@@ -12,7 +12,7 @@ use cuberay::gpu::GpuRenderer;
 use cuberay::output::Aov;
 use cuberay::tablefile;
 
-use super::render::{scene_identity, TraceArgs};
+use super::render::TraceArgs;
 
 #[derive(Args, Debug)]
 pub struct TablesArgs {
@@ -29,18 +29,27 @@ pub struct TablesArgs {
     /// rays only.
     #[arg(long, value_enum)]
     pub aov: Option<Aov>,
+    /// Build the tables of this frame of a glTF animation (`render --frames F..F`).
+    #[arg(long)]
+    pub frame: Option<u32>,
+    /// Frames per second of --frame.
+    #[arg(long, default_value_t = 24.0, requires = "frame")]
+    pub fps: f64,
 }
 
 pub fn run(args: TablesArgs) -> anyhow::Result<()> {
-    let (scene_name, loaded, opts) = args.trace.load(&args.scene)?;
+    if !(args.fps.is_finite() && args.fps > 0.0) {
+        anyhow::bail!("--fps {} is not a positive number of frames per second", args.fps);
+    }
+    let time = args.frame.map(|f| f as f64 / args.fps);
+    let (scene_name, loaded, opts) = args.trace.load_at(&args.scene, time)?;
     let scene = &loaded.scene;
     let params = GpuRenderer::build_params(scene, &opts, args.aov.is_some())
         .context("--accel brute traces no tables: there is nothing to build")?;
-    let id = scene_identity(&args.scene, args.trace.camera, None, None)?;
     let t = coherence::build(scene, &params)
         .with_context(|| format!("cannot build the tables of {}", scene_name.display()))?;
-    let key = tablefile::key(&id.fingerprint(), &params);
-    tablefile::write(&args.output, &key, &id.name, &t.flat, &t.walks)?;
+    let key = tablefile::key(scene, &params);
+    tablefile::write(&args.output, &key, &scene_name.display().to_string(), &t.flat)?;
     let stats = TableStats::of(&t);
     eprintln!(
         "{}: {} origins, {} entries, {:.1} MiB, built in {:.2} s",

@@ -184,6 +184,29 @@ impl FlatTables {
         self.check_lists(primitives).map_err(crate::error::Error::TablesInvalid)
     }
 
+    /// [`FlatTables::check`], and that the per-primitive and per-light indices fit a scene of
+    /// `primitives` primitives and `lights` lights: for tables that were not built here (read
+    /// from a file), whose every index the kernels will follow.
+    pub fn check_scene(&self, primitives: usize, lights: usize) -> crate::error::Result<()> {
+        self.check(primitives)?;
+        let bad = |m: String| Err(crate::error::Error::TablesInvalid(m));
+        let origins = self.origins.len() as u64;
+        let fits = |o: u32| o == NO_ORIGIN || (o as u64) < origins;
+        if !fits(self.eye_origin) {
+            return bad(format!("the eye origin {} is out of range", self.eye_origin));
+        }
+        if self.prim_origin.len() != primitives {
+            return bad(format!("{} primitive origins for {primitives} primitives", self.prim_origin.len()));
+        }
+        if self.light_origin.len() != lights {
+            return bad(format!("{} light origins for {lights} lights", self.light_origin.len()));
+        }
+        if let Some(o) = self.light_origin.iter().find(|&&o| !fits(o)) {
+            return bad(format!("light origin {o} is out of range"));
+        }
+        Ok(())
+    }
+
     fn check_lists(&self, primitives: usize) -> Result<(), String> {
         if self.faces.len() != self.origins.len() * 6 {
             return Err("faces is not six per origin".into());
@@ -213,7 +236,9 @@ impl FlatTables {
                 if w.width == 0 || w.height == 0 {
                     continue;
                 }
-                if w.iu0 + w.width > org.n || w.iv0 + w.height > org.n {
+                if w.iu0 as u64 + w.width as u64 > org.n as u64
+                    || w.iv0 as u64 + w.height as u64 > org.n as u64
+                {
                     return Err(format!("origin {o} face {f}: window outside the cube"));
                 }
                 if w.cell_base as u64 + (w.width as u64) * (w.height as u64) > ncells {

@@ -76,24 +76,25 @@ struct Prepared {
     start: Instant,
 }
 
-/// The tables a render traces: built for it, or read from a file (`render --tables`).
+/// The tables a render traces: built for it, or read from a file (`render --tables`), with
+/// the bounds on their walks computed here.
 pub enum TableSet {
     Built(Tables),
-    Stored(StoredTables),
+    Stored(StoredTables, WalkBounds),
 }
 
 impl TableSet {
     pub fn flat(&self) -> &FlatTables {
         match self {
             TableSet::Built(t) => &t.flat,
-            TableSet::Stored(t) => &t.flat,
+            TableSet::Stored(t, _) => &t.flat,
         }
     }
 
     pub fn walks(&self) -> &WalkBounds {
         match self {
             TableSet::Built(t) => &t.walks,
-            TableSet::Stored(t) => &t.walks,
+            TableSet::Stored(_, w) => w,
         }
     }
 }
@@ -165,9 +166,12 @@ impl GpuRenderer {
                 ))
             }
             Some(t) => {
-                t.flat.check(scene.primitives.len())?;
+                t.flat.check_scene(scene.primitives.len(), scene.lights.len())?;
+                let effects =
+                    Self::build_params(scene, opts, aov).and_then(|p| p.effects).unwrap_or(scene.effects());
+                let walks = WalkBounds::of(scene, &t.flat, effects);
                 point_at(&mut packed.params, &t.flat);
-                Some(TableSet::Stored(t))
+                Some(TableSet::Stored(t, walks))
             }
         };
         Ok(Prepared { kernel, variant, pipeline, packed, tables, start })
