@@ -5,7 +5,11 @@
 #if TABLES
 #include "shared/tables.wgsl"
 #include "shared/walk.wgsl"
-#else
+#endif
+#if BVH
+#include "shared/bvh.wgsl"
+#endif
+#if BRUTE
 #include "shared/brute.wgsl"
 #endif
 #include "shared/sampling.wgsl"

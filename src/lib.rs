@@ -10,13 +10,15 @@
 //!
 //! Layers, each using only those before it: [`scene`] ← [`load`]; [`scene`] ← [`kernel`] ←
 //! [`coherence`] ← [`layout`] ← [`gpu`] ← [`preview`]; the CPU [`reference`](mod@reference) beside them.
-//! [`job`], [`sampling`], [`stats`], [`output`], [`window`], [`part`] and [`error`] are
+//! [`job`], [`sampling`], [`bvh`], [`stats`], [`output`], [`window`], [`part`] and [`error`] are
 //! shared by both backends.
 //!
 //! - [`scene`]: the plain-data scene model both renderers read;
 //! - [`load`]: NFF and glTF loaders that produce a validated [`scene::Scene`];
 //! - [`job`]: what to render ([`job::RenderOptions`]) and what a render returns;
 //! - [`sampling`]: where eye rays go through the image;
+//! - [`bvh`]: the bounding volume hierarchy both backends can trace (`--accel bvh`), the
+//!   baseline the candidate tables are measured against;
 //! - [`kernel`]: the kernels' f32 arithmetic on the CPU (twins of the WGSL geometry);
 //! - [`coherence`]: the direction-cube candidate tables, flattened, and their one walker;
 //! - [`layout`]: the `#[repr(C)]` twins of the WGSL structs and constants, the packed scene;
@@ -31,6 +33,7 @@
 //!   share one build;
 //! - [`error`]: the library's one error type.
 
+pub mod bvh;
 pub mod coherence;
 pub mod compare;
 pub mod error;

@@ -9,6 +9,7 @@ mod common;
 
 use std::sync::OnceLock;
 
+use cuberay::coherence::walk::WALK_CHUNK;
 use cuberay::compare::compare;
 use cuberay::gpu::{GpuContext, GpuRenderer};
 use cuberay::job::{AccelKind, RenderOptions, Rendered};
@@ -354,67 +355,74 @@ fn cylinders_scene() -> Scene {
     nff(&s)
 }
 
-/// Renders `scene` with the tables and by brute force on the GPU. The id and depth AOVs (eye
-/// rays) must be identical, and so must the full render, pixel for pixel, with every ray
-/// count: the tables change which primitives are tested, never the answer, for rays of
-/// every kind (both trace the same shadow ray, from a positional light towards the point).
-/// Only the test counts differ, and must be lower with the tables.
-fn tables_match_brute_force(name: &str, scene: &Scene, w: u32, h: u32) {
+/// Renders `scene` with the tables, with the BVH and by brute force on the GPU. The id and
+/// depth AOVs (eye rays) must be identical, and so must the full render, pixel for pixel,
+/// with every ray count: an accelerator changes which primitives are tested, never the
+/// answer, for rays of every kind (all trace the same shadow ray, from a positional light
+/// towards the point). Only the test counts differ, and must be lower than brute force's.
+fn accels_match_brute_force(name: &str, scene: &Scene, w: u32, h: u32) {
     let r = renderer();
     let opts = |accel| RenderOptions { accel, ..RenderOptions::new(w, h) };
+    let accels = [(AccelKind::Cube, "cube"), (AccelKind::Bvh, "bvh")];
     for aov in [Aov::Id, Aov::Depth] {
         let render = |accel| {
             r.render_aov(scene, &opts(accel), aov, &hidden()).unwrap_or_else(|e| panic!("{name}: {e}"))
         };
-        let (cube, brute) = (render(AccelKind::Cube), render(AccelKind::Brute));
-        assert_eq!(
-            (cube.stats.settings.accel.as_str(), brute.stats.settings.accel.as_str()),
-            ("cube", "brute")
-        );
-        assert_same_pixels(&format!("{name}-{aov:?}"), &cube.image, &brute.image);
-        assert!(cube.stats.rays.eye_hit > 0, "{name}: nothing hit");
+        let brute = render(AccelKind::Brute);
+        assert_eq!(brute.stats.settings.accel, "brute");
+        for (accel, label) in accels {
+            let a = render(accel);
+            assert_eq!(a.stats.settings.accel, label);
+            assert_same_pixels(&format!("{name}-{aov:?}-{label}"), label, &a.image, &brute.image);
+            assert!(a.stats.rays.eye_hit > 0, "{name}: nothing hit");
+        }
     }
     let render = |accel| r.render(scene, &opts(accel), &hidden()).unwrap_or_else(|e| panic!("{name}: {e}"));
-    let (cube, brute) = (render(AccelKind::Cube), render(AccelKind::Brute));
-    let (rc, rb) = (cube.stats.rays, brute.stats.rays);
-    assert_eq!(
-        (rc.eye, rc.eye_hit, rc.reflect, rc.refract, rc.shadow, rc.shadow_blocked),
-        (rb.eye, rb.eye_hit, rb.reflect, rb.refract, rb.shadow, rb.shadow_blocked),
-        "{name}: ray counts (eye, hits, reflect, refract, shadow, blocked), tables left, brute force right"
-    );
-    assert_same_pixels(name, &cube.image, &brute.image);
-    eprintln!(
-        "{name}: tables = brute force, {} blocked shadow rays; tests per ray {:.2} vs {:.2}",
-        rc.shadow_blocked, cube.stats.tests_per_ray.all, brute.stats.tests_per_ray.all
-    );
-    if scene.primitives.len() > 16 {
-        let (tc, tb) = (cube.stats.tests_per_ray.all, brute.stats.tests_per_ray.all);
-        assert!(tc < tb, "{name}: the tables test {tc} per ray, brute force {tb}");
+    let brute = render(AccelKind::Brute);
+    let rb = brute.stats.rays;
+    for (accel, label) in accels {
+        let a = render(accel);
+        let ra = a.stats.rays;
+        assert_eq!(
+            (ra.eye, ra.eye_hit, ra.reflect, ra.refract, ra.shadow, ra.shadow_blocked),
+            (rb.eye, rb.eye_hit, rb.reflect, rb.refract, rb.shadow, rb.shadow_blocked),
+            "{name}: ray counts (eye, hits, reflect, refract, shadow, blocked), {label} left, brute force right"
+        );
+        assert_same_pixels(&format!("{name}-{label}"), label, &a.image, &brute.image);
+        let (ta, tb) = (a.stats.tests_per_ray.all, brute.stats.tests_per_ray.all);
+        eprintln!(
+            "{name}: {label} = brute force, {} blocked shadow rays; tests per ray {ta:.2} vs {tb:.2}, \
+             bound tests {:.2}",
+            ra.shadow_blocked, a.stats.bound_tests_per_ray.all
+        );
+        if scene.primitives.len() > 16 {
+            assert!(ta < tb, "{name}: {label} tests {ta} per ray, brute force {tb}");
+        }
     }
 }
 
-/// Fails, saving both images, at the first pixel where the tables' image differs from brute
-/// force's in any bit.
-fn assert_same_pixels(name: &str, cube: &cuberay::output::Image, brute: &cuberay::output::Image) {
-    if let Some((x, y, c, b)) = common::first_difference(cube, brute) {
-        let files = common::save_failure(name, &[("cube", cube), ("brute", brute)], None);
-        panic!("{name}: pixel ({x}, {y}) tables {c:?} brute force {b:?}; images: {files}");
+/// Fails, saving both images, at the first pixel where accelerator `label`'s image differs
+/// from brute force's in any bit.
+fn assert_same_pixels(name: &str, label: &str, a: &cuberay::output::Image, brute: &cuberay::output::Image) {
+    if let Some((x, y, c, b)) = common::first_difference(a, brute) {
+        let files = common::save_failure(name, &[(label, a), ("brute", brute)], None);
+        panic!("{name}: pixel ({x}, {y}) {label} {c:?} brute force {b:?}; images: {files}");
     }
 }
 
-cases!(tables_match_brute_force: super::tables_match_brute_force {
+cases!(accels_match_brute_force: super::accels_match_brute_force {
     spheres => ("spheres", &super::spheres_scene(), 64, 48),
     triangles => ("triangles", &super::triangles_scene(), 64, 48),
     cylinders => ("cylinders", &super::cylinders_scene(), 64, 48),
     showcase => ("showcase", &super::showcase(), 64, 48),
 });
 
-/// An SPD size-1 database traced with the tables and by brute force on the GPU.
-fn spd_size_1_tables_match_brute_force(db: &str) {
+/// An SPD size-1 database traced with the tables, the BVH and by brute force on the GPU.
+fn spd_size_1_accels_match_brute_force(db: &str) {
     let name = format!("{db}_s1");
-    tables_match_brute_force(&name, &spd(&name), 48, 48);
+    accels_match_brute_force(&name, &spd(&name), 48, 48);
 }
-spd_cases!(spd_size_1_tables_match_brute_force: super::spd_size_1_tables_match_brute_force => [balls, gears, jacks, lattice, mount, rings, shells, sombrero, teapot, tetra, tree]);
+spd_cases!(spd_size_1_accels_match_brute_force: super::spd_size_1_accels_match_brute_force => [balls, gears, jacks, lattice, mount, rings, shells, sombrero, teapot, tetra, tree]);
 
 /// The tables traced on the GPU agree with the CPU reference on the small test scenes
 /// (every ray kind; shadow rays traced from the lights).
@@ -458,12 +466,59 @@ fn a_mirror_floor_split_into_patches_agrees_with_the_cpu() {
     assert!(g.stats.rays.reflect > 1000);
 }
 
+/// Walks longer than a kernel step resume where they stopped: 9000 triangles on the planes
+/// x + y = c (c from 0.2 to 0.8) all have boxes around the camera's axis, so an eye ray with
+/// x + y < 0.2, which misses them all, visits every node and leaf of the BVH, more than a
+/// step's WALK_CHUNK iterations; and the shadow rays of eight lights on the axis, back
+/// through the stack, are longer than their inline budget, so they become jobs walked over
+/// several steps. AOVs and ray counts must equal brute force's, and so must the image, up
+/// to the order in which a pixel's light terms are added.
 #[test]
-fn bvh_is_refused_on_the_gpu() {
-    let scene = spheres_scene();
-    let bvh = RenderOptions { accel: AccelKind::Bvh, ..RenderOptions::new(8, 8) };
-    let e = renderer().render(&scene, &bvh, &hidden()).err().expect("bvh refused on the GPU");
-    assert!(e.to_string().contains("no BVH"), "{e}");
+fn bvh_walks_longer_than_a_step_resume() {
+    let mut s = String::from(
+        "b 0.1 0.1 0.1\nv\nfrom 0 0 -5\nat 0 0 10\nup 0 1 0\nangle 4\nhither 0.01\nresolution 16 16\n",
+    );
+    for i in 0..8 {
+        s += &format!("l {} -0.3 -8\n", 0.02 * i as f64 - 0.08);
+    }
+    s += "f 0.8 0.6 0.4 0.8 0 1 0 1\ns 0 0 15 3\nf 0.3 0.7 0.9 0.8 0 1 0 1\n";
+    for k in 0..9000 {
+        let c = 0.2 + 0.6 * (k % 97) as f64 / 97.0;
+        let z = (k % 600) as f64 * 0.0133;
+        s += &format!("p 3\n{} -1 {z}\n-1 {} {z}\n{} -1 {}\n", c + 1.0, c + 1.0, c + 1.0, z + 2.0);
+    }
+    let scene = nff(&s);
+    let bvh = cuberay::layout::bvh::pack_bvh(&scene);
+    assert!(bvh.stride as usize + scene.primitives.len() > WALK_CHUNK as usize + 2000);
+    let r = renderer();
+    let opts = |accel| RenderOptions { accel, ..RenderOptions::new(16, 16) };
+    let brute = r.render(&scene, &opts(AccelKind::Brute), &hidden()).unwrap();
+    let b = r.render(&scene, &opts(AccelKind::Bvh), &hidden()).unwrap();
+    // Brute force makes every shadow ray of this scene a job (it has more primitives than
+    // an inline walk may test), the BVH traces the short ones at once: the same light terms
+    // are added to a pixel in another order, which may change its last bit, no more.
+    for (i, (p, q)) in b.image.pixels.iter().zip(&brute.image.pixels).enumerate() {
+        for c in 0..4 {
+            assert!(
+                (p[c] - q[c]).abs() <= 4.0 * f32::EPSILON * q[c].abs(),
+                "pixel {i}: bvh {p:?} brute force {q:?}"
+            );
+        }
+    }
+    assert_eq!(b.stats.rays, brute.stats.rays);
+    assert!(b.stats.rays.shadow_blocked > 0 && b.stats.rays.shadow > b.stats.rays.shadow_blocked);
+    let nodes = b.stats.bound_tests_per_ray;
+    eprintln!(
+        "long bvh walks: {} nodes, node tests per ray {:.0} eye, {:.0} shadow",
+        bvh.stride, nodes.eye, nodes.shadow
+    );
+    // The misses of eye and shadow rays walk far past one step.
+    assert!(nodes.eye > WALK_CHUNK as f64 / 4.0 && nodes.shadow > WALK_CHUNK as f64 / 4.0, "{nodes:?}");
+    for aov in [Aov::Id, Aov::Depth] {
+        let a = r.render_aov(&scene, &opts(AccelKind::Bvh), aov, &hidden()).unwrap();
+        let b = r.render_aov(&scene, &opts(AccelKind::Brute), aov, &hidden()).unwrap();
+        assert_same_pixels(&format!("long bvh walks {aov:?}"), "bvh", &a.image, &b.image);
+    }
 }
 
 /// A long render's memory does not grow with its length: `cuberay render` is sampled while

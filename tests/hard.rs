@@ -2,12 +2,12 @@
 //! `scenes/hard/` (each a file a user can render: the README lists the commands).
 //!
 //! Every case goes through [`run`], which renders the scene on the GPU with the candidate
-//! tables and by brute force and on the CPU reference with brute force, its BVH and the
-//! tables' order, and asserts what must hold on any scene:
+//! tables, the BVH and by brute force and on the CPU reference with brute force, its BVH and
+//! the tables' order, and asserts what must hold on any scene:
 //!
-//! - the GPU's tables give the same image, id and depth AOVs and ray counts as GPU brute
-//!   force, byte for byte (hard cases are where a table that is not quite conservative
-//!   shows), and the CPU's three accelerators give one image;
+//! - the GPU's tables and BVH each give the same image, id and depth AOVs and ray counts as
+//!   GPU brute force, byte for byte (hard cases are where a table or box test that is not
+//!   quite conservative shows), and the CPU's three accelerators give one image;
 //! - no pixel is NaN or infinite, and `rays.self_hits` is 0 on both backends;
 //! - the GPU agrees with the CPU: FLIP mean, eye-ray ids (apart from a per-case number of
 //!   pixels, and from triangles of one flat surface meeting at an edge), eye hits, and
@@ -127,14 +127,15 @@ fn run(name: &str, scene: Scene, opts: RenderOptions, max_flip: f64, max_ids: us
     let (g_cube, g_brute) = (gpu(AccelKind::Cube), gpu(AccelKind::Brute));
     assert_eq!(g_cube.stats.settings.accel, "cube");
     assert_identical(name, "GPU tables vs GPU brute force", &g_cube, &g_brute);
+    let g_bvh = gpu(AccelKind::Bvh);
+    assert_eq!(g_bvh.stats.settings.accel, "bvh");
+    assert_identical(name, "GPU BVH vs GPU brute force", &g_bvh, &g_brute);
     let (gpu_id, gpu_depth) = (gpu_aov(AccelKind::Cube, Aov::Id), gpu_aov(AccelKind::Cube, Aov::Depth));
-    assert_identical(name, "GPU id AOV, tables vs brute", &gpu_id, &gpu_aov(AccelKind::Brute, Aov::Id));
-    assert_identical(
-        name,
-        "GPU depth AOV, tables vs brute",
-        &gpu_depth,
-        &gpu_aov(AccelKind::Brute, Aov::Depth),
-    );
+    let (brute_id, brute_depth) = (gpu_aov(AccelKind::Brute, Aov::Id), gpu_aov(AccelKind::Brute, Aov::Depth));
+    assert_identical(name, "GPU id AOV, tables vs brute", &gpu_id, &brute_id);
+    assert_identical(name, "GPU depth AOV, tables vs brute", &gpu_depth, &brute_depth);
+    assert_identical(name, "GPU id AOV, BVH vs brute", &gpu_aov(AccelKind::Bvh, Aov::Id), &brute_id);
+    assert_identical(name, "GPU depth AOV, BVH vs brute", &gpu_aov(AccelKind::Bvh, Aov::Depth), &brute_depth);
 
     let c_bvh = cpu(AccelKind::Bvh);
     assert_identical(name, "CPU BVH vs CPU brute force", &c_bvh, &cpu(AccelKind::Brute));

@@ -71,31 +71,39 @@ fn binds(m: &naga::Module, binding: u32) -> bool {
     m.global_variables.iter().any(|(_, v)| v.binding.as_ref().is_some_and(|b| b.binding == binding))
 }
 
-/// `--accel cube` kernels walk the tables and contain no brute-force loop; `--accel brute`
-/// kernels contain no table code and bind no table buffer.
+/// Each kernel contains its own queries only: `--accel cube` kernels walk the tables,
+/// `--accel bvh` kernels the BVH, `--accel brute` kernels loop over every primitive, and none
+/// contains or binds the others' code or buffers.
 #[test]
-fn table_and_brute_kernels_contain_only_their_own_queries() {
+fn each_kernel_contains_only_its_own_queries() {
     for v in Variant::all() {
         let m = module(v);
         let cube = v.queries == Queries::Tables;
+        let bvh = v.queries == Queries::Bvh;
+        let brute = v.queries == Queries::Brute;
         let table_fns = ["cube_walk_nearest", "cube_cell_range", "cube_face_cell", "cube_origin"];
         for f in table_fns {
             assert_eq!(has_function(&m, f), cube, "{v:?}: {f}");
         }
         assert_eq!(has_function(&m, "cube_walk_any"), cube && v.shadows, "{v:?}");
-        assert!(!has_function(&m, "brute_nearest") || !cube, "{v:?}: brute loop in a table kernel");
-        assert_eq!(has_function(&m, "brute_nearest"), !cube, "{v:?}");
-        assert_eq!(has_function(&m, "brute_any_range"), !cube && v.shadows, "{v:?}");
-        // Both accelerators trace the one shadow ray, and only where there are shadows.
+        assert_eq!(has_function(&m, "bvh_nearest"), bvh, "{v:?}");
+        assert_eq!(has_function(&m, "box_hit"), bvh, "{v:?}");
+        assert_eq!(has_function(&m, "bvh_any"), bvh && v.shadows, "{v:?}");
+        assert_eq!(has_function(&m, "brute_nearest"), brute, "{v:?}");
+        assert_eq!(has_function(&m, "brute_any_range"), brute && v.shadows, "{v:?}");
+        // Every accelerator traces the one shadow ray, and only where there are shadows.
         assert_eq!(has_function(&m, "shadow_ray"), v.shadows, "{v:?}");
-        assert_eq!(has_function(&m, "brute_range"), !cube, "{v:?}");
+        assert_eq!(has_function(&m, "brute_range"), brute, "{v:?}");
         for binding in 11..=19 {
             assert_eq!(binds(&m, binding), cube, "{v:?}: binding {binding}");
         }
-        // No loop runs over primitive ids in a table kernel: the only loops over primitives
-        // are the candidate walks and group members.
+        for binding in 20..=21 {
+            assert_eq!(binds(&m, binding), bvh, "{v:?}: binding {binding}");
+        }
+        // Only brute force loops over primitive ids; the table and BVH kernels loop over
+        // candidate walks, group members and leaves.
         let src = compose(Kernel::Render, v).unwrap();
-        assert_eq!(src.contains("; id < end; id++"), !cube, "{v:?}");
+        assert_eq!(src.contains("; id < end; id++"), brute, "{v:?}");
         assert!(!src.contains("< params.prim_count; id++"), "{v:?}: an unbounded loop");
     }
 }
@@ -104,7 +112,7 @@ fn table_and_brute_kernels_contain_only_their_own_queries() {
 fn a_scene_without_mirrors_or_glass_has_no_such_code() {
     // Matte only: no reflection, no refraction.
     let matte = scene(&format!("{VIEW}l 3 3 3\nf 1 0 0 1 0 1 0 1\ns 0 0 0 1\n"));
-    for q in [Queries::Brute, Queries::Tables] {
+    for q in Queries::ALL {
         let v = Variant::for_effects(matte.effects(), 5).with_queries(q);
         let m = module(v);
         assert!(!has_function(&m, "reflect_dir") && !has_function(&m, "refract_dir"), "{v:?}");
@@ -112,7 +120,7 @@ fn a_scene_without_mirrors_or_glass_has_no_such_code() {
     }
     // A mirror but no glass: reflection without refraction.
     let mirror = scene(&format!("{VIEW}l 3 3 3\nf 1 1 1 0.2 0.8 10 0 1\ns 0 0 0 1\n"));
-    for q in [Queries::Brute, Queries::Tables] {
+    for q in Queries::ALL {
         let m = module(Variant::for_effects(mirror.effects(), 5).with_queries(q));
         assert!(has_function(&m, "reflect_dir") && !has_function(&m, "refract_dir"));
     }

@@ -11,8 +11,9 @@ use std::mem::{offset_of, size_of};
 use cuberay::coherence::flat::{GpuEntry, GpuFace, GpuGroup, GpuOrigin, GROUP_BIT, NO_ORIGIN};
 use cuberay::coherence::groups::GROUP_SLACK;
 use cuberay::coherence::walk::{AnyHit, UNBOUNDED, WALK_CHUNK};
-use cuberay::gpu::shaders::{compose, Kernel, Variant};
+use cuberay::gpu::shaders::{compose, Kernel, Queries, Variant};
 use cuberay::kernel::{FAR, NO_ID, SHADOW_END_REL};
+use cuberay::layout::bvh::{BvhNode, BVH_LEAF_SHIFT, BVH_SLACK};
 use cuberay::layout::counters::*;
 use cuberay::layout::*;
 use cuberay::preview::display::{View, ENCODE_LINEARIZE, ENCODE_NONE, ENCODE_SRGB};
@@ -104,7 +105,7 @@ fn rust_structs() -> BTreeMap<&'static str, Layout> {
             win_w,
             own_w,
             own_h,
-            _pad0,
+            bvh_stride,
         }),
         twin!(Prim { a, b, c, kind, material, flags, attr }),
         twin!(TriAttr { n0, n1, n2, uv01, uv2 }),
@@ -129,6 +130,7 @@ fn rust_structs() -> BTreeMap<&'static str, Layout> {
         twin!(GpuFace { iu0, iv0, width, height, cell_base, _pad0, _pad1, _pad2 }),
         twin!(GpuEntry { id, d_min }),
         twin!(GpuGroup { cx, cy, cz, radius, first, count, _pad0, _pad1 }),
+        twin!(BvhNode { lo, skip, hi, leaf }),
         twin!(Tile { first_point, point_count, pad0, pad1 }),
         twin!(View { width, height, grid_w, samples, corners, encode, pad0, pad1 }),
     ])
@@ -189,6 +191,8 @@ fn rust_constants() -> BTreeMap<&'static str, Value> {
         ("NO_ORIGIN", U32(NO_ORIGIN)),
         ("GROUP_BIT", U32(GROUP_BIT)),
         ("GROUP_SLACK", F32(GROUP_SLACK)),
+        ("BVH_LEAF_SHIFT", U32(BVH_LEAF_SHIFT)),
+        ("BVH_SLACK", F32(BVH_SLACK)),
         ("ACCUMULATE_WORKGROUP", U32(ACCUMULATE_WORKGROUP)),
         ("ENCODE_NONE", U32(ENCODE_NONE)),
         ("ENCODE_SRGB", U32(ENCODE_SRGB)),
@@ -196,16 +200,20 @@ fn rust_constants() -> BTreeMap<&'static str, Value> {
     ])
 }
 
-/// Every kernel, with every flag set (every shared file included), through naga.
+/// Every kernel, with every effect and each set of queries (every shared file included),
+/// through naga.
 fn modules() -> Vec<(Kernel, naga::Module)> {
     Kernel::ALL
         .iter()
-        .map(|&k| {
-            let v = if matches!(k, Kernel::Render | Kernel::Aov) {
-                Variant::all()[63]
+        .flat_map(|&k| {
+            let variants: Vec<Variant> = if matches!(k, Kernel::Render | Kernel::Aov) {
+                Queries::ALL.into_iter().map(Variant::full).collect()
             } else {
-                Variant::default()
+                vec![Variant::default()]
             };
+            variants.into_iter().map(move |v| (k, v))
+        })
+        .map(|(k, v)| {
             let src = compose(k, v).unwrap_or_else(|e| panic!("{k:?}: {e}"));
             let m = naga::front::wgsl::parse_str(&src)
                 .unwrap_or_else(|e| panic!("{k:?}: {}", e.emit_to_string(&src)));
@@ -283,6 +291,7 @@ const WGSL_ONLY_STRUCTS: &[&str] = &[
     "Walk",
     "ShadowWalk",
     "ShadowRay",
+    "BoxRay",
     "VertexOut",
 ];
 

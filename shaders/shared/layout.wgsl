@@ -47,7 +47,8 @@ struct Params {
     win_w: u32,
     own_w: u32,
     own_h: u32,
-    _pad0: u32,
+    // --accel bvh: the nodes of one threaded order of the BVH (bvh.wgsl).
+    bvh_stride: u32,
 }
 
 // One primitive (kind KIND_*). Sphere: a = (centre, radius). Triangle: a, b, c = vertices.

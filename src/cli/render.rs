@@ -125,8 +125,8 @@ pub struct TraceArgs {
     #[arg(long, default_value_t = 5)]
     pub max_depth: u32,
     /// Acceleration structure. auto: the candidate tables (cube) on the GPU; on the CPU brute
-    /// force for tiny scenes, else a BVH. cube: the direction-cube candidate tables (both
-    /// backends); bvh: CPU only.
+    /// force for tiny scenes, else a BVH. cube: the direction-cube candidate tables; bvh: a
+    /// bounding volume hierarchy (the baseline); brute: every primitive for every ray.
     #[arg(long, value_enum, default_value_t = AccelKind::Auto)]
     pub accel: AccelKind,
     /// glTF: index of the camera to use.

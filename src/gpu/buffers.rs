@@ -1,5 +1,5 @@
 //! The scene's buffers on the GPU: the packed scene and, with `--accel cube`, the flattened
-//! tables (uploaded once), and the kernels' outputs and per-point state (sized for a tile),
+//! tables, or with `--accel bvh` the flattened BVH (uploaded once), and the kernels' outputs and per-point state (sized for a tile),
 //! with their one bind group.
 
 use super::GpuContext;
@@ -9,7 +9,7 @@ use crate::layout::counters::COUNTER_BYTES;
 use crate::layout::{Packed, Params, PointState, WORKGROUP};
 
 /// A packed scene's buffers on the GPU with their bind group (the bindings of
-/// `shaders/shared/layout.wgsl` and `shaders/shared/tables.wgsl`), sized for tiles of up to
+/// `shaders/shared/layout.wgsl`, `shaders/shared/tables.wgsl` and `shaders/shared/bvh.wgsl`), sized for tiles of up to
 /// `tile` grid points. Positions are
 /// relative to the eye: a camera move rewrites `prims`, `lights` and `params`.
 pub struct SceneBuffers {
@@ -57,7 +57,7 @@ pub fn fit_tile(tile: u64, per_point: u64, limits: &wgpu::Limits) -> u64 {
     tile.min((max / per_point / group * group).max(group))
 }
 
-/// Uploads `packed` (and the candidate tables, when traced) and creates the kernels'
+/// Uploads `packed` (with its BVH, if any, and the candidate tables, when traced) and creates the kernels'
 /// buffers for tiles of up to `tile` grid points (`stepped`: with a point state each, for
 /// the `render` kernel; fewer when the adapter's limits call for it: the buffers' `tile` says
 /// how many). A buffer over the adapter's limits is refused before anything is
@@ -85,6 +85,9 @@ pub fn upload(
         sizes.push(("cell_start", size(std::mem::size_of_val(t.cell_start.as_slice()))));
         sizes.push(("entries", size(std::mem::size_of_val(t.entries.as_slice()))));
         sizes.push(("group_prims", size(std::mem::size_of_val(t.group_prims.as_slice()))));
+    }
+    if let Some(b) = &packed.bvh {
+        sizes.push(("bvh_nodes", size(std::mem::size_of_val(b.nodes.as_slice()))));
     }
     check_limits(&sizes, &device.limits())?;
     // A device that is gone (its loss reported on the next poll) creates nothing.
@@ -124,6 +127,9 @@ pub fn upload(
     let prim_patches = table("prim_patches", tables.map(|f| bytemuck::cast_slice(&f.prim_patches)));
     let groups = table("groups", tables.map(|f| bytemuck::cast_slice(&f.groups)));
     let group_prims = table("group_prims", tables.map(|f| bytemuck::cast_slice(&f.group_prims)));
+    let bvh = packed.bvh.as_ref();
+    let bvh_nodes = table("bvh_nodes", bvh.map(|b| bytemuck::cast_slice(&b.nodes)));
+    let bvh_prims = table("bvh_prims", bvh.map(|b| bytemuck::cast_slice(&b.prims)));
     let params = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("params"),
         size: std::mem::size_of::<Params>() as u64,
@@ -179,6 +185,8 @@ pub fn upload(
             (17, &prim_patches),
             (18, &groups),
             (19, &group_prims),
+            (20, &bvh_nodes),
+            (21, &bvh_prims),
         ]
         .map(|(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }),
     });

@@ -1,6 +1,6 @@
 //! Compiled kernels: one pipeline per kernel and [`Variant`], compiled on first use and
 //! cached, over the one bind group layout of the scene buffers (`shaders/shared/layout.wgsl`
-//! and `shaders/shared/tables.wgsl`: bindings 0 to 19).
+//! `shaders/shared/tables.wgsl` and `shaders/shared/bvh.wgsl`: bindings 0 to 21).
 //!
 //! Lavapipe compiles a kernel at its first dispatch, not at pipeline creation, and Mesa 24–25
 //! take 25–45 s over it; Mesa's disk cache then keeps the machine code for later runs. So the
@@ -19,7 +19,8 @@ use super::GpuContext;
 use crate::error::Result;
 
 /// The scene buffers' bindings: 0 `params`, 1–6 the read-only scene, 7–10 the kernels'
-/// outputs and state, 11–19 the candidate tables (brute-force kernels leave them unused).
+/// outputs and state, 11–19 the candidate tables, 20–21 the BVH (a kernel binds only the
+/// buffers of its own queries).
 /// `params` is a read-only storage buffer, not a uniform: lavapipe would compile a variant
 /// of the kernel for every tile's values (see `shaders/shared/layout.wgsl`).
 fn bind_layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
@@ -33,7 +34,7 @@ fn bind_layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
     let mut entries = vec![entry(0, storage(true))];
     entries.extend((1..=6).map(|b| entry(b, storage(true))));
     entries.extend((7..=10).map(|b| entry(b, storage(false))));
-    entries.extend((11..=19).map(|b| entry(b, storage(true))));
+    entries.extend((11..=21).map(|b| entry(b, storage(true))));
     entries
 }
 

@@ -1,11 +1,11 @@
 //! The GPU renderer: checks a job, compiles the kernels it needs, packs the scene (and, with
-//! `--accel cube`, builds the candidate tables), runs the kernel over the grid with the one
-//! dispatch schedule ([`super::schedule`]) and reads back the image, the ray and test
-//! counters and the kernel time.
+//! `--accel cube`, builds the candidate tables, with `--accel bvh` the BVH), runs the kernel
+//! over the grid with the one dispatch schedule ([`super::schedule`]) and reads back the
+//! image, the ray and test counters and the kernel time.
 //!
-//! `--accel auto` and `cube` trace the tables, `brute` tests every primitive, `bvh` is
-//! refused (the BVH is the CPU reference's). Both query sets answer the same WGSL calls, and
-//! a module contains only one of them ([`Variant::queries`]).
+//! `--accel auto` and `cube` trace the tables, `bvh` the BVH, `brute` tests every primitive.
+//! The three query sets answer the same WGSL calls, and a module contains only one of them
+//! ([`Variant::queries`]).
 
 use std::time::Instant;
 
@@ -122,8 +122,7 @@ impl GpuRenderer {
 
     /// The kernels' variant for a job with `effects` at `max_depth`.
     pub fn variant(effects: Effects, max_depth: u32, accel: AccelKind) -> Variant {
-        let queries = if uses_tables(accel) { Queries::Tables } else { Queries::Brute };
-        Variant::for_effects(effects, max_depth).with_queries(queries)
+        Variant::for_effects(effects, max_depth).with_queries(queries(accel))
     }
 
     /// The variant of a render (`aov`: the AOV pass, which traces eye rays only, so its
@@ -158,12 +157,16 @@ impl GpuRenderer {
         let pipeline = self.kernel(kernel, variant)?;
         let start = Instant::now();
         let mut packed = pack(scene, opts.width, opts.height, opts.spawn);
+        if variant.queries == Queries::Bvh {
+            packed = packed.with_bvh(scene);
+        }
         let tables = match stored {
             None => self.tables(scene, opts, variant, &mut packed)?.map(TableSet::Built),
             Some(_) if !variant.tables() => {
-                return Err(Error::Options(
-                    "stored tables are for --accel cube (or auto); this render traces none".into(),
-                ))
+                return Err(Error::Options(format!(
+                    "stored tables are for --accel cube (or auto); this render traces none (--accel {})",
+                    variant.queries.name()
+                )))
             }
             Some(t) => {
                 t.flat.check_scene(scene.primitives.len(), scene.lights.len())?;
@@ -364,10 +367,12 @@ impl GpuRenderer {
         grid: (u32, u32),
         progress: &ProgressBar,
     ) -> Result<RunOutput> {
-        self.check_loop_budget(scene, tables.map(TableSet::walks), max_depth)?;
+        let walks =
+            tables.map(TableSet::walks).copied().or_else(|| packed.bvh.as_ref().map(|b| b.walk_bounds()));
+        self.check_loop_budget(scene, walks.as_ref(), max_depth)?;
         let stepped = max_depth.is_some();
         let total = grid.0 as u64 * grid.1 as u64;
-        let tile = budget::tile_points(scene, tables.map(TableSet::walks), TESTS_PER_DISPATCH);
+        let tile = budget::tile_points(scene, walks.as_ref(), TESTS_PER_DISPATCH);
         let buffers = self.upload(packed, tables.map(TableSet::flat), tile, stepped)?;
         let compile_s = self.warm_up(which.0, which.1, pipeline, &buffers, &packed.params)?;
         let readback = self.ctx.readback_buffer("readback", buffers.tile * 16);
@@ -420,18 +425,22 @@ pub fn point_at(params: &mut crate::layout::Params, flat: &FlatTables) {
     params.fallback_origin = flat.fallback_origin;
 }
 
-/// Whether the GPU traces the candidate tables for `accel`: `cube` and `auto` do, `brute`
-/// does not (`bvh` is refused).
+/// The queries the GPU traces rays with for `accel`: `cube` and `auto` the candidate tables.
+pub fn queries(accel: AccelKind) -> Queries {
+    match accel {
+        AccelKind::Auto | AccelKind::Cube => Queries::Tables,
+        AccelKind::Bvh => Queries::Bvh,
+        AccelKind::Brute => Queries::Brute,
+    }
+}
+
+/// Whether the GPU traces the candidate tables for `accel`.
 pub fn uses_tables(accel: AccelKind) -> bool {
-    matches!(accel, AccelKind::Auto | AccelKind::Cube)
+    queries(accel) == Queries::Tables
 }
 
 fn accel_name(variant: Variant) -> &'static str {
-    if variant.tables() {
-        "cube"
-    } else {
-        "brute"
-    }
+    variant.queries.name()
 }
 
 /// Checks that the GPU backend can render `scene` with `opts`.
@@ -443,11 +452,6 @@ pub fn check(scene: &Scene, opts: &RenderOptions) -> Result<()> {
             "--max-depth {} is deeper than the GPU backend's ray stack allows ({MAX_DEPTH}); use --backend cpu",
             opts.max_depth
         )));
-    }
-    if opts.accel == AccelKind::Bvh {
-        return Err(Error::Options(
-            "the GPU backend has no BVH: use --accel cube (the default) or brute with --backend gpu".into(),
-        ));
     }
     if scene.primitives.len() >= u32::MAX as usize {
         return Err(Error::Scene("too many primitives for the GPU backend".into()));

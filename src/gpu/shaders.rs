@@ -6,9 +6,9 @@
 //! binary. A tiny line-based preprocessor composes one module per [`Kernel`] and
 //! [`Variant`]: `#include "shared/file.wgsl"` pastes a file (once), and `#if NAME` / `#else` /
 //! `#endif` (nestable) keep or drop lines by the variant's flags `SHADOWS`, `REFLECTION`,
-//! `REFRACTION`, `TEXTURES` and `EMISSION`, and `TABLES`, which picks the ray queries: the
-//! candidate-table walk of `shared/walk.wgsl` or the brute force of `shared/brute.wgsl`
-//! (never both). A scene without mirrors thus gets a module with no reflection code at all,
+//! `REFRACTION`, `TEXTURES` and `EMISSION`, and `TABLES`, `BVH` and `BRUTE`, of which exactly
+//! one is set: the ray queries, the candidate-table walk of `shared/walk.wgsl`, the BVH walk of
+//! `shared/bvh.wgsl` or the brute force of `shared/brute.wgsl`. A scene without mirrors thus gets a module with no reflection code at all,
 //! not a branch that is never taken.
 
 use crate::error::{Error, Result};
@@ -25,6 +25,7 @@ const SOURCES: &[(&str, &str)] = &[
     ("shared/brute.wgsl", include_str!("../../shaders/shared/brute.wgsl")),
     ("shared/tables.wgsl", include_str!("../../shaders/shared/tables.wgsl")),
     ("shared/walk.wgsl", include_str!("../../shaders/shared/walk.wgsl")),
+    ("shared/bvh.wgsl", include_str!("../../shaders/shared/bvh.wgsl")),
     ("shared/sampling.wgsl", include_str!("../../shaders/shared/sampling.wgsl")),
     ("shared/texture.wgsl", include_str!("../../shaders/shared/texture.wgsl")),
     ("shared/shade.wgsl", include_str!("../../shaders/shared/shade.wgsl")),
@@ -70,6 +71,21 @@ pub enum Queries {
     Tables,
     /// Every primitive for every ray (`--accel brute`).
     Brute,
+    /// The bounding volume hierarchy (`--accel bvh`), the baseline the tables are timed against.
+    Bvh,
+}
+
+impl Queries {
+    pub const ALL: [Queries; 3] = [Queries::Tables, Queries::Bvh, Queries::Brute];
+
+    /// The `--accel` name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Queries::Tables => "cube",
+            Queries::Bvh => "bvh",
+            Queries::Brute => "brute",
+        }
+    }
 }
 
 /// The code paths one compiled module contains.
@@ -80,7 +96,7 @@ pub struct Variant {
     pub refraction: bool,
     pub textures: bool,
     pub emission: bool,
-    /// The ray queries: the candidate tables or brute force.
+    /// The ray queries: the candidate tables, the BVH or brute force.
     pub queries: Queries,
 }
 
@@ -120,18 +136,27 @@ impl Variant {
         }
     }
 
-    /// Every one of the 64 variants; the last has every flag set.
+    /// Every one of the 96 variants: the 32 effect sets for each of [`Queries::ALL`], the
+    /// effect sets in the order of their bits (the last of each 32 has every effect).
     pub fn all() -> Vec<Variant> {
-        (0..64u32)
-            .map(|b| Variant {
-                shadows: b & 1 != 0,
-                reflection: b & 2 != 0,
-                refraction: b & 4 != 0,
-                textures: b & 8 != 0,
-                emission: b & 16 != 0,
-                queries: if b & 32 != 0 { Queries::Tables } else { Queries::Brute },
+        Queries::ALL
+            .into_iter()
+            .flat_map(|queries| {
+                (0..32u32).map(move |b| Variant {
+                    shadows: b & 1 != 0,
+                    reflection: b & 2 != 0,
+                    refraction: b & 4 != 0,
+                    textures: b & 8 != 0,
+                    emission: b & 16 != 0,
+                    queries,
+                })
             })
             .collect()
+    }
+
+    /// Every effect with `queries`.
+    pub fn full(queries: Queries) -> Variant {
+        Variant { shadows: true, reflection: true, refraction: true, textures: true, emission: true, queries }
     }
 
     fn flag(&self, name: &str) -> Option<bool> {
@@ -141,7 +166,9 @@ impl Variant {
             "REFRACTION" => self.refraction,
             "TEXTURES" => self.textures,
             "EMISSION" => self.emission,
-            "TABLES" => self.tables(),
+            "TABLES" => self.queries == Queries::Tables,
+            "BVH" => self.queries == Queries::Bvh,
+            "BRUTE" => self.queries == Queries::Brute,
             _ => return None,
         })
     }
@@ -220,7 +247,7 @@ mod tests {
 
     #[test]
     fn flags_select_lines() {
-        let all = compose(Kernel::Render, Variant::all()[63]).unwrap();
+        let all = compose(Kernel::Render, Variant::full(Queries::Tables)).unwrap();
         let none = compose(Kernel::Render, Variant::default()).unwrap();
         assert!(all.contains("fn reflect_dir") && all.contains("fn refract_dir"));
         assert!(!none.contains("fn reflect_dir") && !none.contains("fn refract_dir"));

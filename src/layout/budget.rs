@@ -61,6 +61,19 @@ pub fn shadow_inline(scene: &Scene) -> u32 {
         as u32
 }
 
+/// The BVH's inline shadow walks (`Params::shadow_inline` with `--accel bvh`): a budget of
+/// loop iterations (nodes and primitives), a quarter of what [`shadow_inline`] entries may
+/// take, less the primitives of the leaf that ends it. A quarter, because lavapipe ended
+/// these walks early at half of it (measured with eight lights, nine thousand triangles and
+/// walks of thousands of nodes: `bvh_walks_longer_than_a_step_resume` in `tests/gpu.rs`):
+/// it counts more iterations than one per node and primitive. A walk that does not end
+/// within the budget becomes a job and starts over; a BVH shadow walk takes tens of
+/// iterations, so almost none do.
+pub fn bvh_shadow_inline(scene: &Scene) -> u32 {
+    let iterations = shadow_inline(scene) as u64 * (1 + GROUP_SIZE as u64) / 4;
+    iterations.saturating_sub(crate::bvh::MAX_LEAF as u64).min(u32::MAX as u64) as u32
+}
+
 /// Checks that no kernel step can pass lavapipe's loop limit; were one to need more, the
 /// result would be silently wrong, so it is an error instead.
 ///

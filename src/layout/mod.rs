@@ -1,9 +1,11 @@
 //! The flat GPU layout, without wgpu: the `#[repr(C)]` twins of the structs and constants of
 //! `shaders/shared/layout.wgsl` ([`structs`], [`counters`]; the tables' are in
 //! [`crate::coherence::flat`]), the scene packed into them
-//! ([`pack`](mod@pack)), and the limits one kernel step keeps to ([`budget`]).
+//! ([`pack`](mod@pack)), the BVH flattened for the kernels' walk ([`bvh`]), and the limits
+//! one kernel step keeps to ([`budget`]).
 
 pub mod budget;
+pub mod bvh;
 pub mod counters;
 pub mod pack;
 pub mod structs;

@@ -6,6 +6,7 @@
 use glam::DVec3;
 
 use super::budget::shadow_inline;
+use super::bvh::{pack_bvh, GpuBvh};
 use super::structs::*;
 use crate::job::RenderOptions;
 use crate::kernel::spawn::SpawnPolicy;
@@ -31,6 +32,20 @@ pub struct Packed {
     pub texels: Vec<u32>,
     /// The camera part of [`Params`], with background, ambient and counts.
     pub params: Params,
+    /// `--accel bvh`: the BVH over these primitives ([`Packed::with_bvh`]).
+    pub bvh: Option<GpuBvh>,
+}
+
+impl Packed {
+    /// Adds the BVH of `scene` (packed into `self`) and points the params at it; its shadow
+    /// walks get an inline budget of loop iterations ([`super::budget::bvh_shadow_inline`]).
+    pub fn with_bvh(mut self, scene: &Scene) -> Packed {
+        let bvh = pack_bvh(scene);
+        self.params.bvh_stride = bvh.stride;
+        self.params.shadow_inline = super::budget::bvh_shadow_inline(scene);
+        self.bvh = Some(bvh);
+        self
+    }
 }
 
 /// Packs `scene` for a `width`×`height` image whose rays spawn under `spawn`, subtracting the
@@ -172,7 +187,7 @@ pub fn pack(scene: &Scene, width: u32, height: u32, spawn: SpawnPolicy) -> Packe
         spawn_abs: spawn.rel_abs().1,
         ..Params::default()
     };
-    Packed { prims, tri_attrs, materials, lights, texture_infos, texels, params }
+    Packed { prims, tri_attrs, materials, lights, texture_infos, texels, params, bvh: None }
 }
 
 /// `base` (the scene's part of the params, from [`pack`]) with what a render job sets: the

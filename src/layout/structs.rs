@@ -53,7 +53,8 @@ pub struct Params {
     pub win_w: u32,
     pub own_w: u32,
     pub own_h: u32,
-    pub _pad0: u32,
+    /// `--accel bvh`: the nodes of one threaded order of the BVH ([`crate::layout::bvh`]).
+    pub bvh_stride: u32,
 }
 
 /// One primitive (WGSL `Prim`, keep in sync with `shaders/shared/layout.wgsl`): sphere `a` =

@@ -21,9 +21,9 @@ use crate::error::{Error, Result};
 use crate::gpu::buffers::check_limits;
 use crate::gpu::kernels::compute_pipeline;
 use crate::gpu::schedule::{Pacing, Progress, Schedule};
-use crate::gpu::shaders::{Kernel, Variant};
+use crate::gpu::shaders::{Kernel, Queries, Variant};
 use crate::gpu::{self, GpuRenderer, SceneBuffers};
-use crate::job::{grid_image, AccelKind, RenderOptions};
+use crate::job::{grid_image, RenderOptions};
 use crate::layout::budget::{table_params, tile_points, MAX_DEPTH, TESTS_PER_DISPATCH};
 use crate::layout::{job_params, pack, Params};
 use crate::output::Image;
@@ -104,7 +104,10 @@ pub struct Session {
     limit: u32,
     /// The `render` kernel of the current effects and depth.
     pipeline: Arc<wgpu::ComputePipeline>,
-    /// The direction-cube tables (`--accel cube`, the default), or `None` for brute force.
+    /// The queries the kernels trace: the tables, the BVH, or brute force (also when the
+    /// tables could not be rebuilt for a new eye).
+    queries: Queries,
+    /// The direction-cube tables (`--accel cube`, the default), or `None`.
     tables: Option<Tables>,
     buffers: SceneBuffers,
     /// Params of the whole image (camera, sizes, sampling); tiles fill in the rest.
@@ -122,8 +125,8 @@ pub struct Session {
 }
 
 /// The kernels' variant for the session's toggles and depth.
-fn variant(scene: &Scene, toggles: Toggles, max_depth: u32, accel: AccelKind) -> Variant {
-    GpuRenderer::variant(toggles.apply(scene.effects()), max_depth, accel)
+fn variant(scene: &Scene, toggles: Toggles, max_depth: u32, queries: Queries) -> Variant {
+    Variant::for_effects(toggles.apply(scene.effects()), max_depth).with_queries(queries)
 }
 
 impl Session {
@@ -141,11 +144,15 @@ impl Session {
         // Tables for every effect the scene has at any depth, so that toggling one back on
         // or deepening the trees needs none.
         let all = GpuRenderer::variant(scene.effects(), MAX_DEPTH, opts.accel);
+        if all.queries == Queries::Bvh {
+            packed = packed.with_bvh(&scene);
+        }
         let tables = gpu.tables(&scene, &opts, all, &mut packed)?;
-        gpu.check_loop_budget(&scene, tables.as_ref().map(|t| &t.walks), Some(MAX_DEPTH))?;
-        let first = variant(&scene, toggles, opts.max_depth, opts.accel);
+        let walks = tables.as_ref().map(|t| t.walks).or_else(|| packed.bvh.as_ref().map(|b| b.walk_bounds()));
+        gpu.check_loop_budget(&scene, walks.as_ref(), Some(MAX_DEPTH))?;
+        let first = variant(&scene, toggles, opts.max_depth, all.queries);
         let pipeline = gpu.kernel(Kernel::Render, first)?;
-        let tile = tile_points(&scene, tables.as_ref().map(|t| &t.walks), TESTS_PER_DISPATCH);
+        let tile = tile_points(&scene, walks.as_ref(), TESTS_PER_DISPATCH);
         let buffers = gpu.upload(&packed, tables.as_ref().map(|t| &t.flat), tile, true)?;
         gpu.warm_up(Kernel::Render, first, &pipeline, &buffers, &packed.params)?;
         let grid = opts.grid();
@@ -176,6 +183,7 @@ impl Session {
             opts,
             toggles,
             pipeline,
+            queries: all.queries,
             tables,
             buffers,
             grid,
@@ -255,13 +263,14 @@ impl Session {
             // The eye's table is rebuilt (the light and surface tables kept while they hold)
             // and uploaded with the re-centred scene.
             packed = pack(&self.scene, w, h, self.opts.spawn);
-            let all = GpuRenderer::variant(self.scene.effects(), MAX_DEPTH, AccelKind::Cube);
+            let all = Variant::for_effects(self.scene.effects(), MAX_DEPTH).with_queries(Queries::Tables);
             let params = table_params(&self.scene, w, h, all.effects(), self.opts.spawn);
             let eye_only = match tables.rebuild_eye(&self.scene, &params) {
                 Ok(eye_only) => eye_only,
                 Err(e) => {
                     // Without tables the session falls back to brute force.
-                    let brute = variant(&self.scene, self.toggles, self.opts.max_depth, AccelKind::Brute);
+                    let brute = variant(&self.scene, self.toggles, self.opts.max_depth, Queries::Brute);
+                    self.queries = Queries::Brute;
                     self.buffers = self.gpu.upload(&packed, None, self.buffers.tile, true)?;
                     self.use_kernel(brute)?;
                     self.rebind();
@@ -273,6 +282,14 @@ impl Session {
             log::debug!("tables for the new eye in {:.3} s (eye table only: {eye_only})", tables.build_s);
             self.buffers = self.gpu.upload(&packed, Some(&tables.flat), self.buffers.tile, true)?;
             self.tables = Some(tables);
+            self.rebind();
+        } else if self.queries == Queries::Bvh {
+            // The BVH is rebuilt over the re-centred scene (in milliseconds) and uploaded with it.
+            packed = pack(&self.scene, w, h, self.opts.spawn).with_bvh(&self.scene);
+            if let Some(b) = &packed.bvh {
+                self.gpu.check_loop_budget(&self.scene, Some(&b.walk_bounds()), Some(MAX_DEPTH))?;
+            }
+            self.buffers = self.gpu.upload(&packed, None, self.buffers.tile, true)?;
             self.rebind();
         } else {
             // Brute force: only the geometry moves (textures do not depend on the eye).
@@ -298,6 +315,7 @@ impl Session {
             ortho: p.ortho,
             eye_origin: p.eye_origin,
             fallback_origin: p.fallback_origin,
+            bvh_stride: p.bvh_stride,
             ..self.base
         };
         Ok(())
@@ -315,8 +333,7 @@ impl Session {
         let mut opts = self.opts.clone();
         opts.max_depth = max_depth;
         gpu::check(&self.scene, &opts)?;
-        let accel = if self.tables.is_some() { AccelKind::Cube } else { AccelKind::Brute };
-        self.use_kernel(variant(&self.scene, toggles, max_depth, accel))?;
+        self.use_kernel(variant(&self.scene, toggles, max_depth, self.queries))?;
         self.toggles = toggles;
         self.opts = opts;
         self.base.max_depth = max_depth;

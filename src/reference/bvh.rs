@@ -1,64 +1,20 @@
-//! A BVH built by the `obvhs` crate and traversed here in f64, nearest child first.
+//! The shared BVH ([`crate::bvh`]) traversed in f64, nearest child first.
 
-use glam::{DVec3, Vec3A};
-use obvhs::{aabb::Aabb as BvhAabb, bvh2::Bvh2, Boundable, BvhBuildParams};
+use glam::DVec3;
 
 use super::accel::{count, test_closest, Accel, NearestHit, RayOrigin, ShadowQuery};
 use super::geometry::{intersect, Ray};
-use crate::scene::{Aabb, Primitive};
+use crate::bvh::{build, outward_box};
+use crate::scene::Primitive;
 use crate::stats::TestCounts;
 
-/// A primitive's box for the BVH builder: f64 bounds padded slightly and rounded outward
-/// to f32, so the f32 box contains the f64 primitive.
-struct PrimBox(BvhAabb);
-
-impl Boundable for PrimBox {
-    fn aabb(&self) -> BvhAabb {
-        self.0
-    }
-}
-
-/// The neighbouring f32 of a finite `f` towards +∞ (`up`) or −∞.
-fn f32_step(f: f32, up: bool) -> f32 {
-    if f == 0.0 {
-        let tiny = f32::from_bits(1);
-        return if up { tiny } else { -tiny };
-    }
-    let bits = f.to_bits();
-    // Moving away from zero increases the magnitude bits.
-    f32::from_bits(if (f > 0.0) == up { bits + 1 } else { bits - 1 })
-}
-
-/// The largest f32 not above `x`.
-fn f32_down(x: f64) -> f32 {
-    let f = x as f32;
-    if f as f64 > x {
-        f32_step(f, false)
-    } else {
-        f
-    }
-}
-
-/// The smallest f32 not below `x`.
-fn f32_up(x: f64) -> f32 {
-    let f = x as f32;
-    if (f as f64) < x {
-        f32_step(f, true)
-    } else {
-        f
-    }
-}
-
-fn outward_box(b: &Aabb) -> BvhAabb {
-    // The primitive bounds are computed in f64 with a few roundings (cylinders take
-    // square roots): pad them by a relative 1e-9 before rounding outward to f32.
+/// A primitive's box for the shared build: the f64 bounds are computed with a few roundings
+/// (cylinders take square roots), so they are padded by a relative 1e-9 before rounding
+/// outward to f32.
+fn prim_box(p: &Primitive) -> ([f32; 3], [f32; 3]) {
+    let b = p.bounds();
     let pad = (b.max - b.min).max_element().max(b.min.abs().max(b.max.abs()).max_element()) * 1e-9;
-    let lo = b.min - DVec3::splat(pad);
-    let hi = b.max + DVec3::splat(pad);
-    BvhAabb {
-        min: Vec3A::new(f32_down(lo.x), f32_down(lo.y), f32_down(lo.z)),
-        max: Vec3A::new(f32_up(hi.x), f32_up(hi.y), f32_up(hi.z)),
-    }
+    outward_box(&b, pad)
 }
 
 /// One BVH node in f64, copied from the crate's f32 node (the conversion is exact).
@@ -129,20 +85,15 @@ impl<'a> Bvh<'a> {
         if prims.is_empty() {
             return Bvh { prims, nodes: Vec::new(), order: Vec::new() };
         }
-        let boxes: Vec<PrimBox> = prims.iter().map(|p| PrimBox(outward_box(&p.bounds()))).collect();
-        let params = BvhBuildParams::medium_build();
-        let bvh: Bvh2 = obvhs::bvh2::builder::build_bvh2(&boxes, params, &mut Default::default());
-        let nodes = bvh
+        let boxes: Vec<_> = prims.iter().map(prim_box).collect();
+        let tree = build(&boxes);
+        let d = |v: [f32; 3]| DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64);
+        let nodes = tree
             .nodes
             .iter()
-            .map(|n| Node {
-                min: DVec3::new(n.aabb.min.x as f64, n.aabb.min.y as f64, n.aabb.min.z as f64),
-                max: DVec3::new(n.aabb.max.x as f64, n.aabb.max.y as f64, n.aabb.max.z as f64),
-                count: n.prim_count,
-                first: n.first_index,
-            })
+            .map(|n| Node { min: d(n.min), max: d(n.max), count: n.count, first: n.first })
             .collect();
-        Bvh { prims, nodes, order: bvh.primitive_indices }
+        Bvh { prims, nodes, order: tree.order }
     }
 
     /// Visits the leaves the ray may reach, nearest box first, while `t_max()` bounds the
@@ -235,18 +186,5 @@ impl Accel for Bvh<'_> {
             true
         });
         blocked
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn outward_rounding_to_f32() {
-        for x in [0.1f64, -0.1, 1e-30, -1e-30, 0.0, 3.0, -7.25, 1e7 + 0.3] {
-            assert!((f32_down(x) as f64) <= x && (f32_up(x) as f64) >= x, "{x}");
-            assert!(f32_up(x) as f64 - f32_down(x) as f64 <= (x.abs() * 2.5e-7).max(1e-44), "{x}");
-        }
     }
 }

@@ -1,0 +1,223 @@
+// The BVH walk (`--accel bvh`): the baseline the candidate tables are timed against. The
+// tree is flattened on the host into six threaded orders (src/layout/bvh.rs), one per major
+// direction axis and sign, each listing the nodes depth first with the nearer child first
+// and a `skip` index past every subtree. A ray takes the order of its direction and walks it
+// with one index and no stack: a missed box goes on at `skip`, a hit inner node at the next
+// node, a hit leaf tests its primitives and goes on at `skip`. A walk interrupted between
+// kernel steps keeps only that index. The same queries as walk.wgsl and brute.wgsl, with
+// the same intersection functions and tie rule (`consider`); node tests are counted as
+// bound tests.
+
+// One node of a threaded order (src/layout/bvh.rs `BvhNode`): `leaf` 0 for an inner node,
+// else `first << BVH_LEAF_SHIFT | count` primitives at bvh_prims[first..first + count].
+struct BvhNode {
+    lo: vec3<f32>,
+    skip: u32,
+    hi: vec3<f32>,
+    leaf: u32,
+}
+
+const BVH_LEAF_SHIFT: u32 = 4u;
+// Boxes grow by this much of the ray origin's largest coordinate, and the far slab distance
+// by this much of itself, so that the box test never misses what the primitive test hits.
+const BVH_SLACK: f32 = 1e-5;
+
+@group(0) @binding(20) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(21) var<storage, read> bvh_prims: array<u32>;
+
+// A ray ready for box tests: its reciprocal direction (components below 1e-20 taken as
+// 1e-20, so that nothing divides by zero), the growth of the boxes, and where its order
+// starts in `bvh_nodes`.
+struct BoxRay {
+    o: vec3<f32>,
+    inv: vec3<f32>,
+    pad: f32,
+    base: u32,
+}
+
+fn box_ray(ray: Ray) -> BoxRay {
+    let a = abs(ray.d);
+    var axis = 2u;
+    if a.x >= a.y && a.x >= a.z {
+        axis = 0u;
+    } else if a.y >= a.z {
+        axis = 1u;
+    }
+    let order = 2u * axis + select(0u, 1u, ray.d[axis] < 0.0);
+    let d = select(ray.d, vec3<f32>(1e-20), a < vec3<f32>(1e-20));
+    return BoxRay(ray.o, 1.0 / d, BVH_SLACK * max3(abs(ray.o)), order * params.bvh_stride);
+}
+
+// Whether the ray meets node `n`'s box, grown by `r.pad`, at some t in [0, t_far].
+fn box_hit(n: BvhNode, r: BoxRay, t_far: f32) -> bool {
+    let a = (n.lo - vec3<f32>(r.pad) - r.o) * r.inv;
+    let b = (n.hi + vec3<f32>(r.pad) - r.o) * r.inv;
+    let near = min(a, b);
+    let far = max(a, b);
+    let t0 = max(max(near.x, near.y), max(near.z, 0.0));
+    let t1 = min(min(far.x, far.y), far.z) * (1.0 + BVH_SLACK);
+    return t0 <= min(t1, t_far);
+}
+
+// The primitives of leaf `leaf`: x the first index into bvh_prims, y the end.
+fn leaf_range(leaf: u32) -> vec2<u32> {
+    let first = leaf >> BVH_LEAF_SHIFT;
+    return vec2<u32>(first, first + (leaf & ((1u << BVH_LEAF_SHIFT) - 1u)));
+}
+
+// Continues the nearest-hit walk from node `*at` for at most about `budget` loop iterations
+// (a node, or a leaf's primitives), keeping the nearest hit in `best` (ties to the lower id;
+// `skip` never tested). True when the walk is over.
+fn bvh_nearest(at: ptr<function, u32>, best: ptr<function, Closest>, ray: Ray, r: BoxRay, t_max: f32, skip: u32,
+    ray_kind: u32, budget: u32) -> bool {
+    var left = budget;
+    var best_t = select(t_max, (*best).hit.t, (*best).found);
+    loop {
+        if *at >= params.bvh_stride {
+            break;
+        }
+        if left == 0u {
+            return false;
+        }
+        left -= 1u;
+        let n = bvh_nodes[r.base + *at];
+        count_bound(ray_kind);
+        if !box_hit(n, r, best_t) {
+            *at = n.skip;
+            continue;
+        }
+        if n.leaf == 0u {
+            *at += 1u;
+            continue;
+        }
+        let range = leaf_range(n.leaf);
+        left -= min(left, range.y - range.x);
+        for (var k = range.x; k < range.y; k++) {
+            let id = bvh_prims[k];
+            if id != skip {
+                best_t = consider(id, best, ray, t_max, ray_kind, best_t);
+            }
+        }
+        *at = n.skip;
+    }
+    return true;
+}
+
+// The nearest hit with 0 < t < t_max, ties to the lower id; `skip` is never tested (NO_ID:
+// none). The BVH needs neither the ray's origin entity nor `from_prim`.
+fn closest(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) -> Closest {
+    var best = no_closest();
+    if max3(abs(ray.d)) == 0.0 {
+        return best;
+    }
+    var at = 0u;
+    bvh_nearest(&at, &best, ray, box_ray(ray), t_max, skip, ray_kind, UNBOUNDED);
+    return best;
+}
+
+// `closest` for the ray on top of the point's stack, in bounded steps: `done` false when
+// the walk goes on in the next step (from the node kept in `state.walk.i`).
+fn closest_step(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) -> Stepped {
+    var best = no_closest();
+    var at = 0u;
+    if state.walking == 0u {
+        if max3(abs(ray.d)) == 0.0 {
+            return Stepped(true, best);
+        }
+    } else {
+        let s = state.walk;
+        at = s.i;
+        if s.prim != NO_ID {
+            best = Closest(true, s.prim, PrimHit(true, s.t, s.b1, s.b2));
+        }
+    }
+    if bvh_nearest(&at, &best, ray, box_ray(ray), t_max, skip, ray_kind, WALK_CHUNK) {
+        state.walking = 0u;
+        return Stepped(true, best);
+    }
+    state.walking = 1u;
+    state.walk = WalkState(at, 0u, 0u, 0u, best.prim, best.hit.t, best.hit.b1, best.hit.b2);
+    return Stepped(false, best);
+}
+
+#if SHADOWS
+// Continues the any-hit walk of shadow ray `sr` from node `*at` for at most about `budget`
+// loop iterations: ANY_BLOCKED when some primitive other than `skip` is hit at
+// 0 < t < t_max (its distance from the spawn origin noted in `blocked_at`), ANY_CLEAR when
+// the walk ended without one, ANY_UNFINISHED when the budget ran out first.
+fn bvh_any(at: ptr<function, u32>, sr: ShadowRay, skip: u32, budget: u32) -> u32 {
+    let r = box_ray(sr.ray);
+    var left = budget;
+    loop {
+        if *at >= params.bvh_stride {
+            break;
+        }
+        if left == 0u {
+            return ANY_UNFINISHED;
+        }
+        left -= 1u;
+        let n = bvh_nodes[r.base + *at];
+        count_bound(RAY_SHADOW);
+        if !box_hit(n, r, sr.t_max) {
+            *at = n.skip;
+            continue;
+        }
+        if n.leaf == 0u {
+            *at += 1u;
+            continue;
+        }
+        let range = leaf_range(n.leaf);
+        left -= min(left, range.y - range.x);
+        for (var k = range.x; k < range.y; k++) {
+            let id = bvh_prims[k];
+            if id == skip {
+                continue;
+            }
+            let p = prims[id];
+            count_test(RAY_SHADOW, p.kind);
+            let h = intersect_prim(p, sr.ray, sr.t_max);
+            if h.ok {
+                blocked_at = abs(h.t - sr.q_t);
+                return ANY_BLOCKED;
+            }
+        }
+        *at = n.skip;
+    }
+    return ANY_CLEAR;
+}
+
+// Whether light `light` is blocked from `q`, the spawn origin on primitive `from_prim`:
+// the shadow ray of `shadow_ray` (geometry.wgsl), the one the other queries trace.
+fn occluded(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> bool {
+    let sr = shadow_ray(q, to_light, light);
+    var at = 0u;
+    return !sr.empty && bvh_any(&at, sr, skip, UNBOUNDED) == ANY_BLOCKED;
+}
+
+// `occluded` when its walk ends within `params.shadow_inline` loop iterations (for the BVH
+// a budget of iterations, set by the host); ANY_UNFINISHED when it does not, and the
+// shadow ray becomes a job whose walk starts over.
+fn occluded_short(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> u32 {
+    let sr = shadow_ray(q, to_light, light);
+    if sr.empty {
+        return ANY_CLEAR;
+    }
+    var at = 0u;
+    return bvh_any(&at, sr, skip, params.shadow_inline);
+}
+
+// `occluded` for the shadow job on top of the point's stack, in bounded steps (the walk's
+// node kept in `state.walk.i`): ANY_UNFINISHED when it goes on in the next step.
+fn occluded_step(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> u32 {
+    let sr = shadow_ray(q, to_light, light);
+    if sr.empty {
+        state.walking = 0u;
+        return ANY_CLEAR;
+    }
+    var at = select(0u, state.walk.i, state.walking != 0u);
+    let r = bvh_any(&at, sr, skip, WALK_CHUNK);
+    state.walking = select(0u, 1u, r == ANY_UNFINISHED);
+    state.walk = WalkState(at, 0u, 0u, 0u, NO_ID, 0.0, 0.0, 0.0);
+    return r;
+}
+#endif
