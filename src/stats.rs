@@ -208,9 +208,13 @@ pub struct Stats {
     pub rays: RayStats,
     pub tests: TestCounts,
     pub tests_per_ray: TestsPerRay,
-    /// Group bounding-sphere tests per ray, by kind (see [`TestCounts::bound`]).
+    /// Bounding-volume tests per ray, by kind: the tables' group spheres or the GPU BVH's
+    /// nodes (see [`TestCounts::bound`]).
     pub bound_tests_per_ray: TestsPerRay,
     pub time: Times,
+    /// Bytes of the acceleration structure on the device: the candidate tables or the BVH
+    /// (0 for brute force and on the CPU).
+    pub accel_bytes: u64,
     /// The raw counters the report was made from (not printed: a partial render records
     /// them, so that merged parts add up exactly).
     #[serde(skip)]
@@ -258,6 +262,7 @@ impl Stats {
                 all: per(tests.bound, total_rays),
             },
             time,
+            accel_bytes: 0,
             counters: *c,
         }
     }

@@ -9,6 +9,7 @@ use clap::{Parser, Subcommand};
 use cuberay::info::SceneInfo;
 use cuberay::load::{self, LoadOptions, Loaded};
 
+mod bench;
 mod compare;
 mod merge;
 mod preview;
@@ -48,6 +49,9 @@ enum Command {
     Merge(merge::MergeArgs),
     /// Build a GPU render's candidate tables once and store them (render --tables reads them).
     Tables(tables::TablesArgs),
+    /// Time accelerators against each other on a set of scenes (default: the SPD canonical
+    /// scenes, the tables against the BVH on the GPU).
+    Bench(bench::BenchArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -129,6 +133,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Preview(args) => preview::run(args),
         Command::Merge(args) => merge::run(args),
         Command::Tables(args) => tables::run(args),
+        Command::Bench(args) => bench::run(args),
     }
 }
 

@@ -295,12 +295,13 @@ impl GpuRenderer {
         let trace_s = start.elapsed().as_secs_f64();
 
         let image = grid_image(opts, scene, &run.values, opts.spp);
-        let stats = Stats::new(
+        let mut stats = Stats::new(
             opts.settings(scene, "gpu", accel_name(variant)),
             simulated_effects(scene, opts.max_depth),
             &run.counters,
             run.times(preprocess_s, trace_s, false),
         );
+        stats.accel_bytes = accel_bytes(&packed, tables.as_ref());
         Ok(Rendered { image, stats })
     }
 
@@ -343,12 +344,13 @@ impl GpuRenderer {
         let times = run.times(preprocess_s, trace_s, true);
         let mut image = Image::new(w, h, true);
         image.pixels = run.values;
-        let stats = Stats::new(
+        let mut stats = Stats::new(
             opts.aov_settings(scene, "gpu", accel_name(variant)),
             Vec::new(),
             &run.counters,
             times,
         );
+        stats.accel_bytes = accel_bytes(&packed, tables.as_ref());
         Ok(Rendered { image, stats })
     }
 
@@ -437,6 +439,12 @@ pub fn queries(accel: AccelKind) -> Queries {
 /// Whether the GPU traces the candidate tables for `accel`.
 pub fn uses_tables(accel: AccelKind) -> bool {
     queries(accel) == Queries::Tables
+}
+
+/// Bytes of the tables or the BVH a render traced.
+fn accel_bytes(packed: &Packed, tables: Option<&TableSet>) -> u64 {
+    let bvh = packed.bvh.as_ref().map_or(0, |b| b.bytes());
+    bvh + tables.map_or(0, |t| t.flat().bytes() as u64)
 }
 
 fn accel_name(variant: Variant) -> &'static str {

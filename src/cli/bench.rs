@@ -1,0 +1,250 @@
+//! `cuberay bench`: renders a set of scenes with each chosen accelerator and backend, a
+//! warm-up run and then the median of `--runs`, and prints what each costs: preprocessing,
+//! bytes of the acceleration structure, kernel time, rays per second, tests and bound tests
+//! per ray by kind, and the kernel time's ratio to the BVH's on the same backend in the same
+//! run. Speed targets are checked with this command, never with timed tests.
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context};
+use clap::Args;
+use serde::Serialize;
+
+use cuberay::gpu::GpuRenderer;
+use cuberay::job::{AccelKind, RenderOptions, Rendered};
+use cuberay::reference;
+use cuberay::sampling::Sampling;
+use cuberay::stats::TestsPerRay;
+
+use super::render::progress_bar;
+
+/// The SPD canonical scenes (Haines' sizes of 1987), the default set.
+const CANONICAL: [&str; 7] =
+    ["balls_s4", "gears_s4", "mount_s6", "rings_s7", "teapot_s12", "tetra_s6", "tree_s11"];
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BenchBackend {
+    Gpu,
+    Cpu,
+}
+
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// Scene files; default: the seven SPD canonical scenes under --spd-dir.
+    pub scenes: Vec<PathBuf>,
+    /// Where the SPD databases are (`NAME.nff`), for the default set.
+    #[arg(long, default_value = "../shared/scenes/spd/nff")]
+    pub spd_dir: PathBuf,
+    /// Accelerators to compare, comma-separated; the ratio column needs `bvh` among them.
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "cube,bvh")]
+    pub accel: Vec<AccelKind>,
+    /// Backends, comma-separated.
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "gpu")]
+    pub backend: Vec<BenchBackend>,
+    /// Timed runs after the warm-up; the median is reported.
+    #[arg(long, default_value_t = 3)]
+    pub runs: u32,
+    /// Image width and height (the SPD procedure: 512, traced at 513×513 pixel corners).
+    #[arg(long, default_value_t = 512)]
+    pub width: u32,
+    #[arg(long, default_value_t = 512)]
+    pub height: u32,
+    /// Eye-ray placement (default: the SPD procedure's pixel corners).
+    #[arg(long, value_enum, default_value_t = Sampling::Corners)]
+    pub sampling: Sampling,
+    /// Maximum ray-tree depth (SPD: 5).
+    #[arg(long, default_value_t = 5)]
+    pub max_depth: u32,
+    /// Print one JSON object instead of the table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// One scene, accelerator and backend: medians over the timed runs.
+#[derive(Serialize, Debug)]
+struct Row {
+    scene: String,
+    accel: String,
+    backend: &'static str,
+    preprocess_s: f64,
+    accel_bytes: u64,
+    /// GPU: the kernel time from timestamp queries; CPU: the trace time.
+    kernel_s: f64,
+    rays: u64,
+    mrays_per_s: f64,
+    tests_per_ray: TestsPerRay,
+    bound_tests_per_ray: TestsPerRay,
+    /// `kernel_s` over the BVH's on the same scene and backend; `null` without a BVH row.
+    ratio_to_bvh: Option<f64>,
+}
+
+#[derive(Serialize)]
+struct Report<'a> {
+    size: [u32; 2],
+    sampling: String,
+    max_depth: u32,
+    runs: u32,
+    adapter: Option<String>,
+    rows: &'a [Row],
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        (v[n / 2 - 1] + v[n / 2]) / 2.0
+    }
+}
+
+pub fn run(args: BenchArgs) -> anyhow::Result<()> {
+    if args.runs == 0 {
+        bail!("--runs must be at least 1");
+    }
+    if args.accel.is_empty() || args.backend.is_empty() {
+        bail!("nothing to run: give at least one --accel and one --backend");
+    }
+    let scenes: Vec<PathBuf> = if args.scenes.is_empty() {
+        let paths: Vec<PathBuf> = CANONICAL.iter().map(|n| args.spd_dir.join(format!("{n}.nff"))).collect();
+        if let Some(missing) = paths.iter().find(|p| !p.is_file()) {
+            bail!(
+                "the SPD canonical scenes are not there ({} is missing): give scene files, or --spd-dir",
+                missing.display()
+            );
+        }
+        paths
+    } else {
+        args.scenes.clone()
+    };
+    let gpu = if args.backend.contains(&BenchBackend::Gpu) { Some(GpuRenderer::new()?) } else { None };
+    let mut rows = Vec::new();
+    let progress = progress_bar("bench");
+    for path in &scenes {
+        let loaded = super::load_scene(path, None, None)?;
+        let scene = &loaded.scene;
+        let name =
+            path.file_stem().map_or_else(|| path.display().to_string(), |s| s.to_string_lossy().into());
+        let first = rows.len();
+        for &backend in &args.backend {
+            for &accel in &args.accel {
+                let opts = RenderOptions {
+                    sampling: args.sampling,
+                    max_depth: args.max_depth,
+                    accel,
+                    ..RenderOptions::new(args.width, args.height)
+                };
+                let render = || -> anyhow::Result<Rendered> {
+                    let hidden = indicatif::ProgressBar::hidden();
+                    Ok(match backend {
+                        BenchBackend::Gpu => {
+                            gpu.as_ref().expect("opened above").render(scene, &opts, &hidden)?
+                        }
+                        BenchBackend::Cpu => reference::render(scene, &opts, &hidden)?,
+                    })
+                };
+                let what = format!("{name}, --accel {accel:?} --backend {backend:?}").to_lowercase();
+                progress.set_message(what.clone());
+                // The warm-up compiles the kernel and fills the caches; it is not reported.
+                render().with_context(|| format!("cannot render {what}"))?;
+                let mut runs = Vec::new();
+                for _ in 0..args.runs {
+                    runs.push(render().with_context(|| format!("cannot render {what}"))?);
+                }
+                let kernel = |r: &Rendered| match backend {
+                    BenchBackend::Gpu => r.stats.time.gpu_s.unwrap_or(r.stats.time.trace_s),
+                    BenchBackend::Cpu => r.stats.time.trace_s,
+                };
+                let kernel_s = median(runs.iter().map(kernel).collect());
+                let last = runs.last().expect("at least one run");
+                let s = &last.stats;
+                rows.push(Row {
+                    scene: name.clone(),
+                    accel: s.settings.accel.clone(),
+                    backend: match backend {
+                        BenchBackend::Gpu => "gpu",
+                        BenchBackend::Cpu => "cpu",
+                    },
+                    preprocess_s: median(runs.iter().map(|r| r.stats.time.preprocess_s).collect()),
+                    accel_bytes: s.accel_bytes,
+                    kernel_s,
+                    rays: s.rays.total,
+                    mrays_per_s: s.rays.total as f64 / kernel_s.max(1e-9) / 1e6,
+                    tests_per_ray: s.tests_per_ray,
+                    bound_tests_per_ray: s.bound_tests_per_ray,
+                    ratio_to_bvh: None,
+                });
+            }
+        }
+        let bvh: Vec<(&str, f64)> =
+            rows[first..].iter().filter(|r| r.accel == "bvh").map(|r| (r.backend, r.kernel_s)).collect();
+        for r in &mut rows[first..] {
+            r.ratio_to_bvh = bvh.iter().find(|b| b.0 == r.backend).map(|b| r.kernel_s / b.1);
+        }
+        progress.inc(1);
+    }
+    progress.finish_and_clear();
+    let adapter = gpu.as_ref().map(|g| format!("{} ({})", g.ctx.info.name, g.ctx.info.driver_info));
+    if args.json {
+        let report = Report {
+            size: [args.width, args.height],
+            sampling: format!("{:?}", args.sampling).to_lowercase(),
+            max_depth: args.max_depth,
+            runs: args.runs,
+            adapter,
+            rows: &rows,
+        };
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print!("{}", table(&rows, &args, adapter.as_deref()));
+    }
+    Ok(())
+}
+
+/// The rows as a Markdown table.
+fn table(rows: &[Row], args: &BenchArgs, adapter: Option<&str>) -> String {
+    let mut out = format!(
+        "{}x{} {:?}, depth {}, median of {} runs after a warm-up{}\n\n",
+        args.width,
+        args.height,
+        args.sampling,
+        args.max_depth,
+        args.runs,
+        adapter.map(|a| format!(", GPU: {a}")).unwrap_or_default()
+    );
+    out += "| scene | accel | backend | preprocess s | MiB | kernel s | M rays/s | tests/ray eye | shadow | reflect | refract | all | bound/ray all | × BVH |\n";
+    out += "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+    for r in rows {
+        let t = &r.tests_per_ray;
+        out += &format!(
+            "| {} | {} | {} | {:.3} | {:.1} | {:.3} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {} |\n",
+            r.scene,
+            r.accel,
+            r.backend,
+            r.preprocess_s,
+            r.accel_bytes as f64 / (1u64 << 20) as f64,
+            r.kernel_s,
+            r.mrays_per_s,
+            t.eye,
+            t.shadow,
+            t.reflect,
+            t.refract,
+            t.all,
+            r.bound_tests_per_ray.all,
+            r.ratio_to_bvh.map_or("–".into(), |x| format!("{x:.2}")),
+        );
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::median;
+
+    #[test]
+    fn median_of_odd_and_even_counts() {
+        assert_eq!(median(vec![3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(vec![4.0, 1.0, 3.0, 2.0]), 2.5);
+        assert_eq!(median(vec![7.0]), 7.0);
+    }
+}
