@@ -292,6 +292,7 @@ const WGSL_ONLY_STRUCTS: &[&str] = &[
     "ShadowWalk",
     "ShadowRay",
     "BoxRay",
+    "BvhWalk",
     "VertexOut",
 ];
 

@@ -4,7 +4,7 @@
 // and a `skip` index past every subtree. A ray takes the order of its direction and walks it
 // with one index and no stack: a missed box goes on at `skip`, a hit inner node at the next
 // node, a hit leaf tests its primitives and goes on at `skip`. A walk interrupted between
-// kernel steps keeps only that index. The same queries as walk.wgsl and brute.wgsl, with
+// kernel steps keeps only that index and the leaf's primitives left. The same queries as walk.wgsl and brute.wgsl, with
 // the same intersection functions and tie rule (`consider`); node tests are counted as
 // bound tests.
 
@@ -59,46 +59,59 @@ fn box_hit(n: BvhNode, r: BoxRay, t_far: f32) -> bool {
     return t0 <= min(t1, t_far);
 }
 
-// The primitives of leaf `leaf`: x the first index into bvh_prims, y the end.
-fn leaf_range(leaf: u32) -> vec2<u32> {
-    let first = leaf >> BVH_LEAF_SHIFT;
-    return vec2<u32>(first, first + (leaf & ((1u << BVH_LEAF_SHIFT) - 1u)));
+// A position in a walk: the next node `at`, and the primitives k..kend of the last leaf
+// entered still to test.
+struct BvhWalk {
+    at: u32,
+    k: u32,
+    kend: u32,
 }
 
-// Continues the nearest-hit walk from node `*at` for at most about `budget` loop iterations
-// (a node, or a leaf's primitives), keeping the nearest hit in `best` (ties to the lower id;
-// `skip` never tested). True when the walk is over.
-fn bvh_nearest(at: ptr<function, u32>, best: ptr<function, Closest>, ray: Ray, r: BoxRay, t_max: f32, skip: u32,
+fn bvh_done(w: BvhWalk) -> bool {
+    return w.at >= params.bvh_stride && w.k >= w.kend;
+}
+
+// Enters or skips node `w.at` after its box test `hit`: a hit leaf queues its primitives.
+fn bvh_advance(w: ptr<function, BvhWalk>, n: BvhNode, hit: bool) {
+    if hit && n.leaf == 0u {
+        (*w).at += 1u;
+        return;
+    }
+    if hit {
+        (*w).k = n.leaf >> BVH_LEAF_SHIFT;
+        (*w).kend = (*w).k + (n.leaf & ((1u << BVH_LEAF_SHIFT) - 1u));
+    }
+    (*w).at = n.skip;
+}
+
+// Continues the nearest-hit walk `w` for at most `budget` loop iterations, each one box test
+// or one primitive test (one flat loop: lavapipe's loop limit counts a loop's iterations
+// while any lane of the SIMD vector is still in it, so nested loops would count the inner
+// one for every lane), keeping the nearest hit in `best` (ties to the lower id; `skip`
+// never tested). True when the walk is over.
+fn bvh_nearest(w: ptr<function, BvhWalk>, best: ptr<function, Closest>, ray: Ray, r: BoxRay, t_max: f32, skip: u32,
     ray_kind: u32, budget: u32) -> bool {
     var left = budget;
     var best_t = select(t_max, (*best).hit.t, (*best).found);
     loop {
-        if *at >= params.bvh_stride {
+        if bvh_done(*w) {
             break;
         }
         if left == 0u {
             return false;
         }
         left -= 1u;
-        let n = bvh_nodes[r.base + *at];
-        count_bound(ray_kind);
-        if !box_hit(n, r, best_t) {
-            *at = n.skip;
-            continue;
-        }
-        if n.leaf == 0u {
-            *at += 1u;
-            continue;
-        }
-        let range = leaf_range(n.leaf);
-        left -= min(left, range.y - range.x);
-        for (var k = range.x; k < range.y; k++) {
-            let id = bvh_prims[k];
+        if (*w).k < (*w).kend {
+            let id = bvh_prims[(*w).k];
+            (*w).k += 1u;
             if id != skip {
                 best_t = consider(id, best, ray, t_max, ray_kind, best_t);
             }
+            continue;
         }
-        *at = n.skip;
+        let n = bvh_nodes[r.base + (*w).at];
+        count_bound(ray_kind);
+        bvh_advance(w, n, box_hit(n, r, best_t));
     }
     return true;
 }
@@ -110,66 +123,56 @@ fn closest(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) -> Cl
     if max3(abs(ray.d)) == 0.0 {
         return best;
     }
-    var at = 0u;
-    bvh_nearest(&at, &best, ray, box_ray(ray), t_max, skip, ray_kind, UNBOUNDED);
+    var w = BvhWalk(0u, 0u, 0u);
+    bvh_nearest(&w, &best, ray, box_ray(ray), t_max, skip, ray_kind, UNBOUNDED);
     return best;
 }
 
 // `closest` for the ray on top of the point's stack, in bounded steps: `done` false when
-// the walk goes on in the next step (from the node kept in `state.walk.i`).
+// the walk goes on in the next step (from the position kept in `state.walk`: `i` the node,
+// `j..jend` the leaf's primitives left).
 fn closest_step(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) -> Stepped {
     var best = no_closest();
-    var at = 0u;
+    var w = BvhWalk(0u, 0u, 0u);
     if state.walking == 0u {
         if max3(abs(ray.d)) == 0.0 {
             return Stepped(true, best);
         }
     } else {
         let s = state.walk;
-        at = s.i;
+        w = BvhWalk(s.i, s.j, s.jend);
         if s.prim != NO_ID {
             best = Closest(true, s.prim, PrimHit(true, s.t, s.b1, s.b2));
         }
     }
-    if bvh_nearest(&at, &best, ray, box_ray(ray), t_max, skip, ray_kind, WALK_CHUNK) {
+    if bvh_nearest(&w, &best, ray, box_ray(ray), t_max, skip, ray_kind, WALK_CHUNK) {
         state.walking = 0u;
         return Stepped(true, best);
     }
     state.walking = 1u;
-    state.walk = WalkState(at, 0u, 0u, 0u, best.prim, best.hit.t, best.hit.b1, best.hit.b2);
+    state.walk = WalkState(w.at, 0u, w.k, w.kend, best.prim, best.hit.t, best.hit.b1, best.hit.b2);
     return Stepped(false, best);
 }
 
 #if SHADOWS
-// Continues the any-hit walk of shadow ray `sr` from node `*at` for at most about `budget`
-// loop iterations: ANY_BLOCKED when some primitive other than `skip` is hit at
-// 0 < t < t_max (its distance from the spawn origin noted in `blocked_at`), ANY_CLEAR when
-// the walk ended without one, ANY_UNFINISHED when the budget ran out first.
-fn bvh_any(at: ptr<function, u32>, sr: ShadowRay, skip: u32, budget: u32) -> u32 {
+// Continues the any-hit walk `w` of shadow ray `sr` for at most `budget` loop iterations (as
+// `bvh_nearest`): ANY_BLOCKED when some primitive other than `skip` is hit at 0 < t < t_max
+// (its distance from the spawn origin noted in `blocked_at`), ANY_CLEAR when the walk ended
+// without one, ANY_UNFINISHED when the budget ran out first.
+fn bvh_any(w: ptr<function, BvhWalk>, sr: ShadowRay, skip: u32, budget: u32) -> u32 {
     let r = box_ray(sr.ray);
     var left = budget;
     loop {
-        if *at >= params.bvh_stride {
+        if bvh_done(*w) {
             break;
         }
         if left == 0u {
             return ANY_UNFINISHED;
         }
         left -= 1u;
-        let n = bvh_nodes[r.base + *at];
-        count_bound(RAY_SHADOW);
-        if !box_hit(n, r, sr.t_max) {
-            *at = n.skip;
-            continue;
-        }
-        if n.leaf == 0u {
-            *at += 1u;
-            continue;
-        }
-        let range = leaf_range(n.leaf);
-        left -= min(left, range.y - range.x);
-        for (var k = range.x; k < range.y; k++) {
-            let id = bvh_prims[k];
+        if (*w).k < (*w).kend {
+            let id = bvh_prims[(*w).k];
+            (*w).k += 1u;
             if id == skip {
                 continue;
             }
@@ -180,8 +183,11 @@ fn bvh_any(at: ptr<function, u32>, sr: ShadowRay, skip: u32, budget: u32) -> u32
                 blocked_at = abs(h.t - sr.q_t);
                 return ANY_BLOCKED;
             }
+            continue;
         }
-        *at = n.skip;
+        let n = bvh_nodes[r.base + (*w).at];
+        count_bound(RAY_SHADOW);
+        bvh_advance(w, n, box_hit(n, r, sr.t_max));
     }
     return ANY_CLEAR;
 }
@@ -190,34 +196,37 @@ fn bvh_any(at: ptr<function, u32>, sr: ShadowRay, skip: u32, budget: u32) -> u32
 // the shadow ray of `shadow_ray` (geometry.wgsl), the one the other queries trace.
 fn occluded(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> bool {
     let sr = shadow_ray(q, to_light, light);
-    var at = 0u;
-    return !sr.empty && bvh_any(&at, sr, skip, UNBOUNDED) == ANY_BLOCKED;
+    var w = BvhWalk(0u, 0u, 0u);
+    return !sr.empty && bvh_any(&w, sr, skip, UNBOUNDED) == ANY_BLOCKED;
 }
 
 // `occluded` when its walk ends within `params.shadow_inline` loop iterations (for the BVH
-// a budget of iterations, set by the host); ANY_UNFINISHED when it does not, and the
-// shadow ray becomes a job whose walk starts over.
+// a budget of iterations, set by the host: `layout::budget::bvh_shadow_inline`);
+// ANY_UNFINISHED when it does not, and the shadow ray becomes a job whose walk starts over.
 fn occluded_short(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> u32 {
     let sr = shadow_ray(q, to_light, light);
     if sr.empty {
         return ANY_CLEAR;
     }
-    var at = 0u;
-    return bvh_any(&at, sr, skip, params.shadow_inline);
+    var w = BvhWalk(0u, 0u, 0u);
+    return bvh_any(&w, sr, skip, params.shadow_inline);
 }
 
 // `occluded` for the shadow job on top of the point's stack, in bounded steps (the walk's
-// node kept in `state.walk.i`): ANY_UNFINISHED when it goes on in the next step.
+// position kept in `state.walk`): ANY_UNFINISHED when it goes on in the next step.
 fn occluded_step(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> u32 {
     let sr = shadow_ray(q, to_light, light);
     if sr.empty {
         state.walking = 0u;
         return ANY_CLEAR;
     }
-    var at = select(0u, state.walk.i, state.walking != 0u);
-    let r = bvh_any(&at, sr, skip, WALK_CHUNK);
+    var w = BvhWalk(0u, 0u, 0u);
+    if state.walking != 0u {
+        w = BvhWalk(state.walk.i, state.walk.j, state.walk.jend);
+    }
+    let r = bvh_any(&w, sr, skip, WALK_CHUNK);
     state.walking = select(0u, 1u, r == ANY_UNFINISHED);
-    state.walk = WalkState(at, 0u, 0u, 0u, NO_ID, 0.0, 0.0, 0.0);
+    state.walk = WalkState(w.at, 0u, w.k, w.kend, NO_ID, 0.0, 0.0, 0.0);
     return r;
 }
 #endif
