@@ -3,7 +3,8 @@
 //! (513² eye rays) and the ray trees they spawn (depth 5), in f32 with the table walker.
 //!
 //! `cargo run --release --example tables_bench -- [--trace] [--verify K] [--hit-object]
-//!  [--size W] [--surface-n N] [--cluster K] SCENE...` prints one JSON object per scene.
+//!  [--size W] [--pilot-rays N] [--beam-target T] [--budget-mib M] SCENE...` prints one JSON
+//!  object per scene.
 
 use cuberay::coherence::{self, bench, BuildParams, ShadowMode, TableStats};
 use cuberay::load::{self, LoadOptions};
@@ -27,20 +28,24 @@ fn main() -> anyhow::Result<()> {
     };
     let verify: u32 = value("--verify").map(|v| v.parse()).transpose()?.unwrap_or(0);
     let size: u32 = value("--size").map(|v| v.parse()).transpose()?.unwrap_or(512);
-    let surface_n: Option<u32> = value("--surface-n").map(|v| v.parse()).transpose()?;
-    let cluster: Option<usize> = value("--cluster").map(|v| v.parse()).transpose()?;
+    let pilot_rays: Option<usize> = value("--pilot-rays").map(|v| v.parse()).transpose()?;
+    let beam_target: Option<f64> = value("--beam-target").map(|v| v.parse()).transpose()?;
+    let budget_mib: Option<usize> = value("--budget-mib").map(|v| v.parse()).transpose()?;
     let eye_n: Option<u32> = value("--eye-n").map(|v| v.parse()).transpose()?;
     let light_cells: Option<usize> = value("--light-cells").map(|v| v.parse()).transpose()?;
     for path in &args {
         let loaded = load::load(path.as_ref(), &LoadOptions::default())?;
         let scene = loaded.scene;
-        let mut params = BuildParams {
-            image: Some((size, size)),
-            surface_n,
-            cluster_size: cluster,
-            eye_n,
-            ..BuildParams::default()
-        };
+        let mut params = BuildParams { image: Some((size, size)), eye_n, ..BuildParams::default() };
+        if let Some(n) = pilot_rays {
+            params.pilot_rays = n;
+        }
+        if let Some(t) = beam_target {
+            params.beam_target = t;
+        }
+        if let Some(m) = budget_mib {
+            params.budget_bytes = m << 20;
+        }
         if let Some(c) = light_cells {
             params.light_cells = c;
         }

@@ -21,7 +21,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
-use crate::coherence::{BuildParams, FlatTables, GpuEntry, GpuFace, GpuGroup, GpuOrigin};
+use crate::coherence::{BuildParams, FlatTables, GpuBeamNode, GpuEntry, GpuFace, GpuGroup, GpuOrigin};
 use crate::error::Error;
 use crate::scene::Scene;
 
@@ -29,7 +29,7 @@ use crate::scene::Scene;
 const MAGIC: &[u8] = b"cuberay tables\n";
 
 /// The layout version; a file of another version is refused.
-const VERSION: u32 = 1;
+const VERSION: u32 = 2;
 
 /// The SHA-256 of the running cuberay binary (its version where it cannot be read): stored
 /// tables are valid for the builder and kernels that made them.
@@ -76,45 +76,40 @@ struct Header {
     scene: String,
     eye_origin: u32,
     fallback_origin: u32,
+    /// The beams' box, camera-relative.
+    beam_lo: [f32; 3],
+    beam_hi: [f32; 3],
     /// Element counts of the arrays that follow, in the order written.
     origins: usize,
     faces: usize,
     cell_start: usize,
     entries: usize,
-    prim_origin: usize,
-    prim_patches: usize,
+    prim_beams: usize,
+    beam_nodes: usize,
     light_origin: usize,
     groups: usize,
     group_prims: usize,
-    patch_tris: usize,
 }
 
 /// Writes `flat` with `key` to `path`, atomically (`scene` names the scene in messages).
 pub fn write(path: &Path, key: &str, scene: &str, flat: &FlatTables) -> Result<(), Error> {
-    let mut patches: Vec<(u32, [glam::Vec3; 3])> = flat.patch_tris.iter().map(|(k, v)| (*k, *v)).collect();
-    patches.sort_by_key(|p| p.0);
-    let patch_words: Vec<f32> = patches
-        .iter()
-        .flat_map(|(id, tri)| {
-            std::iter::once(f32::from_bits(*id)).chain(tri.iter().flat_map(|v| v.to_array()))
-        })
-        .collect();
     let header = Header {
         version: VERSION,
         key: key.into(),
         scene: scene.into(),
         eye_origin: flat.eye_origin,
         fallback_origin: flat.fallback_origin,
+        beam_lo: flat.beam_lo,
+        beam_hi: flat.beam_hi,
         origins: flat.origins.len(),
         faces: flat.faces.len(),
         cell_start: flat.cell_start.len(),
         entries: flat.entries.len(),
-        prim_origin: flat.prim_origin.len(),
-        prim_patches: flat.prim_patches.len(),
+        prim_beams: flat.prim_beams.len(),
+        beam_nodes: flat.beam_nodes.len(),
         light_origin: flat.light_origin.len(),
         groups: flat.groups.len(),
         group_prims: flat.group_prims.len(),
-        patch_tris: patches.len(),
     };
     let json = serde_json::to_vec(&header).expect("the header serialises");
     let io = |source| Error::Io { path: path.to_owned(), source };
@@ -122,18 +117,16 @@ pub fn write(path: &Path, key: &str, scene: &str, flat: &FlatTables) -> Result<(
         w.write_all(MAGIC).map_err(io)?;
         w.write_all(&(json.len() as u64).to_le_bytes()).map_err(io)?;
         w.write_all(&json).map_err(io)?;
-        let arrays: [&[u8]; 11] = [
+        let arrays: [&[u8]; 9] = [
             bytemuck::cast_slice(&flat.origins),
             bytemuck::cast_slice(&flat.faces),
             bytemuck::cast_slice(&flat.cell_start),
             bytemuck::cast_slice(&flat.entries),
-            bytemuck::cast_slice(&flat.prim_origin),
-            bytemuck::cast_slice(&flat.prim_patches),
+            bytemuck::cast_slice(&flat.prim_beams),
+            bytemuck::cast_slice(&flat.beam_nodes),
             bytemuck::cast_slice(&flat.light_origin),
             bytemuck::cast_slice(&flat.groups),
             bytemuck::cast_slice(&flat.group_prims),
-            bytemuck::cast_slice(&patch_words),
-            &[],
         ];
         for a in arrays {
             w.write_all(a).map_err(io)?;
@@ -188,30 +181,23 @@ pub fn read(path: &Path, key: &str) -> Result<StoredTables, Error> {
     let faces: Vec<GpuFace> = take(&mut rest, h.faces, "faces").map_err(t)?;
     let cell_start: Vec<u32> = take(&mut rest, h.cell_start, "cell starts").map_err(t)?;
     let entries: Vec<GpuEntry> = take(&mut rest, h.entries, "entries").map_err(t)?;
-    let prim_origin: Vec<u32> = take(&mut rest, h.prim_origin, "primitive origins").map_err(t)?;
-    let prim_patches: Vec<u32> = take(&mut rest, h.prim_patches, "primitive patches").map_err(t)?;
+    let prim_beams: Vec<u32> = take(&mut rest, h.prim_beams, "primitive beam flags").map_err(t)?;
+    let beam_nodes: Vec<GpuBeamNode> = take(&mut rest, h.beam_nodes, "beam nodes").map_err(t)?;
     let light_origin: Vec<u32> = take(&mut rest, h.light_origin, "light origins").map_err(t)?;
     let groups: Vec<GpuGroup> = take(&mut rest, h.groups, "groups").map_err(t)?;
     let group_prims: Vec<u32> = take(&mut rest, h.group_prims, "group members").map_err(t)?;
-    let words: Vec<f32> = take(&mut rest, h.patch_tris.saturating_mul(10), "patch triangles").map_err(t)?;
     if !rest.is_empty() {
         return Err(bad(format!("{} bytes follow its last array", rest.len())));
     }
-    let patch_tris = words
-        .chunks_exact(10)
-        .map(|c| {
-            let v = |k: usize| glam::Vec3::new(c[k], c[k + 1], c[k + 2]);
-            (c[0].to_bits(), [v(1), v(4), v(7)])
-        })
-        .collect();
     let flat = FlatTables {
         origins,
         faces,
         cell_start,
         entries,
-        prim_origin,
-        prim_patches,
-        patch_tris,
+        prim_beams,
+        beam_nodes,
+        beam_lo: h.beam_lo,
+        beam_hi: h.beam_hi,
         light_origin,
         eye_origin: h.eye_origin,
         fallback_origin: h.fallback_origin,
@@ -254,9 +240,10 @@ mod tests {
         assert_eq!(a.faces, b.faces);
         assert_eq!(a.cell_start, b.cell_start);
         assert_eq!(bytemuck::cast_slice::<_, u8>(&a.entries), bytemuck::cast_slice::<_, u8>(&b.entries));
-        assert_eq!(a.prim_origin, b.prim_origin);
-        assert_eq!(a.prim_patches, b.prim_patches);
-        assert_eq!(a.patch_tris, b.patch_tris);
+        assert!(!a.beam_nodes.is_empty(), "the mirrors have beams");
+        assert_eq!(a.prim_beams, b.prim_beams);
+        assert_eq!(a.beam_nodes, b.beam_nodes);
+        assert_eq!((a.beam_lo, a.beam_hi), (b.beam_lo, b.beam_hi));
         assert_eq!(a.light_origin, b.light_origin);
         assert_eq!((a.eye_origin, a.fallback_origin), (b.eye_origin, b.fallback_origin));
         assert_eq!(bytemuck::cast_slice::<_, u8>(&a.groups), bytemuck::cast_slice::<_, u8>(&b.groups));

@@ -74,13 +74,14 @@ fn cyl(a: DVec3, ra: f64, b: DVec3, rb: f64, material: u32) -> Primitive {
     })
 }
 
-/// Small resolutions so that debug builds stay fast.
+/// Small resolutions so that debug builds stay fast, and beams split down to one candidate
+/// per pilot ray, so that the trees are deep.
 fn small_params() -> BuildParams {
     BuildParams {
         eye_n: Some(24),
         light_n: Some(16),
-        surface_n: Some(4),
-        cluster_size: Some(2),
+        pilot_rays: 1 << 10,
+        beam_target: 1.0,
         ..BuildParams::default()
     }
 }
@@ -136,10 +137,11 @@ impl World {
         (b.prim, b.best_t(FAR))
     }
 
-    /// The entries of `org`'s cell for `d`, in walk order (for failure messages).
-    fn candidates(&self, org: u32, d: Vec3) -> Vec<(u32, f32)> {
+    /// The entries of the list of a ray from `key` along `d`, in walk order (for failure
+    /// messages).
+    fn candidates(&self, key: OriginKey, d: Vec3) -> Vec<(u32, f32)> {
         let f = &self.tables.flat;
-        let mut w = walk::walk_start(f, org, d);
+        let mut w = f.start_walk(key, d);
         let mut out = Vec::new();
         while !walk::walk_done(&w) {
             let e = walk::walk_next(f, &mut w);
@@ -152,22 +154,24 @@ impl World {
     /// distances; all must agree with brute force.
     fn check_nearest(&self, key: OriginKey, o: Vec3, d: Vec3) -> Result<(), String> {
         let f = &self.tables.flat;
-        let org = f.table_of(key).ok_or(format!("no table for {key:?}"))?;
+        if !f.has_table(key) {
+            return Err(format!("no table for {key:?}"));
+        }
         let ray = make_ray(o, d);
         let test = |id: u32| test_prim(&self.prims[id as usize], &ray, FAR);
         let mut count = WalkCount::default();
-        let h = walk::cube_walk_nearest(f, org, ray.o, ray.d, FAR, NO_ID, &mut count, test);
+        let h = walk::cube_walk_nearest(f, key, ray.o, ray.d, FAR, NO_ID, &mut count, test);
         let want = self.brute(&ray, FAR);
         if (h.prim, h.best_t(FAR)) != want {
             return Err(format!(
                 "{key:?} o={o} d={d}: walker {:?} brute {:?}; candidates {:?}",
                 (h.prim, h.best_t(FAR)),
                 want,
-                self.candidates(org, ray.d)
+                self.candidates(key, ray.d)
             ));
         }
         // Stepped, as the GPU walks long lists: three iterations per step, resumed.
-        let mut w = walk::walk_start(f, org, ray.d);
+        let mut w = f.start_walk(key, ray.d);
         let mut best = no_closest::<f32, PrimHit>();
         let mut steps = 0;
         while !walk::walk_nearest(f, &mut w, &mut best, ray.o, ray.d, FAR, NO_ID, 3, &mut count, test) {
@@ -179,7 +183,7 @@ impl World {
                 (best.prim, best.t)
             ));
         }
-        let g64 = walk::cube_walk_nearest(f, org, ray.o, ray.d, f64::MAX, NO_ID, &mut count, |id| {
+        let g64 = walk::cube_walk_nearest(f, key, ray.o, ray.d, f64::MAX, NO_ID, &mut count, |id| {
             test(id).map(|(t, _)| (t as f64, ()))
         });
         if g64.prim != want.0 {
@@ -190,16 +194,18 @@ impl World {
 
     fn check_any(&self, key: OriginKey, o: Vec3, d: Vec3, t_max: f32) -> Result<(), String> {
         let f = &self.tables.flat;
-        let org = f.table_of(key).ok_or(format!("no table for {key:?}"))?;
+        if !f.has_table(key) {
+            return Err(format!("no table for {key:?}"));
+        }
         let ray = make_ray(o, d);
         let hits = |id: u32| self.prims[id as usize].intersect(&ray, t_max).ok;
         let mut count = WalkCount::default();
-        let b = walk::cube_walk_any(f, org, ray.o, ray.d, t_max, NO_ID, &mut count, hits);
+        let b = walk::cube_walk_any(f, key, ray.o, ray.d, t_max, NO_ID, &mut count, hits);
         let want = self.brute(&ray, t_max).0 != NO_ID;
         if b != want {
             return Err(format!("{key:?} any o={o} d={d} t_max={t_max}: walker {b} brute {want}"));
         }
-        let mut w = walk::walk_start(f, org, ray.d);
+        let mut w = f.start_walk(key, ray.d);
         let stepped = loop {
             match walk::walk_any(f, &mut w, ray.o, ray.d, t_max, NO_ID, 2, &mut count, hits) {
                 AnyHit::Unfinished => continue,
@@ -209,7 +215,7 @@ impl World {
         if stepped != want {
             return Err(format!("{key:?}: stepped any {stepped} brute {want}"));
         }
-        let g = walk::cube_walk_any(f, org, ray.o, ray.d, t_max as f64, NO_ID, &mut count, hits);
+        let g = walk::cube_walk_any(f, key, ray.o, ray.d, t_max as f64, NO_ID, &mut count, hits);
         if g != want {
             return Err(format!("{key:?}: f64 any {g} brute {want}"));
         }
@@ -360,12 +366,13 @@ proptest! {
 
     /// Secondary rays leaving any reflecting or transmitting primitive from a random surface
     /// point (offset by the kernels' spawn model, under the scaled policy or a fixed epsilon,
-    /// as far as the tables allow) in a random direction, inward or outward, also with
-    /// several primitives per cluster.
+    /// as far as the tables allow) in a random direction, inward or outward, through beams
+    /// split to different depths (target 0.5, 2 or 8 candidates per pilot ray, or no pilot:
+    /// the roots alone).
     #[test]
     fn surface_rays_match_brute_force(
         s in arb_scene(),
-        k in 1usize..4,
+        k in 0usize..4,
         grouped in proptest::bool::ANY,
         fixed in proptest::option::of(1e-4f32..2e-2),
         rays in proptest::collection::vec((0.0f32..1.0, 0.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0, 0.05f32..2.0), 40),
@@ -373,7 +380,8 @@ proptest! {
         // `grouped`: every surface list of two or more entries names primitive groups.
         let group_min_list = if grouped { 2 } else { usize::MAX };
         let spawn = fixed.map_or(SpawnPolicy::Scaled, SpawnPolicy::Fixed);
-        let params = BuildParams { cluster_size: Some(k), group_min_list, spawn, ..small_params() };
+        let (pilot_rays, beam_target) = [(0, 1.0), (1 << 10, 0.5), (1 << 10, 2.0), (1 << 10, 8.0)][k];
+        let params = BuildParams { pilot_rays, beam_target, group_min_list, spawn, ..small_params() };
         let w = World::new(&s, &params);
         let origins: Vec<usize> = (0..s.primitives.len())
             .filter(|&i| w.tables.flat.has_surface(i as u32))
@@ -394,8 +402,8 @@ proptest! {
         }
     }
 
-    /// In hit-object shadow mode every primitive has a table, and shadow rays from any
-    /// surface toward a light agree with brute force.
+    /// In hit-object shadow mode every primitive's rays are classified into the beams, and
+    /// shadow rays from any surface toward a light agree with brute force.
     #[test]
     fn hit_object_shadow_rays(s in arb_scene(), rays in proptest::collection::vec((0.0f32..1.0, 0.0f32..1.0), 20)) {
         let params = BuildParams { shadow_mode: ShadowMode::HitObject, ..small_params() };
@@ -493,13 +501,7 @@ fn boundary_directions_from_every_origin_kind() {
     let mut s = scene(c, c + DVec3::X, &[c], prims);
     s.camera.projection = Projection::Perspective { fov_y: 170f64.to_radians(), span: FovSpan::ImageEdges };
     for n in [4u32, 8] {
-        let params = BuildParams {
-            eye_n: Some(n),
-            light_n: Some(n),
-            surface_n: Some(n),
-            cluster_size: Some(1),
-            ..BuildParams::default()
-        };
+        let params = BuildParams { eye_n: Some(n), light_n: Some(n), ..small_params() };
         let w = World::new(&s, &params);
         let centre_id = s.primitives.len() as u32 - 1;
         for d in boundary_directions(n) {
@@ -521,7 +523,7 @@ fn zero_direction_is_rejected() {
     let s = scene(DVec3::ZERO, DVec3::X, &[DVec3::Z], vec![sphere(DVec3::new(3.0, 0.0, 0.0), 1.0, 0)]);
     let w = World::new(&s, &small_params());
     let f = &w.tables.flat;
-    let eye = f.table_of(OriginKey::Eye).unwrap();
+    let eye = OriginKey::Eye;
     let mut count = WalkCount::default();
     let h =
         walk::cube_walk_nearest(f, eye, Vec3::ZERO, Vec3::ZERO, FAR, NO_ID, &mut count, |_| Some((0.0, ())));
@@ -567,8 +569,8 @@ fn eye_inside_bounding_spheres() {
         sphere(DVec3::new(0.1, 6.2, 0.0), 0.3, 1),
     ];
     let s = scene(DVec3::new(0.05, 0.0, 0.3), DVec3::new(1.0, 0.2, 0.3), &[DVec3::new(0.0, 0.0, 0.9)], prims);
-    for k in [1, 3] {
-        let w = World::new(&s, &BuildParams { cluster_size: Some(k), ..small_params() });
+    for beam_target in [1.0, 8.0] {
+        let w = World::new(&s, &BuildParams { beam_target, ..small_params() });
         let eye = w.p(s.camera.eye);
         sweep(&w, &s, OriginKey::Eye, eye, 400);
         sweep(&w, &s, OriginKey::Light(0), w.p(s.lights[0].position), 400);
@@ -634,8 +636,8 @@ fn tangent_and_nested_spheres() {
         &[DVec3::new(-3.0, -3.0, 5.0)],
         prims.clone(),
     );
-    for k in [1, 2, 4] {
-        let w = World::new(&s, &BuildParams { cluster_size: Some(k), surface_n: Some(8), ..small_params() });
+    for beam_target in [0.5, 2.0, 8.0] {
+        let w = World::new(&s, &BuildParams { beam_target, ..small_params() });
         for id in 0..prims.len() {
             check_surface_rays(&w, &s, id, 60).unwrap();
         }
@@ -669,7 +671,7 @@ fn huge_ground_polygon() {
         &[DVec3::new(3.0, 2.0, 6.0), DVec3::new(-20.0, 5.0, 1.0)],
         prims.clone(),
     );
-    let w = World::new(&s, &BuildParams { cluster_size: Some(1), surface_n: Some(8), ..small_params() });
+    let w = World::new(&s, &small_params());
     for j in 0..32 {
         for i in 0..32 {
             let (o, d) = s.camera.ray(i as f64 * 2.0 + 0.5, j as f64 * 2.0 + 0.5, 64, 64);
@@ -695,11 +697,11 @@ fn tables_of(t: &Tables) -> usize {
 
 #[test]
 fn only_the_effects_the_scene_calls_for() {
-    // No mirrors, no glass: no surface tables; no lights: no light tables.
+    // No mirrors, no glass: no beams; no lights: no light tables.
     let prims = vec![sphere(DVec3::new(3.0, 0.0, 0.0), 1.0, 0), tri(DVec3::ZERO, DVec3::X, DVec3::Y, 0)];
     let s = scene(DVec3::new(-3.0, 0.0, 0.5), DVec3::new(3.0, 0.0, 0.0), &[DVec3::Z], prims.clone());
     let t = coherence::build(&s, &small_params()).unwrap();
-    assert!(t.flat.prim_origin.iter().all(|&o| o == u32::MAX));
+    assert!(t.beams.is_none() && t.flat.beam_nodes.is_empty() && t.flat.prim_beams.iter().all(|&b| b == 0));
     assert_eq!(tables_of(&t), 2, "eye and one light");
     let mut dark = s.clone();
     dark.lights.clear();
@@ -711,18 +713,18 @@ fn only_the_effects_the_scene_calls_for() {
     let s = scene(DVec3::new(-3.0, 0.0, 0.5), DVec3::new(3.0, 0.0, 0.0), &[DVec3::Z], mirror);
     assert!(s.effects().reflection && s.effects().shadows);
     let t = coherence::build(&s, &small_params()).unwrap();
-    assert!(t.flat.prim_origin[0] != u32::MAX && t.flat.light_origin[0] != u32::MAX);
+    assert!(t.flat.has_surface(0) && !t.flat.has_surface(1) && t.flat.light_origin[0] != u32::MAX);
     let eye_only = BuildParams { effects: Some(cuberay::scene::Effects::default()), ..small_params() };
     let t = coherence::build(&s, &eye_only).unwrap();
     assert_eq!(tables_of(&t), 1, "eye only");
-    assert!(t.flat.prim_origin.iter().all(|&o| o == u32::MAX));
+    assert!(t.beams.is_none() && t.flat.prim_beams.iter().all(|&b| b == 0));
     assert!(t.flat.light_origin.iter().all(|&o| o == u32::MAX));
 }
 
 #[test]
 fn memory_budget_is_respected() {
-    // Many mirror balls: a small budget forces coarser surface tables, and the result stays
-    // within it (the eye and light tables are fixed costs, counted too).
+    // Many mirror balls: a small budget stops the beams' subdivision early, and the result
+    // stays within it (the eye and light tables are fixed costs, counted too).
     let mut prims = Vec::new();
     for i in 0..12 {
         for j in 0..12 {
@@ -737,7 +739,8 @@ fn memory_budget_is_respected() {
     let small = coherence::build(&s, &BuildParams { budget_bytes: budget, ..base.clone() }).unwrap();
     small.flat.check(s.primitives.len()).unwrap();
     assert!(small.flat.bytes() <= budget, "{} bytes over the budget {budget}", small.flat.bytes());
-    assert!(small.cluster_size > big.cluster_size || small.surface_n < big.surface_n);
+    let (b, sb) = (big.beams.as_ref().unwrap().stats, small.beams.as_ref().unwrap().stats);
+    assert!(sb.over_budget && !b.over_budget && sb.leaves < b.leaves, "{sb:?} against {b:?}");
     let w = World::of(&s, small);
     for id in (0..s.primitives.len()).step_by(7) {
         for m in 0..20 {
@@ -792,10 +795,10 @@ cases!(spd_every_ray_agrees_with_brute_force: super::spd_every_ray_agrees_with_b
 });
 
 #[test]
-fn mirror_floor_patches_match_brute_force() {
-    // A large mirror floor (two triangles) under small objects, some touching it: the floor
-    // is split into surface patches, and rays leaving it from anywhere (on patch borders
-    // too, up and down) find what brute force finds.
+fn mirror_floor_beams_match_brute_force() {
+    // A large mirror floor (two triangles) under small objects, some touching it: the beams
+    // over the floor are split by origin, and rays leaving it from anywhere (on the split
+    // planes too, up and down) find what brute force finds.
     let (a, b, c, d) = (
         DVec3::new(-10.0, -10.0, 0.0),
         DVec3::new(10.0, -10.0, 0.0),
@@ -814,22 +817,29 @@ fn mirror_floor_patches_match_brute_force() {
         }
     }
     let s = scene(DVec3::new(0.0, -25.0, 12.0), DVec3::ZERO, &[DVec3::new(3.0, 2.0, 15.0)], prims);
-    let w = World::new(&s, &BuildParams { surface_n: Some(8), ..BuildParams::default() });
-    let f = &w.tables.flat;
-    assert!(f.prim_patches[0] > 1 && f.prim_patches[1] > 1, "the floor is split: {:?}", &f.prim_patches[..2]);
-    assert!(f.prim_patches[2..].iter().all(|&m| m == 1), "small objects are not split");
-    let m = f.prim_patches[0] as f32;
+    let w = World::new(&s, &BuildParams { beam_target: 1.0, ..BuildParams::default() });
+    let beams = w.tables.beams.as_ref().unwrap();
+    // The origin splits across the floor (x and y), in the walkers' frame.
+    let splits: Vec<(usize, f32)> = beams
+        .nodes
+        .iter()
+        .filter_map(|n| match *n {
+            coherence::beams::BeamNode::Origin { axis, split, .. } if axis < 2 => {
+                Some((axis as usize, (split - s.camera.eye[axis as usize]) as f32))
+            }
+            _ => None,
+        })
+        .collect();
+    assert!(splits.len() >= 4, "the floor's beams are split by origin: {:?}", beams.stats);
     for k in 0..3000 {
         let id = k % 2;
-        // Every third point sits on a grid line of the patches.
-        let (mut u, mut v) = ((k as f32 * 0.618_034) % 1.0, (k as f32 * 0.414_214) % 1.0);
+        let (u, v) = ((k as f32 * 0.618_034) % 1.0, (k as f32 * 0.414_214) % 1.0);
+        let (mut p, ng) = w.surface_point(id, u, v);
+        // Every third point sits on a split plane.
         if k % 3 == 0 {
-            u = (u * m).round() / m;
+            let (axis, at) = splits[k / 3 % splits.len()];
+            p[axis] = at;
         }
-        if u + v > 1.0 {
-            (u, v) = (1.0 - u, 1.0 - v);
-        }
-        let (p, ng) = w.surface_point(id, u, v);
         let t = k as f32 * 0.7;
         let dd = dir(t.sin(), t.cos(), if k % 5 == 0 { -0.3 } else { 0.05 + (k % 7) as f32 * 0.2 });
         let o = w.spawn(id, p, ng, dd, k % 2 == 1);
@@ -840,9 +850,10 @@ fn mirror_floor_patches_match_brute_force() {
 
 #[test]
 fn moving_the_eye_rebuilds_only_its_table() {
-    // The preview moves the camera: the eye's table is rebuilt, the light and surface tables
-    // are kept while they hold, and every ray still agrees with brute force. A move that
-    // takes the eye into a sphere or far away rebuilds everything.
+    // The preview moves the camera: the eye's table is rebuilt, the light tables and the
+    // beams are kept while they hold (the beams move to the new eye's frame), and every ray
+    // still agrees with brute force. A move far away, which grows the spawn offset, rebuilds
+    // everything.
     let mut prims =
         vec![tri(DVec3::new(-10.0, -10.0, 0.0), DVec3::new(10.0, -10.0, 0.0), DVec3::new(0.0, 10.0, 0.0), 1)];
     for i in 0..5 {
@@ -890,7 +901,7 @@ fn moving_the_eye_rebuilds_only_its_table() {
         assert_eq!((&a.entries, &a.always, &a.starts), (&b.entries, &b.always, &b.starts));
     }
     check(&s, &tables);
-    // Into the glass sphere: it must now list itself, so everything is rebuilt.
+    // Into the glass sphere: the beams do not depend on what holds the eye.
     s.camera = Camera::look_at(
         DVec3::new(0.0, 6.0, 2.2),
         DVec3::new(0.0, 0.0, 1.0),
@@ -898,7 +909,19 @@ fn moving_the_eye_rebuilds_only_its_table() {
         Projection::Perspective { fov_y: 50f64.to_radians(), span: FovSpan::ImageEdges },
     )
     .unwrap();
-    assert!(!tables.rebuild_eye(&s, &params).unwrap(), "the eye entered a sphere");
+    let beams = tables.beams.as_ref().unwrap().nodes.clone();
+    assert!(tables.rebuild_eye(&s, &p).unwrap(), "the eye entered a sphere, nothing else changed");
+    assert_eq!(tables.beams.as_ref().unwrap().nodes, beams);
+    check(&s, &tables);
+    // Far away: the offset grows with the distance to the eye.
+    s.camera = Camera::look_at(
+        DVec3::new(0.0, -900.0, 300.0),
+        DVec3::ZERO,
+        DVec3::Z,
+        Projection::Perspective { fov_y: 3f64.to_radians(), span: FovSpan::ImageEdges },
+    )
+    .unwrap();
+    assert!(!tables.rebuild_eye(&s, &params).unwrap(), "the spawn offset grew");
     check(&s, &tables);
 }
 
@@ -919,12 +942,12 @@ fn hard_scene_tables_match_brute_force(file: &str) {
             }
         }
         for (li, l) in s.lights.iter().enumerate() {
-            if w.tables.flat.table_of(OriginKey::Light(li)).is_some() {
+            if w.tables.flat.has_table(OriginKey::Light(li)) {
                 sweep(&w, &s, OriginKey::Light(li), w.p(l.position), 300);
             }
         }
         for id in 0..s.primitives.len() {
-            if w.tables.flat.prim_origin[id] != u32::MAX {
+            if w.tables.flat.has_surface(id as u32) {
                 check_surface_rays(&w, &s, id, 40).unwrap_or_else(|e| panic!("{file}: {e}"));
             }
         }

@@ -438,10 +438,10 @@ cases!(tables_agree_with_the_cpu: super::tables_agree_with_the_cpu {
     cylinders => ("cylinders", &super::cylinders_scene()),
 });
 
-/// A large mirror floor under small objects is split into surface patches, looked up from
-/// each reflection ray's origin on the GPU: the image agrees with the CPU reference.
+/// A large mirror floor under small objects: its reflection rays are classified into beams by
+/// their origins and directions on the GPU, and the image agrees with the CPU reference.
 #[test]
-fn a_mirror_floor_split_into_patches_agrees_with_the_cpu() {
+fn a_mirror_floor_classified_into_beams_agrees_with_the_cpu() {
     let mut s = format!("{VIEW}f 0.7 0.7 0.7 0.4 0.6 30 0 1\np 4\n-8 -8 0\n8 -8 0\n8 8 0\n-8 8 0\n");
     s += "f 0.9 0.3 0.2 0.8 0.1 10 0 1\n";
     for i in -2i32..=2 {
@@ -456,11 +456,8 @@ fn a_mirror_floor_split_into_patches_agrees_with_the_cpu() {
     }
     let scene = nff(&s);
     let tables = cuberay::coherence::build(&scene, &Default::default()).unwrap();
-    assert!(
-        tables.flat.prim_patches.iter().any(|&m| m > 1),
-        "the floor should be split into patches: {:?}",
-        &tables.flat.prim_patches[..2]
-    );
+    let beams = tables.beams.as_ref().expect("the mirrors have beams").stats;
+    assert!(tables.flat.has_surface(0) && beams.leaves > 6, "the beams are subdivided: {beams:?}");
     let (g, _) = agree("mirror floor", &scene, &RenderOptions::new(64, 48), 0.01);
     assert_eq!(g.stats.settings.accel, "cube");
     assert!(g.stats.rays.reflect > 1000);

@@ -81,10 +81,13 @@ fn each_kernel_contains_only_its_own_queries() {
         let cube = v.queries == Queries::Tables;
         let bvh = v.queries == Queries::Bvh;
         let brute = v.queries == Queries::Brute;
-        let table_fns = ["cube_walk_nearest", "cube_cell_range", "cube_face_cell", "cube_origin"];
+        let table_fns = ["cube_walk_nearest", "cube_cell_range", "cube_face_cell", "start_walk"];
         for f in table_fns {
             assert_eq!(has_function(&m, f), cube, "{v:?}: {f}");
         }
+        // The beams only where rays leave surfaces.
+        let surface_rays = v.reflection || v.shadows;
+        assert_eq!(has_function(&m, "beam_range"), cube && surface_rays, "{v:?}: beam_range");
         assert_eq!(has_function(&m, "cube_walk_any"), cube && v.shadows, "{v:?}");
         assert_eq!(has_function(&m, "bvh_nearest"), bvh, "{v:?}");
         assert_eq!(has_function(&m, "box_hit"), bvh, "{v:?}");

@@ -8,7 +8,10 @@ use std::any::type_name;
 use std::collections::BTreeMap;
 use std::mem::{offset_of, size_of};
 
-use cuberay::coherence::flat::{GpuEntry, GpuFace, GpuGroup, GpuOrigin, GROUP_BIT, NO_ORIGIN};
+use cuberay::coherence::flat::{
+    GpuBeamNode, GpuEntry, GpuFace, GpuGroup, GpuOrigin, BEAM_CELLS, BEAM_DEPTH, BEAM_FACE, BEAM_LEAF,
+    GROUP_BIT, NO_ORIGIN,
+};
 use cuberay::coherence::groups::GROUP_SLACK;
 use cuberay::coherence::walk::{AnyHit, UNBOUNDED, WALK_CHUNK};
 use cuberay::gpu::shaders::{compose, Kernel, Queries, Variant};
@@ -106,6 +109,10 @@ fn rust_structs() -> BTreeMap<&'static str, Layout> {
             own_w,
             own_h,
             bvh_stride,
+            beam_lo,
+            beam_nodes,
+            beam_hi,
+            beam_pad,
         }),
         twin!(Prim { a, b, c, kind, material, flags, attr }),
         twin!(TriAttr { n0, n1, n2, uv01, uv2 }),
@@ -130,6 +137,7 @@ fn rust_structs() -> BTreeMap<&'static str, Layout> {
         twin!(GpuFace { iu0, iv0, width, height, cell_base, _pad0, _pad1, _pad2 }),
         twin!(GpuEntry { id, d_min }),
         twin!(GpuGroup { cx, cy, cz, radius, first, count, _pad0, _pad1 }),
+        twin!(GpuBeamNode { axis, split, a, b }),
         twin!(BvhNode { lo, skip, hi, leaf }),
         twin!(Tile { first_point, point_count, pad0, pad1 }),
         twin!(View { width, height, grid_w, samples, corners, encode, pad0, pad1 }),
@@ -190,6 +198,10 @@ fn rust_constants() -> BTreeMap<&'static str, Value> {
         ("SHADOW_END_REL", F32(SHADOW_END_REL)),
         ("NO_ORIGIN", U32(NO_ORIGIN)),
         ("GROUP_BIT", U32(GROUP_BIT)),
+        ("BEAM_LEAF", U32(BEAM_LEAF)),
+        ("BEAM_FACE", U32(BEAM_FACE)),
+        ("BEAM_CELLS", U32(BEAM_CELLS)),
+        ("BEAM_DEPTH", U32(BEAM_DEPTH)),
         ("GROUP_SLACK", F32(GROUP_SLACK)),
         ("BVH_LEAF_SHIFT", U32(BVH_LEAF_SHIFT)),
         ("BVH_SLACK", F32(BVH_SLACK)),

@@ -49,6 +49,12 @@ struct Params {
     own_h: u32,
     // --accel bvh: the nodes of one threaded order of the BVH (bvh.wgsl).
     bvh_stride: u32,
+    // --accel cube: the box of ray origins the beams classify, and the beam nodes (0: none);
+    // rays leaving surfaces from outside it walk the fallback origin (tables.wgsl).
+    beam_lo: vec3<f32>,
+    beam_nodes: u32,
+    beam_hi: vec3<f32>,
+    beam_pad: u32,
 }
 
 // One primitive (kind KIND_*). Sphere: a = (centre, radius). Triangle: a, b, c = vertices.

@@ -1,12 +1,11 @@
-// The direction-cube candidate tables (`--accel cube`) as the kernels read them: the
-// flattened buffers and their structs (keep in sync with src/coherence/flat.rs), the group
-// test (src/coherence/groups.rs), the surface patch lookup (src/coherence/patches.rs), the
-// origin a ray's table belongs to and the cell of its direction (src/coherence/walk.rs and
-// cube.rs). A ray whose origin has no table uses the fallback origin, whose always-test list
-// holds every primitive (d_min 0, ascending ids): the same walk, so these kernels contain no
-// separate brute-force loop.
+// The candidate tables (`--accel cube`) as the kernels read them: the flattened buffers and
+// their structs (keep in sync with src/coherence/flat.rs), the group test
+// (src/coherence/groups.rs), the cell of a direction (src/coherence/cube.rs) and the beam of
+// a ray leaving a surface (src/coherence/beams/mod.rs). A ray without a table uses the
+// fallback origin, whose always-test list holds every primitive (d_min 0, ascending ids):
+// the same walk, so these kernels contain no separate brute-force loop.
 
-// One origin entity; `kind` is coherence::OriginKind (eye, light, surface, fallback).
+// One direction cube; `kind` is coherence::OriginKind (eye, light, fallback).
 struct GpuOrigin {
     n: u32,
     always_start: u32,
@@ -33,6 +32,17 @@ struct GpuEntry {
     d_min: f32,
 }
 
+// A node of the beam tree: an inner node sends a ray to child a or a + 1 by its origin
+// (axis 0-2: o[axis] >= bitcast<f32>(split) goes to a + 1) or its direction's cell on a
+// BEAM_CELLS-cube (axis 3: iu, 4: iv; >= split goes to a + 1), or to child a + face by its
+// direction's face (axis BEAM_FACE); a leaf (axis BEAM_LEAF) lists entries[a..b].
+struct GpuBeamNode {
+    axis: u32,
+    split: u32,
+    a: u32,
+    b: u32,
+}
+
 // A group of primitives (coherence::groups): its camera-relative bounding sphere, widened
 // for rounding, and its members group_prims[first .. first + count].
 struct GpuGroup {
@@ -50,17 +60,24 @@ struct GpuGroup {
 @group(0) @binding(12) var<storage, read> faces: array<GpuFace>;
 @group(0) @binding(13) var<storage, read> cell_start: array<u32>;
 @group(0) @binding(14) var<storage, read> entries: array<GpuEntry>;
-// Per primitive: its surface origin; per light: its light origin (NO_ORIGIN: none).
-@group(0) @binding(15) var<storage, read> prim_origin: array<u32>;
+// Per primitive: 1 when the rays leaving it are classified into the beams, else 0.
+@group(0) @binding(15) var<storage, read> prim_beams: array<u32>;
+// Per light: its light origin (NO_ORIGIN: none).
 @group(0) @binding(16) var<storage, read> light_origin: array<u32>;
-// Per primitive: m, its m×m surface patches (1: one origin for the whole primitive).
-@group(0) @binding(17) var<storage, read> prim_patches: array<u32>;
+// The beam tree, its root first.
+@group(0) @binding(17) var<storage, read> beam_nodes: array<GpuBeamNode>;
 // Primitive groups, named by entries whose id has GROUP_BIT set, and their members.
 @group(0) @binding(18) var<storage, read> groups: array<GpuGroup>;
 @group(0) @binding(19) var<storage, read> group_prims: array<u32>;
 
 const NO_ORIGIN: u32 = 0xffffffffu;
 const GROUP_BIT: u32 = 0x80000000u;
+const BEAM_LEAF: u32 = 5u;
+const BEAM_FACE: u32 = 6u;
+// Cells per face edge of the cube the beams' direction splits name.
+const BEAM_CELLS: u32 = 4096u;
+// The deepest beam node below a root (checked on the host).
+const BEAM_DEPTH: u32 = 64u;
 // Relative widening of the group test (coherence::groups::GROUP_SLACK).
 const GROUP_SLACK: f32 = 1e-5;
 
@@ -75,44 +92,6 @@ fn group_hit(g: GpuGroup, ray: Ray, t_far: f32) -> bool {
     }
     let v = oc - tc * ray.d;
     return dot(v, v) <= rr * rr;
-}
-
-// The surface patch of triangle (p0, p1, p2), split into an m×m barycentric grid, holding
-// the ray origin `at`: the twin of `triangle_patch`.
-fn triangle_patch(p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>, m: u32, at: vec3<f32>) -> u32 {
-    let e1 = p1 - p0;
-    let e2 = p2 - p0;
-    let w = at - p0;
-    let d11 = dot(e1, e1);
-    let d12 = dot(e1, e2);
-    let d22 = dot(e2, e2);
-    let w1 = dot(w, e1);
-    let w2 = dot(w, e2);
-    let den = d11 * d22 - d12 * d12;
-    let b1 = (d22 * w1 - d12 * w2) / den;
-    let b2 = (d11 * w2 - d12 * w1) / den;
-    let last = f32(m - 1u);
-    let i = u32(min(max(floor(b1 * f32(m)), 0.0), last));
-    let j = u32(min(max(floor(b2 * f32(m)), 0.0), last));
-    return min(j, m - 1u - i) * m + i;
-}
-
-// The table a ray leaving primitive `from_prim` (NO_ID: the eye) from `at` walks: its
-// origin's (OriginKey::Surface or OriginKey::Eye), or the fallback origin where there is
-// none. Together with `light_table`, the twin of `FlatTables::cube_origin`.
-fn cube_origin(from_prim: u32, at: vec3<f32>) -> u32 {
-    var o = NO_ORIGIN;
-    if from_prim == NO_ID {
-        o = params.eye_origin;
-    } else if from_prim < params.prim_count {
-        o = prim_origin[from_prim];
-        let m = prim_patches[from_prim];
-        if o != NO_ORIGIN && m > 1u {
-            let p = prims[from_prim];
-            o += triangle_patch(p.a.xyz, p.b.xyz, p.c.xyz, m, at);
-        }
-    }
-    return select(o, params.fallback_origin, o == NO_ORIGIN);
 }
 
 // The table of light `light`'s shadow rays (OriginKey::Light), or NO_ORIGIN.
@@ -162,3 +141,32 @@ fn cube_cell_range(origin: u32, d: vec3<f32>) -> vec2<u32> {
     let c = w.cell_base + lv * w.width + lu;
     return vec2<u32>(cell_start[c], cell_start[c + 1u]);
 }
+
+#if SURFACE_RAYS
+// Whether a ray leaving a surface from `at` is classified into the beams: inside their box
+// (twin of coherence::beams::in_beams).
+fn in_beams(at: vec3<f32>) -> bool {
+    return params.beam_nodes > 0u && all(at >= params.beam_lo) && all(at <= params.beam_hi);
+}
+
+// The [begin, end) range of `entries` listing the beam of the ray from `at` (in the beams'
+// box) along `d` (not zero): the twin of coherence::beams::beam_range.
+fn beam_range(at: vec3<f32>, d: vec3<f32>) -> vec2<u32> {
+    let fc = cube_face_cell(d, BEAM_CELLS);
+    var k = 0u;
+    for (var depth = 0u; depth <= BEAM_DEPTH; depth++) {
+        let n = beam_nodes[k];
+        if n.axis == BEAM_LEAF {
+            return vec2<u32>(n.a, n.b);
+        }
+        if n.axis == BEAM_FACE {
+            k = n.a + fc.x;
+        } else if n.axis < 3u {
+            k = n.a + select(0u, 1u, at[n.axis] >= bitcast<f32>(n.split));
+        } else {
+            k = n.a + select(0u, 1u, fc[n.axis - 2u] >= n.split);
+        }
+    }
+    return vec2<u32>(0u, 0u);
+}
+#endif

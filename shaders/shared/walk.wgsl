@@ -1,8 +1,8 @@
 // The table walk: line-by-line twin of src/coherence/walk.rs (keep them in sync). A ray
-// looks up the table of its origin entity (the eye, the light it is traced from, the
-// primitive it leaves), finds the cell of its direction, and walks the cell's list merged
-// with the origin's always-test list by increasing d_min, stopping once d_min passes the
-// nearest hit so far; a long walk is spread over several steps. Then the queries the
+// finds its list (the cell of its direction in the direction cube of the eye or the light it
+// is traced from; the beam of a ray leaving a surface) and walks it merged with the origin's
+// always-test list by increasing d_min, stopping once d_min passes the nearest hit so far; a
+// long walk is spread over several steps. Then the queries the
 // shading asks, `closest` and `occluded`, in their stepped forms too.
 
 // A position in the merged walk of a cell's list (i..iend) and the always list (j..jend).
@@ -17,6 +17,23 @@ fn walk_start(origin: u32, d: vec3<f32>) -> Walk {
     let org = origins[origin];
     let range = cube_cell_range(origin, d);
     return Walk(range.x, range.y, org.always_start, org.always_start + org.always_count);
+}
+
+// The walk of a ray leaving primitive `from_prim` (NO_ID: the eye) from `at` along `d` (not
+// zero): the eye's cell, the beam of a classified surface ray, or the fallback origin (twin
+// of FlatTables::start_walk).
+fn start_walk(from_prim: u32, at: vec3<f32>, d: vec3<f32>) -> Walk {
+    if from_prim == NO_ID {
+        let o = params.eye_origin;
+        return walk_start(select(o, params.fallback_origin, o == NO_ORIGIN), d);
+    }
+#if SURFACE_RAYS
+    if from_prim < params.prim_count && prim_beams[from_prim] != 0u && in_beams(at) {
+        let r = beam_range(at, d);
+        return Walk(r.x, r.y, 0u, 0u);
+    }
+#endif
+    return walk_start(params.fallback_origin, d);
 }
 
 // The entry the merged walk visits next; the walk is over when `w.i == w.iend` and
@@ -78,21 +95,21 @@ fn walk_nearest(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, 
     return true;
 }
 
-// The nearest hit with 0 < t < t_max from the table of `origin`, ties to the lower id;
-// `skip` is never tested (NO_ID: none).
-fn cube_walk_nearest(origin: u32, ray: Ray, t_max: f32, skip: u32, ray_kind: u32) -> Closest {
+// The nearest hit with 0 < t < t_max of a ray leaving primitive `from_prim` (NO_ID: the
+// eye), ties to the lower id; `skip` is never tested (NO_ID: none).
+fn cube_walk_nearest(from_prim: u32, ray: Ray, t_max: f32, skip: u32, ray_kind: u32) -> Closest {
     var best = no_closest();
     if max3(abs(ray.d)) == 0.0 {
         return best;
     }
-    var w = walk_start(origin, ray.d);
+    var w = start_walk(from_prim, ray.o, ray.d);
     walk_nearest(&w, &best, ray, t_max, skip, ray_kind, UNBOUNDED);
     return best;
 }
 
 // The nearest hit of a ray leaving primitive `from_prim` (NO_ID: the eye).
 fn closest(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) -> Closest {
-    return cube_walk_nearest(cube_origin(from_prim, ray.o), ray, t_max, skip, ray_kind);
+    return cube_walk_nearest(from_prim, ray, t_max, skip, ray_kind);
 }
 
 // `closest` for the ray on top of the point's stack, in bounded steps: `done` false when
@@ -104,7 +121,7 @@ fn closest_step(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) 
         if max3(abs(ray.d)) == 0.0 {
             return Stepped(true, best);
         }
-        w = walk_start(cube_origin(from_prim, ray.o), ray.d);
+        w = start_walk(from_prim, ray.o, ray.d);
     } else {
         let s = state.walk;
         w = Walk(s.i, s.iend, s.j, s.jend);
@@ -177,21 +194,19 @@ fn walk_any(w: ptr<function, Walk>, ray: Ray, t_max: f32, skip: u32, budget: u32
     return ANY_CLEAR;
 }
 
-// True when some primitive other than `skip` is hit at 0 < t < t_max.
-fn cube_walk_any(origin: u32, ray: Ray, t_max: f32, skip: u32) -> bool {
-    if max3(abs(ray.d)) == 0.0 {
-        return false;
-    }
-    var w = walk_start(origin, ray.d);
-    return walk_any(&w, ray, t_max, skip, UNBOUNDED) == ANY_BLOCKED;
+// True when some primitive other than `skip` is hit at 0 < t < t_max on the walk `w` (of
+// `ray`'s direction, not zero).
+fn cube_walk_any(w: Walk, ray: Ray, t_max: f32, skip: u32) -> bool {
+    var walk = w;
+    return walk_any(&walk, ray, t_max, skip, UNBOUNDED) == ANY_BLOCKED;
 }
 
 // The walk that answers whether light `light` is blocked from `q`, the spawn origin on
-// primitive `from_prim`: the one shadow ray of `shadow_ray` (geometry.wgsl), walked with
-// the light's table when it is traced from the light, else with the table of `from_prim`
-// (the fallback origin where there is none). `empty`: nothing to walk.
+// primitive `from_prim`: the one shadow ray of `shadow_ray` (geometry.wgsl), walked in the
+// light's table when it is traced from the light, else in the beam it lies in (the fallback
+// origin where there is none). `empty`: nothing to walk (and `walk` unset).
 struct ShadowWalk {
-    origin: u32,
+    walk: Walk,
     ray: Ray,
     t_max: f32,
     empty: bool,
@@ -208,14 +223,17 @@ fn note_blocker(sw: ShadowWalk, r: u32) -> u32 {
 
 fn shadow_walk(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32) -> ShadowWalk {
     let sr = shadow_ray(q, to_light, light);
-    var origin: u32;
+    var w = Walk(0u, 0u, 0u, 0u);
+    if sr.empty {
+        return ShadowWalk(w, sr.ray, sr.t_max, true, sr.q_t);
+    }
     if sr.from_light {
         let lo = light_table(light);
-        origin = select(lo, params.fallback_origin, lo == NO_ORIGIN);
+        w = walk_start(select(lo, params.fallback_origin, lo == NO_ORIGIN), sr.ray.d);
     } else {
-        origin = cube_origin(from_prim, q);
+        w = start_walk(from_prim, sr.ray.o, sr.ray.d);
     }
-    return ShadowWalk(origin, sr.ray, sr.t_max, sr.empty, sr.q_t);
+    return ShadowWalk(w, sr.ray, sr.t_max, false, sr.q_t);
 }
 
 // `occluded` when its walk has at most `params.shadow_inline` entries (groups counted
@@ -225,7 +243,7 @@ fn occluded_short(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32,
     if sw.empty {
         return ANY_CLEAR;
     }
-    var w = walk_start(sw.origin, sw.ray.d);
+    var w = sw.walk;
     if (w.iend - w.i) + (w.jend - w.j) > params.shadow_inline {
         return ANY_UNFINISHED;
     }
@@ -238,7 +256,7 @@ fn occluded(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip:
     if sw.empty {
         return false;
     }
-    let blocked = cube_walk_any(sw.origin, sw.ray, sw.t_max, skip);
+    let blocked = cube_walk_any(sw.walk, sw.ray, sw.t_max, skip);
     note_blocker(sw, select(ANY_CLEAR, ANY_BLOCKED, blocked));
     return blocked;
 }
@@ -250,10 +268,8 @@ fn occluded_step(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, 
     if sw.empty {
         return ANY_CLEAR;
     }
-    var w: Walk;
-    if state.walking == 0u {
-        w = walk_start(sw.origin, sw.ray.d);
-    } else {
+    var w = sw.walk;
+    if state.walking != 0u {
         let s = state.walk;
         w = Walk(s.i, s.iend, s.j, s.jend);
     }

@@ -15,7 +15,6 @@ pub struct Ctx<'a> {
     pub bvh: &'a Bvh,
     pub eps: f64,
     pub delta: f64,
-    pub always_fraction: f64,
     /// The primitive groups, and the list length from which lists name them.
     pub groups: Groups,
     pub group_min_list: usize,
@@ -29,7 +28,6 @@ impl<'a> Ctx<'a> {
             bvh,
             eps,
             delta: params.delta,
-            always_fraction: params.always_fraction,
             groups: Groups::of_bvh(bvh, targets.len(), GROUP_SIZE),
             group_min_list: params.group_min_list,
             cells: Default::default(),

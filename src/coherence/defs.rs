@@ -1,7 +1,7 @@
-//! The origins a build makes tables for, before building: the eye (its cells clipped to the
-//! view frustum), each positional light (its cells where objects lie), and clusters or
-//! surface patches of the primitives that spawn secondary rays, each with its sphere
-//! (inflated by the spawn offset), resolution and stored windows.
+//! The origins a build makes direction cubes for, before building: the eye (its cells
+//! clipped to the view frustum) and each positional light (its cells where objects lie),
+//! each with its sphere, resolution and stored windows. (Rays leaving surfaces are
+//! classified into beams instead: [`super::beams`].)
 
 use glam::DVec3;
 
@@ -9,29 +9,21 @@ use super::bounds::sphere_cone;
 use super::cells::{cell_span, Cone};
 use super::context::Ctx;
 use super::flat::OriginKind;
-use super::hierarchy::{bounding_sphere, cluster};
 use super::params::BuildParams;
-use super::patches::{patch_rounding, patch_sphere};
-use super::targets::Shape;
 use crate::scene::{Projection, Scene};
 
-/// One origin before building: its kind, its sphere (already inflated), its members and its
-/// resolution and stored windows.
+/// One origin before building: its kind, its sphere (already inflated), its resolution and
+/// stored windows.
 #[derive(Clone, Debug)]
 pub struct OriginDef {
     pub kind: OriginKind,
     pub center: DVec3,
     pub radius: f64,
-    /// Surface origins: the primitives whose rays use this table.
-    pub members: Vec<u32>,
     /// Light origins: the light index.
     pub light: Option<usize>,
     pub n: u32,
     /// Per face, the cells searched: `[iu0, iv0, width, height]`, or `None`.
     pub window: [Option<[u32; 4]>; 6],
-    /// Surface patches: `(m, index)` when this origin is patch `index` of the `m×m` patches
-    /// of its one member (see [`super::patches::triangle_patch`]).
-    pub patch: Option<(u32, u32)>,
 }
 
 /// Light-origin targets whose bound is wider than this go to the always-test list.
@@ -180,11 +172,9 @@ pub fn eye_def(scene: &Scene, params: &BuildParams, eps: f64) -> OriginDef {
         kind: OriginKind::Eye,
         center: cam.eye,
         radius,
-        members: Vec::new(),
         light: None,
         n,
         window: rects.map(|r| r.map(|r| to_window(r, n))),
-        patch: None,
     }
 }
 
@@ -198,53 +188,8 @@ pub fn light_def(i: usize, pos: DVec3, params: &BuildParams, eps: f64, ctx: &Ctx
         kind: OriginKind::Light,
         center: pos,
         radius: eps,
-        members: Vec::new(),
         light: Some(i),
         n,
         window: rects.map(|r| r.map(|r| to_window(r, n))),
-        patch: None,
     }
-}
-
-pub fn surface_defs(ids: &[u32], k: usize, n: u32, ctx: &Ctx, patches: &[u32]) -> Vec<OriginDef> {
-    let centers: Vec<DVec3> = ctx.targets.iter().map(|t| t.center).collect();
-    let (whole, patched): (Vec<u32>, Vec<u32>) = ids.iter().partition(|&&i| patches[i as usize] <= 1);
-    let mut defs: Vec<OriginDef> = cluster(&whole, &centers, k)
-        .into_iter()
-        .map(|members| {
-            let (c, r) = bounding_sphere(&members, ctx.targets);
-            OriginDef {
-                kind: OriginKind::Surface,
-                center: c,
-                radius: r + ctx.eps,
-                members,
-                light: None,
-                n,
-                window: [Some([0, 0, n, n]); 6],
-                patch: None,
-            }
-        })
-        .collect();
-    for id in patched {
-        let Shape::Triangle { v } = ctx.targets[id as usize].shape else { continue };
-        let m = patches[id as usize];
-        for index in 0..m * m {
-            let (i, j) = (index % m, index / m);
-            // Patches past the hypotenuse are never looked up: no cells.
-            let used = i + j < m;
-            let (c, r) = patch_sphere(&v, m, i, j);
-            let window = if used { [Some([0, 0, n, n]); 6] } else { [None; 6] };
-            defs.push(OriginDef {
-                kind: OriginKind::Surface,
-                center: c,
-                radius: r + ctx.eps + patch_rounding(&v),
-                members: vec![id],
-                light: None,
-                n,
-                window,
-                patch: Some((m, index)),
-            });
-        }
-    }
-    defs
 }

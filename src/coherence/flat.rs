@@ -4,17 +4,17 @@
 //! `max_storage_buffer_binding_size`):
 //!
 //! ```text
-//! origins:    array<GpuOrigin>      one per origin entity (eye, light, surface cluster,
+//! origins:    array<GpuOrigin>      one per direction cube (the eye, each light with a table,
 //!                                   and the fallback origin last)
 //! faces:      array<GpuFace>        six per origin, at origin·6 + face
 //! cell_start: array<u32>            one per stored cell, plus one: cell c lists
 //!                                   entries[cell_start[c] .. cell_start[c+1]]
-//! entries:    array<GpuEntry>       candidate lists, each sorted by increasing d_min
-//! prim_origin:  array<u32>          per primitive: the origin its secondary rays use, or 0xffffffff;
-//!                                   for a primitive split into m×m surface patches, the first
-//!                                   of its m² consecutive origins
-//! prim_patches: array<u32>          per primitive: m (1: one origin for the whole primitive);
-//!                                   a ray origin's patch is [`super::patches::triangle_patch`]
+//! entries:    array<GpuEntry>       candidate lists, each sorted by increasing d_min: the
+//!                                   cells', then the always lists, then the beams' leaves,
+//!                                   then the fallback origin's
+//! prim_beams:   array<u32>          per primitive: 1 when the rays leaving it are classified
+//!                                   into the beams, 0 when they walk the fallback origin
+//! beam_nodes:   array<GpuBeamNode>  the beam tree (see [`super::beams`]), its root first
 //! light_origin: array<u32>          per light: the origin of its shadow rays, or 0xffffffff
 //! groups:       array<GpuGroup>     primitive groups (see [`super::groups`]): a camera-relative
 //!                                   bounding sphere and group_prims[first .. first + count]
@@ -96,6 +96,35 @@ pub struct GpuGroup {
     pub _pad1: u32,
 }
 
+/// A node of the beam tree (see [`super::beams`]): an inner node sends a ray to child `a`
+/// or `a + 1` by its origin (`axis` 0–2: `o[axis] >= split` as an f32 goes to `a + 1`) or
+/// its direction (`axis` 3, 4: the direction's cell `iu`, `iv` on a [`BEAM_CELLS`]-cube,
+/// `>= split` goes to `a + 1`), or to child `a + face` by the direction's face (`axis`
+/// [`BEAM_FACE`]); a leaf (`axis` [`BEAM_LEAF`]) lists `entries[a..b]`. Keep in sync with
+/// `GpuBeamNode` in `shaders/shared/tables.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct GpuBeamNode {
+    pub axis: u32,
+    pub split: u32,
+    pub a: u32,
+    pub b: u32,
+}
+
+/// [`GpuBeamNode::axis`] of a leaf (WGSL `BEAM_LEAF`, keep them in sync).
+pub const BEAM_LEAF: u32 = 5;
+
+/// [`GpuBeamNode::axis`] of a split by face (WGSL `BEAM_FACE`, keep them in sync).
+pub const BEAM_FACE: u32 = 6;
+
+/// Cells per face edge of the direction cube whose cells the beams' direction splits name
+/// (WGSL `BEAM_CELLS`, keep them in sync).
+pub const BEAM_CELLS: u32 = 4096;
+
+/// The deepest beam-tree node, counted from the root at depth 0 (WGSL `BEAM_DEPTH`, keep
+/// them in sync): the kernels' descent loop stops there.
+pub const BEAM_DEPTH: u32 = 64;
+
 /// wgpu's default (and lavapipe's) limit on one storage buffer binding.
 pub const MAX_BINDING_BYTES: usize = 128 << 20;
 
@@ -113,9 +142,8 @@ pub const NO_ORIGIN: u32 = u32::MAX;
 pub enum OriginKind {
     Eye = 0,
     Light = 1,
-    Surface = 2,
     /// The origin every ray without a table of its own walks: all primitives.
-    Fallback = 3,
+    Fallback = 2,
 }
 
 /// The flattened tables, ready for upload (`bytemuck::cast_slice` each vector).
@@ -125,14 +153,14 @@ pub struct FlatTables {
     pub faces: Vec<GpuFace>,
     pub cell_start: Vec<u32>,
     pub entries: Vec<GpuEntry>,
-    /// Per primitive: its surface origin (the first of its patches), or `u32::MAX`.
-    pub prim_origin: Vec<u32>,
-    /// Per primitive: patches per side `m` (1: not split).
-    pub prim_patches: Vec<u32>,
-    /// The f32 vertices of each split triangle relative to the camera's eye (the frame of
-    /// the GPU and of the f32 walkers), for the CPU's patch lookup; the GPU uses its own copy
-    /// of the primitive. Not uploaded.
-    pub patch_tris: std::collections::HashMap<u32, [glam::Vec3; 3]>,
+    /// Per primitive: 1 when the rays leaving it are classified into the beams, else 0.
+    pub prim_beams: Vec<u32>,
+    /// The beam tree (empty: no beams), its root first.
+    pub beam_nodes: Vec<GpuBeamNode>,
+    /// The box of ray origins the beams classify, relative to the camera's eye: rays from
+    /// outside it walk the fallback origin. Empty (`lo > hi`) without beams.
+    pub beam_lo: [f32; 3],
+    pub beam_hi: [f32; 3],
     /// Per light (index into `Scene::lights`): its light origin, or `u32::MAX` (directional
     /// lights, or no shadow tables).
     pub light_origin: Vec<u32>,
@@ -152,8 +180,8 @@ impl FlatTables {
             + std::mem::size_of_val(self.faces.as_slice())
             + std::mem::size_of_val(self.cell_start.as_slice())
             + std::mem::size_of_val(self.entries.as_slice())
-            + std::mem::size_of_val(self.prim_origin.as_slice())
-            + std::mem::size_of_val(self.prim_patches.as_slice())
+            + std::mem::size_of_val(self.prim_beams.as_slice())
+            + std::mem::size_of_val(self.beam_nodes.as_slice())
             + std::mem::size_of_val(self.light_origin.as_slice())
             + std::mem::size_of_val(self.groups.as_slice())
             + std::mem::size_of_val(self.group_prims.as_slice())
@@ -166,7 +194,8 @@ impl FlatTables {
             std::mem::size_of_val(self.faces.as_slice()),
             std::mem::size_of_val(self.cell_start.as_slice()),
             std::mem::size_of_val(self.entries.as_slice()),
-            std::mem::size_of_val(self.prim_origin.as_slice()),
+            std::mem::size_of_val(self.prim_beams.as_slice()),
+            std::mem::size_of_val(self.beam_nodes.as_slice()),
         ]
         .into_iter()
         .max()
@@ -195,8 +224,11 @@ impl FlatTables {
         if !fits(self.eye_origin) {
             return bad(format!("the eye origin {} is out of range", self.eye_origin));
         }
-        if self.prim_origin.len() != primitives {
-            return bad(format!("{} primitive origins for {primitives} primitives", self.prim_origin.len()));
+        if self.prim_beams.len() != primitives {
+            return bad(format!(
+                "{} primitive beam flags for {primitives} primitives",
+                self.prim_beams.len()
+            ));
         }
         if self.light_origin.len() != lights {
             return bad(format!("{} light origins for {lights} lights", self.light_origin.len()));
@@ -254,14 +286,10 @@ impl FlatTables {
             check_sorted(&self.entries[a..b])
                 .map_err(|e| format!("cell {c}: {e}: {:?}", &self.entries[a..b]))?;
         }
-        if self.prim_patches.len() != self.prim_origin.len() {
-            return Err("prim_patches and prim_origin differ in length".into());
+        if let Some(id) = self.prim_beams.iter().position(|&b| b > 1) {
+            return Err(format!("primitive {id}: beam flag {} is not 0 or 1", self.prim_beams[id]));
         }
-        for (id, (&o, &m)) in self.prim_origin.iter().zip(&self.prim_patches).enumerate() {
-            if m == 0 || (o != u32::MAX && o as u64 + (m as u64) * (m as u64) > self.origins.len() as u64) {
-                return Err(format!("primitive {id}: patches {m} from origin {o} out of range"));
-            }
-        }
+        self.check_beams()?;
         let bit = GROUP_BIT;
         if let Some(e) = self.entries.iter().find(|e| {
             if e.id & bit != 0 {
@@ -294,6 +322,51 @@ impl FlatTables {
     }
 }
 
+impl FlatTables {
+    /// The beam tree: every child after its parent (so a descent ends), no node deeper than
+    /// [`BEAM_DEPTH`], leaves sorted and in range, finite splits, a finite box.
+    fn check_beams(&self) -> Result<(), String> {
+        let nodes = &self.beam_nodes;
+        if nodes.is_empty() {
+            return Ok(());
+        }
+        if !self.beam_lo.iter().chain(&self.beam_hi).all(|x| x.is_finite()) {
+            return Err("the beams' box is not finite".into());
+        }
+        let mut depth = vec![0u32; nodes.len()];
+        for (i, n) in nodes.iter().enumerate() {
+            let children = match n.axis {
+                BEAM_LEAF => {
+                    if n.a > n.b || n.b as usize > self.entries.len() {
+                        return Err(format!("beam leaf {i}: bad range {}..{}", n.a, n.b));
+                    }
+                    check_sorted(&self.entries[n.a as usize..n.b as usize])
+                        .map_err(|e| format!("beam leaf {i}: {e}"))?;
+                    continue;
+                }
+                BEAM_FACE => 6,
+                0..=2 if !f32::from_bits(n.split).is_finite() => {
+                    return Err(format!("beam node {i}: split is not finite"));
+                }
+                3 | 4 if n.split >= BEAM_CELLS => {
+                    return Err(format!("beam node {i}: split {} past the cells", n.split));
+                }
+                0..=4 => 2,
+                a => return Err(format!("beam node {i}: axis {a}")),
+            };
+            if (n.a as usize) <= i || n.a as usize + children > nodes.len() {
+                return Err(format!("beam node {i}: children {} out of order or range", n.a));
+            }
+            let d = depth[i] + 1;
+            if d > BEAM_DEPTH {
+                return Err(format!("beam node {i}: deeper than {BEAM_DEPTH}"));
+            }
+            depth[n.a as usize..n.a as usize + children].fill(d);
+        }
+        Ok(())
+    }
+}
+
 fn check_sorted(list: &[GpuEntry]) -> Result<(), String> {
     for e in list {
         if !(e.d_min.is_finite() && e.d_min >= 0.0) {
@@ -317,5 +390,6 @@ mod tests {
         assert_eq!(std::mem::size_of::<GpuEntry>(), 8);
         assert_eq!(std::mem::align_of::<GpuEntry>(), 4);
         assert_eq!(std::mem::size_of::<GpuGroup>(), 32);
+        assert_eq!(std::mem::size_of::<GpuBeamNode>(), 16);
     }
 }

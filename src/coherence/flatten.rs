@@ -1,31 +1,29 @@
-//! Flattening: the built origin tables become the buffers the walkers read
-//! ([`FlatTables`]): cell lists of every origin in order, then the always-test lists, the
-//! per-primitive and per-light origin indices, the groups, the eye-relative f32 data the
-//! lookups need, and the fallback origin last.
+//! Flattening: the built direction cubes and the beam tree become the buffers the walkers
+//! read ([`FlatTables`]): the cubes' cell lists in order, then their always-test lists, the
+//! fallback origin (the last origin) and its list of every primitive, the beams' leaf lists
+//! and nodes, the per-light origin indices, the groups and the eye-relative f32 data.
 
 use glam::DVec3;
 
+use super::beams::BeamTree;
 use super::defs::OriginDef;
 use super::flat::{FlatTables, GpuEntry, GpuFace, GpuOrigin, OriginKind, GROUP_BIT};
 use super::groups::Groups;
 use super::lists::OriginTable;
-use super::targets::{Shape, Target};
 
-/// Flattens built origin tables into the GPU buffers.
+/// Flattens built direction cubes, the beams (if any) and the fallback origin into the GPU
+/// buffers, for a camera at `eye`.
 pub fn flatten(
     tables: &[OriginTable],
     defs: &[OriginDef],
+    beams: Option<&BeamTree>,
     primitives: usize,
     lights: usize,
     groups: &Groups,
+    eye: DVec3,
 ) -> FlatTables {
-    let mut flat = FlatTables {
-        prim_origin: vec![u32::MAX; primitives],
-        prim_patches: vec![1; primitives],
-        light_origin: vec![u32::MAX; lights],
-        eye_origin: u32::MAX,
-        ..FlatTables::default()
-    };
+    let mut flat =
+        FlatTables { light_origin: vec![u32::MAX; lights], eye_origin: u32::MAX, ..FlatTables::default() };
     let cells: usize = tables.iter().map(|t| t.starts.len() - 1).sum();
     let entries: usize = tables.iter().map(|t| t.entries.len() + t.always.len()).sum();
     flat.cell_start.reserve(cells + 1);
@@ -57,20 +55,7 @@ pub fn flatten(
         match def.kind {
             OriginKind::Eye => flat.eye_origin = o as u32,
             OriginKind::Light => flat.light_origin[def.light.unwrap()] = o as u32,
-            OriginKind::Surface => match def.patch {
-                // Patches are consecutive origins; the first is the primitive's base.
-                Some((m, 0)) => {
-                    flat.prim_origin[def.members[0] as usize] = o as u32;
-                    flat.prim_patches[def.members[0] as usize] = m;
-                }
-                Some(_) => {}
-                None => {
-                    for &m in &def.members {
-                        flat.prim_origin[m as usize] = o as u32;
-                    }
-                }
-            },
-            // Appended after flattening (`append_fallback`), never built.
+            // Appended last (`append_fallback`), never built.
             OriginKind::Fallback => {}
         }
     }
@@ -79,23 +64,29 @@ pub fn flatten(
         flat.origins[o].always_start = flat.entries.len() as u32;
         flat.entries.extend_from_slice(&t.always);
     }
+    append_fallback(&mut flat, primitives);
+    match beams {
+        Some(b) => b.append_to(&mut flat, eye),
+        None => {
+            flat.prim_beams = vec![0; primitives];
+            BeamTree::default().frame(&mut flat, eye);
+        }
+    }
     // The groups go up only when some list names them; their spheres follow the eye
     // ([`frames`]).
     if flat.entries.iter().any(|e| e.id & GROUP_BIT != 0) {
         flat.group_prims = groups.members.clone();
     }
+    frames(&mut flat, groups, beams, eye);
     flat
 }
 
-/// The eye-relative f32 data of the flat tables: the vertices of the triangles split into
-/// patches and the groups' spheres.
-pub fn frames(flat: &mut FlatTables, targets: &[Target], groups: &Groups, eye: DVec3) {
+/// The eye-relative f32 data of the flat tables: the groups' spheres and the beams' origin
+/// splits and box.
+pub fn frames(flat: &mut FlatTables, groups: &Groups, beams: Option<&BeamTree>, eye: DVec3) {
     flat.groups = if flat.group_prims.is_empty() { Vec::new() } else { groups.gpu(eye) };
-    flat.patch_tris.clear();
-    for (id, _) in flat.prim_patches.iter().enumerate().filter(|(_, m)| **m > 1) {
-        if let Shape::Triangle { v } = targets[id].shape {
-            flat.patch_tris.insert(id as u32, v.map(|p| (p - eye).as_vec3()));
-        }
+    if let Some(b) = beams {
+        b.frame(flat, eye);
     }
 }
 

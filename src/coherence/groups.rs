@@ -147,7 +147,7 @@ mod tests {
     use crate::coherence::targets::{Shape, Target};
 
     fn sphere_target(c: DVec3, r: f64) -> Target {
-        Target { shape: Shape::Sphere { c, r }, center: c, radius: r, self_list: true, occluder: true }
+        Target { shape: Shape::Sphere { c, r }, center: c, radius: r, occluder: true }
     }
 
     fn targets(n: usize) -> Vec<Target> {

@@ -1,45 +1,9 @@
 //! The bounding-sphere hierarchy over targets (median splits) that the builder walks nearest
-//! first to cull hidden targets, and the spatial clustering of surface primitives into
-//! origins, and the spheres a ray can start inside (which must list themselves).
+//! first to cull hidden targets, and whose small subtrees are the primitive groups.
 
 use glam::DVec3;
 
-use super::bounds::{point_segment_distance, point_triangle_distance};
 use super::targets::{Shape, Target};
-
-/// Splits `ids` into spatially coherent groups of at most `k` (median split along the
-/// longest axis of the centres).
-pub fn cluster(ids: &[u32], centers: &[DVec3], k: usize) -> Vec<Vec<u32>> {
-    let mut out = Vec::new();
-    let mut stack = vec![ids.to_vec()];
-    while let Some(mut g) = stack.pop() {
-        if g.len() <= k.max(1) {
-            if !g.is_empty() {
-                out.push(g);
-            }
-            continue;
-        }
-        let (lo, hi) = g.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &i| {
-            (lo.min(centers[i as usize]), hi.max(centers[i as usize]))
-        });
-        let ext = hi - lo;
-        let ax = if ext.x >= ext.y && ext.x >= ext.z {
-            0
-        } else if ext.y >= ext.z {
-            1
-        } else {
-            2
-        };
-        // Split at a multiple of k so that clusters come out full.
-        let half = g.len().div_ceil(2).div_ceil(k) * k;
-        let half = half.min(g.len() - 1).max(1);
-        g.select_nth_unstable_by(half, |a, b| centers[*a as usize][ax].total_cmp(&centers[*b as usize][ax]));
-        let right = g.split_off(half);
-        stack.push(right);
-        stack.push(g);
-    }
-    out
-}
 
 /// Bounding sphere of a set of targets: centre of their boxes, radius to the farthest
 /// point (vertices for triangles).
@@ -123,82 +87,16 @@ impl Bvh {
     }
 }
 
-/// Makes spheres self-listing when a ray can start inside them: `points`
-/// (the eye, lights) or another primitive lie strictly inside. Tangent neighbours do not count.
-pub fn mark_enclosing(targets: &mut [Target], bvh: &Bvh, points: &[DVec3]) {
-    let inside: Vec<bool> = (0..targets.len())
-        .map(|i| {
-            let Shape::Sphere { c, r } = targets[i].shape else { return false };
-            if targets[i].self_list {
-                return false;
-            }
-            let strictly = r * (1.0 - 1e-6);
-            if points.iter().any(|p| (*p - c).length() < strictly) {
-                return true;
-            }
-            let mut stack = vec![0usize];
-            while let Some(n) = stack.pop() {
-                let node = bvh.nodes[n];
-                if (node.center - c).length() >= strictly + node.radius {
-                    continue;
-                }
-                if node.count == 0 {
-                    stack.push(node.first as usize);
-                    stack.push(node.first as usize + 1);
-                    continue;
-                }
-                for &j in &bvh.order[node.first as usize..(node.first + node.count) as usize] {
-                    if j as usize == i {
-                        continue;
-                    }
-                    let d = match targets[j as usize].shape {
-                        Shape::Sphere { c: cj, r: rj } => (cj - c).length() - rj,
-                        Shape::Triangle { v } => point_triangle_distance(c, &v),
-                        Shape::Capsule { p0, p1, rad } => point_segment_distance(c, p0, p1) - rad,
-                    };
-                    if d < strictly {
-                        return true;
-                    }
-                }
-            }
-            false
-        })
-        .collect();
-    for (t, inside) in targets.iter_mut().zip(inside) {
-        t.self_list |= inside;
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn clusters_partition_the_ids() {
-        let centers: Vec<DVec3> =
-            (0..103).map(|i| DVec3::new((i * 37 % 101) as f64, (i % 7) as f64, 0.0)).collect();
-        let ids: Vec<u32> = (0..103).collect();
-        for k in [1, 2, 5, 16, 200] {
-            let cl = cluster(&ids, &centers, k);
-            let mut all: Vec<u32> = cl.iter().flatten().copied().collect();
-            all.sort();
-            assert_eq!(all, ids);
-            assert!(cl.iter().all(|c| !c.is_empty() && c.len() <= k));
-        }
-    }
 
     #[test]
     fn bvh_spheres_contain_their_targets() {
         let targets: Vec<Target> = (0..57)
             .map(|i| {
                 let c = DVec3::new((i * 13 % 17) as f64, (i * 7 % 5) as f64, (i % 3) as f64);
-                Target {
-                    shape: Shape::Sphere { c, r: 0.5 },
-                    center: c,
-                    radius: 0.5,
-                    self_list: false,
-                    occluder: true,
-                }
+                Target { shape: Shape::Sphere { c, r: 0.5 }, center: c, radius: 0.5, occluder: true }
             })
             .collect();
         let bvh = Bvh::build(&targets);

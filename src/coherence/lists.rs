@@ -1,8 +1,6 @@
 //! Finishing one origin's table: records sorted into per-cell lists by `d_min` (ties by
-//! id), targets seen through most cells of a surface origin moved to its always-test list,
-//! each face's window cropped to its non-empty cells, and long lists grouped.
+//! id), and each face's window cropped to its non-empty cells.
 
-use super::context::Ctx;
 use super::defs::OriginDef;
 use super::flat::{GpuEntry, OriginKind};
 use super::raster::Cells;
@@ -40,42 +38,8 @@ pub fn store_dmin(x: f64, eps: f64) -> f32 {
     }
 }
 
-/// The list length from which `def`'s lists name groups: only surface origins group. Eye
-/// lists are short, and light lists are walked by shadow rays that mostly stop at their
-/// first blocker (grouping them measured more tests per shadow ray on gears_s4).
-pub fn group_min_list(def: &OriginDef, ctx: &Ctx) -> usize {
-    match def.kind {
-        OriginKind::Surface => ctx.group_min_list,
-        _ => usize::MAX,
-    }
-}
-
-/// Sorts the records into lists, moves wide targets to the always list (surface origins)
-/// and crops each face's window to its non-empty cells.
-pub fn finish(def: &OriginDef, cells: &Cells, mut recs: Vec<Rec>, ctx: &Ctx) -> OriginTable {
-    let eps = ctx.eps;
-    let mut always: Vec<GpuEntry> = Vec::new();
-    if def.kind == OriginKind::Surface && !recs.is_empty() {
-        recs.sort_unstable_by_key(|x| x.id);
-        let threshold = (ctx.always_fraction * cells.total as f64).max(4.0);
-        let mut keep = Vec::with_capacity(recs.len());
-        let mut i = 0;
-        while i < recs.len() {
-            let mut j = i;
-            while j < recs.len() && recs[j].id == recs[i].id {
-                j += 1;
-            }
-            if (j - i) as f64 >= threshold {
-                let dmin = recs[i..j].iter().map(|x| x.dmin).fold(f64::INFINITY, f64::min);
-                always.push(GpuEntry { id: recs[i].id, d_min: store_dmin(dmin, eps) });
-            } else {
-                keep.extend_from_slice(&recs[i..j]);
-            }
-            i = j;
-        }
-        recs = keep;
-        always.sort_by(|a, b| a.d_min.total_cmp(&b.d_min).then(a.id.cmp(&b.id)));
-    }
+/// Sorts the records into lists and crops each face's window to its non-empty cells.
+pub fn finish(def: &OriginDef, cells: &Cells, recs: Vec<Rec>, eps: f64) -> OriginTable {
     let mut stored: Vec<(u32, GpuEntry)> =
         recs.iter().map(|x| (x.cell, GpuEntry { id: x.id, d_min: store_dmin(x.dmin, eps) })).collect();
     stored.sort_unstable_by(|a, b| {
@@ -125,20 +89,5 @@ pub fn finish(def: &OriginDef, cells: &Cells, mut recs: Vec<Rec>, ctx: &Ctx) -> 
         entries[fill[c] as usize] = *e;
         fill[c] += 1;
     }
-    // Long lists name groups instead of their members.
-    let min_list = group_min_list(def, ctx);
-    if entries.len() >= min_list {
-        let mut grouped = Vec::with_capacity(entries.len());
-        let mut list = Vec::new();
-        for c in 0..total {
-            list.clear();
-            list.extend_from_slice(&entries[counts[c] as usize..counts[c + 1] as usize]);
-            ctx.groups.group_list(&mut list, min_list);
-            counts[c] = grouped.len() as u32;
-            grouped.extend_from_slice(&list);
-        }
-        counts[total] = grouped.len() as u32;
-        entries = grouped;
-    }
-    OriginTable { kind: Some(def.kind), n: def.n, faces, starts: counts, entries, always }
+    OriginTable { kind: Some(def.kind), n: def.n, faces, starts: counts, entries, always: Vec::new() }
 }

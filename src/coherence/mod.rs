@@ -6,21 +6,21 @@
 //! wgpu. Its files, in the order data flows through them:
 //! - [`params`]: what a build may be told (budget, resolutions, spawn-offset policy, effects);
 //! - [`targets`]: every primitive as a target (bounding shape, self-listing, occluder);
-//! - [`hierarchy`]: the bounding-sphere hierarchy over targets and the clustering of origins;
-//! - [`patches`]: large mirror triangles split into surface patches, and the patch lookup;
-//! - [`defs`]: the origins to build (eye frustum, lights, surface clusters and patches);
-//! - [`context`]: the shared inputs of the per-origin builds;
+//! - [`hierarchy`]: the bounding-sphere hierarchy over targets;
+//! - [`defs`]: the direction cubes to build (eye frustum, lights);
+//! - [`context`]: the shared inputs of the builds;
 //! - [`cells`]: direction-cube cells and cones, and the cell tests;
 //! - [`bounds`]: direction bounds from an origin sphere to spheres, triangles and capsules;
 //! - [`pair`]: one origin–target bound, its `d_min` and cover test;
-//! - [`blind`]: cells a triangle origin cannot see through;
 //! - [`raster`]: rasterising a bound into an origin's cells;
-//! - [`origin`]: building one origin's table (rayon-parallel over origins);
-//! - [`lists`]: finishing one origin's lists (sorting, always list, window cropping);
+//! - [`origin`]: building one direction cube (rayon-parallel over origins);
+//! - [`lists`]: finishing one cube's lists (sorting, window cropping);
+//! - [`raytree`]: the kernels' ray trees in f32, which the pilot and the bench trace;
+//! - [`beams`]: ray classification for the rays leaving surfaces: the beam tree, its pilot
+//!   pass and its lookup;
 //! - [`groups`]: primitive groups, which long candidate lists name instead of their members;
-//! - [`budget`]: the surface resolution and clustering under the memory budget;
 //! - [`tables`]: the whole build ([`build`]) and the eye-only rebuild;
-//! - [`flatten`]: origin tables into flat buffers, with the fallback origin;
+//! - [`flatten`]: cubes and beams into flat buffers, with the fallback origin;
 //! - [`flat`]: the `#[repr(C)]` buffers and their documented layout;
 //! - [`reach`]: how long a walk of the flat tables can be (for the GPU's loop budget);
 //! - [`cube`]: the direction-cube lookup (face, cell, candidate range);
@@ -29,10 +29,12 @@
 //! - [`bench`](mod@bench): test counts per ray kind over a scene's primary rays and their ray trees.
 //!
 //! # The method
-//! Each origin entity (the eye, each point light, each cluster of reflecting or transmitting
-//! primitives) has a direction cube of `N×N` cells per face. A cell lists every primitive a ray
-//! from the origin with a direction in the cell can hit, sorted by a lower bound `d_min` on the
-//! hit distance, so a walker stops as soon as `d_min` exceeds the nearest hit so far.
+//! Each origin entity rays leave from (the eye, each point light) has a direction cube of
+//! `N×N` cells per face (Ohta and Maekawa). A cell lists every primitive a ray from the origin
+//! with a direction in the cell can hit, sorted by a lower bound `d_min` on the hit distance,
+//! so a walker stops as soon as `d_min` exceeds the nearest hit so far. Rays leaving surfaces
+//! have no one origin: they are classified by origin and direction together into beams
+//! (Arvo and Kirk), whose lists are built and walked the same way.
 //!
 //! # Conservative in f32
 //! Bounds are computed in f64 and widened by an angle `delta` (the GPU's f32 lookup may put a
@@ -47,22 +49,20 @@
 //! # use cuberay::kernel::{closest::Closest, FAR, NO_ID};
 //! # fn f(scene: &cuberay::scene::Scene) {
 //! let tables = build(scene, &BuildParams::default()).unwrap();
-//! let eye = tables.flat.cube_origin(OriginKey::Eye);
 //! let dir = glam::Vec3::new(0.0, 0.0, -1.0);
 //! // A primary ray starts at the eye: the origin of the walkers' camera-relative frame.
 //! let at = glam::Vec3::ZERO;
 //! let mut count = WalkCount::default();
-//! let hit: Closest<f32, ()> = walk::cube_walk_nearest(&tables.flat, eye, at, dir, FAR, NO_ID, &mut count, |id| {
+//! let hit: Closest<f32, ()> = walk::cube_walk_nearest(&tables.flat, OriginKey::Eye, at, dir, FAR, NO_ID, &mut count, |id| {
 //!     let _ = id; // intersect primitive `id` here: Some((t, payload)) for a hit before FAR
 //!     None
 //! });
 //! # let _ = hit; }
 //! ```
 
+pub mod beams;
 pub mod bench;
-pub mod blind;
 pub mod bounds;
-pub mod budget;
 pub mod cells;
 pub mod context;
 pub mod cube;
@@ -75,15 +75,15 @@ pub mod lists;
 pub mod origin;
 pub mod pair;
 pub mod params;
-pub mod patches;
 pub mod raster;
+pub mod raytree;
 pub mod reach;
 pub mod stats;
 pub mod tables;
 pub mod targets;
 pub mod walk;
 
-pub use flat::{FlatTables, GpuEntry, GpuFace, GpuGroup, GpuOrigin, OriginKind};
+pub use flat::{FlatTables, GpuBeamNode, GpuEntry, GpuFace, GpuGroup, GpuOrigin, OriginKind};
 pub use params::{BuildParams, ShadowMode};
 pub use stats::TableStats;
 pub use tables::{build, Tables};

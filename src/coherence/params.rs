@@ -12,18 +12,17 @@ pub enum ShadowMode {
     /// Light-buffer style: each point or spot light has a table; a shadow ray is traced from
     /// the light toward the shaded point with `t_max = |P − L|·(1 − ε)`.
     LightBuffer,
-    /// From the hit object's table toward the light: every primitive belongs to a surface
-    /// origin.
+    /// From the shaded point toward the light, through the beams: every primitive spawns
+    /// rays that the beams classify.
     HitObject,
 }
 
 /// Build parameters. [`BuildParams::default`] is what `cuberay` uses.
 #[derive(Clone, Debug)]
 pub struct BuildParams {
-    /// Total bytes the flattened tables should stay under; the builder picks the surface
-    /// resolution and cluster size to fit (default 96 MiB: three quarters of the 128 MiB
-    /// target, leaving room for the error of the sampled estimate). Each buffer also stays
-    /// under wgpu's 128 MiB binding limit, or the build fails.
+    /// Total bytes the flattened tables should stay under (default 96 MiB): the beams stop
+    /// subdividing when the eye's, the lights' and their own tables reach it. Each buffer
+    /// also stays under wgpu's 128 MiB binding limit, or the build fails.
     pub budget_bytes: usize,
     /// Angular widening of every bound, radians (default 2e-5): covers the f32 cell lookup.
     pub delta: f64,
@@ -38,29 +37,28 @@ pub struct BuildParams {
     pub eye_n: Option<u32>,
     /// Cells per face edge for lights; `None`: from `light_cells`.
     pub light_n: Option<u32>,
-    /// Cells per face edge for surface origins; `None`: chosen by the budget.
-    pub surface_n: Option<u32>,
-    /// Primitives per surface origin cluster; `None`: chosen by the budget.
-    pub cluster_size: Option<usize>,
     /// The image size primary rays are made for: the eye table covers only that frustum.
     /// `None`: the scene's resolution, or the camera's default.
     pub image: Option<(u32, u32)>,
     pub shadow_mode: ShadowMode,
-    /// A target meeting at least this fraction of a surface origin's cells goes to its
-    /// always-test list (default 0.6).
-    pub always_fraction: f64,
     /// Image pixels per eye cell, along one axis (default 2).
     pub eye_pixels_per_cell: f64,
     /// Cells a light's table aims for over the directions where objects are (default 2^18).
     pub light_cells: usize,
-    /// Limit on surface origins × primitives, which bounds the build time: the cluster size
-    /// grows until the product fits (default 3·10^6).
-    pub pair_budget: usize,
-    /// Surface-origin candidate lists at least this long name primitive groups instead of
-    /// their members (default [`GROUP_MIN_LIST`]; `usize::MAX`: never).
+    /// Beam lists at least this long name primitive groups instead of their members
+    /// (default [`GROUP_MIN_LIST`]; `usize::MAX`: never).
     pub group_min_list: usize,
+    /// The deepest ray the render traces (the eye ray is depth 1; default 5): the pilot
+    /// pass follows the ray trees that deep.
+    pub max_depth: u32,
+    /// About how many eye rays the pilot pass traces, on a lattice over the whole image
+    /// (default 2^15; 0: no pilot, every beam keeps the roots' lists).
+    pub pilot_rays: usize,
+    /// The beams split until the pilot's rays test at most this many candidates on average
+    /// (default 4).
+    pub beam_target: f64,
     /// The effects the tables serve (`None`: the scene's): light tables only with shadows,
-    /// tables for reflecting and transmitting surfaces only with reflection.
+    /// beams for reflecting and transmitting surfaces only with reflection.
     pub effects: Option<Effects>,
 }
 
@@ -73,15 +71,14 @@ impl Default for BuildParams {
             spawn_offset: None,
             eye_n: None,
             light_n: None,
-            surface_n: None,
-            cluster_size: None,
             image: None,
             shadow_mode: ShadowMode::LightBuffer,
-            always_fraction: 0.6,
             eye_pixels_per_cell: 2.0,
             light_cells: 1 << 18,
-            pair_budget: 3_000_000,
             group_min_list: GROUP_MIN_LIST,
+            max_depth: 5,
+            pilot_rays: 1 << 15,
+            beam_target: 4.0,
             effects: None,
         }
     }

@@ -3,7 +3,7 @@
 //! entry counts its members too), and whether any ray of a render falls back to walking every
 //! primitive. The GPU's loop budget and tile size are set from these.
 
-use super::flat::{FlatTables, OriginKind, GROUP_BIT, NO_ORIGIN};
+use super::flat::{FlatTables, OriginKind, BEAM_LEAF, GROUP_BIT, NO_ORIGIN};
 use crate::scene::{Effects, Scene};
 
 /// Bounds on the walks of one set of tables.
@@ -33,11 +33,11 @@ fn walk_cost(flat: &FlatTables, a: u32, b: u32) -> u64 {
 }
 
 /// Whether a ray of a render with `effects` can come from an entity without a table: the eye
-/// of a non-empty scene, a positional light's shadow rays, the secondary rays of a
-/// reflecting or transmitting primitive, or (for lights without a table) the shadow rays of
-/// any primitive.
+/// of a non-empty scene, the secondary rays of a reflecting or transmitting primitive the
+/// beams do not classify, or (for lights without a table) the shadow rays of any primitive
+/// they do not classify.
 fn fallback_reachable(scene: &Scene, flat: &FlatTables, effects: Effects) -> bool {
-    let missing = |id: usize| flat.prim_origin[id] == NO_ORIGIN;
+    let missing = |id: usize| !flat.has_surface(id as u32);
     if flat.eye_origin == NO_ORIGIN && !scene.primitives.is_empty() {
         return true;
     }
@@ -79,7 +79,12 @@ impl WalkBounds {
                 b.worst_closest = b.worst_closest.max(list);
             }
         }
-        // Shadow rays from a light without a table use the surface tables.
+        let mut leaves = 0;
+        for n in flat.beam_nodes.iter().filter(|n| n.axis == BEAM_LEAF) {
+            b.worst_closest = b.worst_closest.max(walk_cost(flat, n.a, n.b));
+            leaves += 1;
+        }
+        // Shadow rays from a light without a table use the beams.
         if flat.light_origin.contains(&NO_ORIGIN) {
             b.worst_shadow = b.worst_shadow.max(b.worst_closest);
         }
@@ -90,7 +95,7 @@ impl WalkBounds {
             b.worst_shadow = b.worst_shadow.max(n);
         }
         let fallback = flat.origins.get(flat.fallback_origin as usize).map_or(0, |o| o.always_count as usize);
-        b.mean_list = (flat.entries.len() - fallback) as f64 / flat.cells().max(1) as f64;
+        b.mean_list = (flat.entries.len() - fallback) as f64 / (flat.cells() + leaves).max(1) as f64;
         b
     }
 }

@@ -3,7 +3,6 @@
 
 use serde::Serialize;
 
-use super::flat::OriginKind;
 use super::tables::Tables;
 
 /// List-length statistics over the stored cells of one origin kind. A cell's list length
@@ -31,12 +30,6 @@ pub struct TableStats {
     pub origins: usize,
     pub cells: usize,
     pub entries: usize,
-    /// Surface origin clusters and their size limit.
-    pub clusters: usize,
-    pub cluster_size: usize,
-    /// Large triangles split into surface patches, and the patch origins they have.
-    pub patched_primitives: usize,
-    pub patches: usize,
     /// Entries naming primitive groups, and the groups uploaded.
     pub group_entries: usize,
     pub groups: usize,
@@ -47,13 +40,14 @@ pub struct TableStats {
     pub eye_image: [u32; 2],
     pub eye: KindStats,
     pub light: KindStats,
-    pub surface: KindStats,
+    /// The beams of the rays leaving surfaces (`None`: no such rays).
+    pub beams: Option<super::beams::BeamStats>,
 }
 
 impl TableStats {
     pub fn of(t: &Tables) -> TableStats {
         let f = &t.flat;
-        let mut kinds = [KindStats::default(), KindStats::default(), KindStats::default()];
+        let mut kinds = [KindStats::default(), KindStats::default()];
         for (o, org) in f.origins.iter().enumerate() {
             // The fallback origin is not a table: its list is every primitive.
             let Some(k) = kinds.get_mut(org.kind as usize) else { continue };
@@ -81,7 +75,7 @@ impl TableStats {
         for k in &mut kinds {
             k.mean_list = if k.cells > 0 { k.mean_list / k.cells as f64 } else { 0.0 };
         }
-        let [eye, light, surface] = kinds;
+        let [eye, light] = kinds;
         TableStats {
             build_s: t.build_s,
             bytes: f.bytes(),
@@ -89,10 +83,6 @@ impl TableStats {
             origins: f.origins.len(),
             cells: f.cells(),
             entries: f.entries.len(),
-            clusters: t.defs.iter().filter(|d| d.kind == OriginKind::Surface && d.patch.is_none()).count(),
-            cluster_size: t.cluster_size,
-            patched_primitives: f.prim_patches.iter().filter(|&&m| m > 1).count(),
-            patches: t.defs.iter().filter(|d| d.patch.is_some()).count(),
             group_entries: f.entries.iter().filter(|e| e.id & super::flat::GROUP_BIT != 0).count(),
             groups: f.groups.len(),
             shadow_mode: t.shadow_mode,
@@ -100,7 +90,7 @@ impl TableStats {
             eye_image: [t.eye_image.0, t.eye_image.1],
             eye,
             light,
-            surface,
+            beams: t.beams.as_ref().map(|b| b.stats),
         }
     }
 
@@ -114,7 +104,7 @@ impl TableStats {
             self.bytes as f64 / (1 << 20) as f64,
             self.build_s
         );
-        for (name, k) in [("eye", &self.eye), ("light", &self.light), ("surface", &self.surface)] {
+        for (name, k) in [("eye", &self.eye), ("light", &self.light)] {
             if k.origins > 0 {
                 s += &format!(
                     "  {name:8} {} origins, N = {}, {} cells, {} entries, list length mean {:.2} max {}\n",
@@ -122,11 +112,22 @@ impl TableStats {
                 );
             }
         }
-        if self.clusters > 0 {
-            s += &format!("  clusters {} of at most {} primitives\n", self.clusters, self.cluster_size);
-        }
-        if self.patches > 0 {
-            s += &format!("  patches  {} on {} large triangles\n", self.patches, self.patched_primitives);
+        if let Some(b) = &self.beams {
+            s += &format!(
+                "  beams    {} clusters, {} leaves, depth {}, {} entries, list length mean {:.2} max {}; \
+                 piloted by {} rays testing {:.2} each ({:.3} s tracing, {:.3} s splitting{})\n",
+                b.clusters,
+                b.leaves,
+                b.depth,
+                b.entries,
+                b.entries as f64 / b.leaves.max(1) as f64,
+                b.max_list,
+                b.pilot_rays,
+                b.pilot_cost,
+                b.trace_s,
+                b.split_s,
+                if b.over_budget { ", stopped by the memory budget" } else { "" }
+            );
         }
         if self.group_entries > 0 {
             s += &format!(

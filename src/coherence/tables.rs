@@ -1,27 +1,23 @@
-//! The candidate tables of a scene: [`build`] makes every origin the scene's effects call
-//! for (the eye, the positional lights, the surfaces that spawn secondary rays), builds them
-//! in parallel (rayon), chooses the surface resolution under the memory budget, and
-//! flattens the result; [`Tables::rebuild_eye`] replaces only the eye's table after the
-//! camera moved.
+//! The candidate tables of a scene: [`build`] makes the direction cubes the scene's effects
+//! call for (the eye, the positional lights), in parallel (rayon), then the beams of the
+//! rays leaving surfaces (piloted by the eye's table), and flattens the result;
+//! [`Tables::rebuild_eye`] replaces only the eye's table after the camera moved.
 
 use std::time::Instant;
 
-use glam::DVec3;
 use rayon::prelude::*;
 
-use super::budget::{surface_tables, table_bytes};
+use super::beams::{pilot::build_beams, BeamTree};
 use super::context::Ctx;
 use super::defs::{eye_def, light_def, OriginDef};
 use super::flat::{FlatTables, OriginKind, MAX_BINDING_BYTES};
-use super::flatten::{append_fallback, flatten, frames};
-use super::groups::Groups;
-use super::hierarchy::{mark_enclosing, Bvh};
+use super::flatten::flatten;
+use super::hierarchy::Bvh;
 use super::lists::OriginTable;
 use super::origin::build_origin;
 use super::params::{BuildParams, ShadowMode};
-use super::patches::patch_counts;
 use super::reach::WalkBounds;
-use super::targets::{Shape, Target};
+use super::targets::Target;
 use crate::error::{Error, Result};
 use crate::kernel::spawn::SpawnPolicy;
 use crate::scene::{LightKind, Scene};
@@ -30,7 +26,7 @@ use crate::scene::{LightKind, Scene};
 #[derive(Clone, Debug)]
 pub struct Tables {
     pub flat: FlatTables,
-    /// The origins as built (kind, sphere, members, resolution).
+    /// The direction cubes as built (kind, sphere, resolution).
     pub defs: Vec<OriginDef>,
     /// Wall-clock build time in seconds.
     pub build_s: f64,
@@ -38,17 +34,14 @@ pub struct Tables {
     /// inflation) used.
     pub spawn: SpawnPolicy,
     pub eps: f64,
-    /// Surface resolution and cluster size chosen (0 when there are no surface origins).
-    pub surface_n: u32,
-    pub cluster_size: usize,
     pub shadow_mode: ShadowMode,
     /// The image size the eye table covers.
     pub eye_image: (u32, u32),
     /// The per-origin tables `flat` was flattened from (kept so that the eye's table alone
     /// can be replaced, [`Tables::rebuild_eye`]).
     pub built: Vec<OriginTable>,
-    /// The spheres the eye is inside (they list themselves in their own tables).
-    pub eye_inside: Vec<u32>,
+    /// The beams of the rays leaving surfaces, in the world frame (`None`: no such rays).
+    pub beams: Option<BeamTree>,
     /// How long a walk of `flat` can be, for the render's effects.
     pub walks: WalkBounds,
 }
@@ -56,57 +49,43 @@ pub struct Tables {
 /// A full rebuild for a moved eye inflates the origins by this much more than needed.
 const EYE_SLACK: f64 = 1.5;
 
-/// The spheres whose inside holds `p` (as [`mark_enclosing`] decides it).
-fn spheres_around(p: DVec3, targets: &[Target]) -> Vec<u32> {
-    (0..targets.len() as u32)
-        .filter(|&i| match targets[i as usize].shape {
-            Shape::Sphere { c, r } => (p - c).length() < r * (1.0 - 1e-6),
-            _ => false,
-        })
-        .collect()
-}
-
-/// The scene's targets (with the spheres the eye, a light or another primitive is inside
-/// marked self-listing) and their hierarchy.
+/// The scene's targets and their hierarchy.
 fn targets(scene: &Scene) -> (Vec<Target>, Bvh) {
-    let mut targets: Vec<Target> = scene.primitives.iter().map(|p| Target::of(p, scene)).collect();
+    let targets: Vec<Target> = scene.primitives.iter().map(|p| Target::of(p, scene)).collect();
     let bvh = Bvh::build(&targets);
-    let mut points = vec![scene.camera.eye];
-    points.extend(scene.lights.iter().filter(|l| l.kind != LightKind::Directional).map(|l| l.position));
-    mark_enclosing(&mut targets, &bvh, &points);
     (targets, bvh)
 }
 
-/// Flattens `built` (origins `defs`) with the eye-relative data and the fallback origin, and
-/// checks every buffer against wgpu's binding limit.
+/// Flattens `built` (origins `defs`) and `beams` for the scene's camera, and checks every
+/// buffer against wgpu's binding limit and the walkers' invariants.
 fn flat_tables(
     built: &[OriginTable],
     defs: &[OriginDef],
+    beams: Option<&BeamTree>,
     scene: &Scene,
-    targets: &[Target],
-    groups: &Groups,
+    ctx: &Ctx,
 ) -> Result<FlatTables> {
-    let mut flat = flatten(built, defs, targets.len(), scene.lights.len(), groups);
-    frames(&mut flat, targets, groups, scene.camera.eye);
-    append_fallback(&mut flat, targets.len());
+    let (n, lights) = (ctx.targets.len(), scene.lights.len());
+    let flat = flatten(built, defs, beams, n, lights, &ctx.groups, scene.camera.eye);
     if flat.largest_buffer_bytes() > MAX_BINDING_BYTES {
         return Err(Error::TablesTooLarge { bytes: flat.largest_buffer_bytes(), limit: MAX_BINDING_BYTES });
     }
+    flat.check(n)?;
     Ok(flat)
 }
 
 impl Tables {
-    /// Replaces the eye's table after `scene.camera` moved, keeping the light and surface
-    /// tables (the interactive preview). Those depend on the eye only through the spawn
-    /// offset (which grows with the distance from the eye to the scene) and through the
-    /// spheres the eye is inside; when either changed, everything is rebuilt. Returns
-    /// whether the eye table alone was rebuilt.
+    /// Replaces the eye's table after `scene.camera` moved, keeping the light tables and the
+    /// beams (the interactive preview). Those depend on the eye only through the spawn
+    /// offset, which grows with the distance from the eye to the scene (and through the
+    /// pilot, which only makes them faster for the rays it saw); when the offset grew,
+    /// everything is rebuilt. Returns whether the eye table alone was rebuilt.
     pub fn rebuild_eye(&mut self, scene: &Scene, params: &BuildParams) -> Result<bool> {
         let start = Instant::now();
         let eps = params.spawn_offset(scene);
         let (targets, bvh) = targets(scene);
         let has_eye = self.defs.first().is_some_and(|d| d.kind == OriginKind::Eye);
-        if eps > self.eps || !has_eye || spheres_around(scene.camera.eye, &targets) != self.eye_inside {
+        if eps > self.eps || !has_eye {
             // With room for the eye to move farther before the next full rebuild.
             let p = BuildParams { spawn_offset: Some(eps * EYE_SLACK), ..params.clone() };
             *self = build(scene, &p)?;
@@ -117,13 +96,31 @@ impl Tables {
         self.built[0] = build_origin(&def, &ctx);
         crate::interrupt::check()?;
         self.defs[0] = def;
-        self.flat = flat_tables(&self.built, &self.defs, scene, &targets, &ctx.groups)?;
-        self.flat.check(targets.len())?;
+        self.flat = flat_tables(&self.built, &self.defs, self.beams.as_ref(), scene, &ctx)?;
         self.walks = WalkBounds::of(scene, &self.flat, params.effects.unwrap_or_else(|| scene.effects()));
         self.eye_image = params.eye_image(scene);
         self.build_s = start.elapsed().as_secs_f64();
         Ok(true)
     }
+}
+
+/// The primitives whose rays the beams classify: those that reflect or transmit (with the
+/// reflection effect), and every primitive when shadow rays leave surfaces (hit-object mode,
+/// or a directional light, which has no table).
+fn spawners(scene: &Scene, params: &BuildParams) -> Vec<u32> {
+    let effects = params.effects.unwrap_or_else(|| scene.effects());
+    let directional = scene.lights.iter().any(|l| l.kind == LightKind::Directional);
+    let all = effects.shadows && (params.shadow_mode == ShadowMode::HitObject || directional);
+    scene
+        .primitives
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| {
+            let m = &scene.materials[p.material() as usize];
+            all || (effects.reflection && (m.reflects() || m.transmits()))
+        })
+        .map(|(i, _)| i as u32)
+        .collect()
 }
 
 /// Builds the candidate tables a scene calls for.
@@ -134,12 +131,11 @@ pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables> {
     let ctx = Ctx::new(&targets, &bvh, eps, params);
     let effects = params.effects.unwrap_or_else(|| scene.effects());
 
-    // The eye and the lights: one table each, whatever the budget.
+    // The eye and the lights: one direction cube each.
     let mut defs: Vec<OriginDef> = Vec::new();
     if !targets.is_empty() {
         defs.push(eye_def(scene, params, eps));
     }
-    let directional = scene.lights.iter().any(|l| l.kind == LightKind::Directional);
     if effects.shadows && params.shadow_mode == ShadowMode::LightBuffer {
         for (i, l) in scene.lights.iter().enumerate() {
             if l.kind != LightKind::Directional {
@@ -147,34 +143,23 @@ pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables> {
             }
         }
     }
-    let mut built: Vec<OriginTable> = defs.par_iter().map(|d| build_origin(d, &ctx)).collect();
+    let built: Vec<OriginTable> = defs.par_iter().map(|d| build_origin(d, &ctx)).collect();
     crate::interrupt::check()?;
-    let fixed_bytes: usize =
-        built.iter().map(table_bytes).sum::<usize>() + 4 * (targets.len() + scene.lights.len() + 1);
+    let mut flat = flat_tables(&built, &defs, None, scene, &ctx)?;
 
-    // Surface origins: primitives that spawn secondary rays.
-    let all_surfaces = effects.shadows && (params.shadow_mode == ShadowMode::HitObject || directional);
-    let surface_ids: Vec<u32> = scene
-        .primitives
-        .iter()
-        .enumerate()
-        .filter(|(_, p)| {
-            let m = &scene.materials[p.material() as usize];
-            all_surfaces || (effects.reflection && (m.reflects() || m.transmits()))
-        })
-        .map(|(i, _)| i as u32)
-        .collect();
-    let (mut surface_n, mut cluster_size) = (0, 0);
-    if !surface_ids.is_empty() {
-        let mut patches = patch_counts(&surface_ids, &targets);
-        let s = surface_tables(&surface_ids, &mut patches, &built, fixed_bytes, params, &ctx);
-        (surface_n, cluster_size) = (s.n, s.cluster_size);
-        defs.extend(s.defs);
-        built.extend(s.built);
-    }
+    // The beams, piloted through the eye's table, in what the budget leaves.
+    let spawners = spawners(scene, params);
+    let beams = (!spawners.is_empty()).then(|| {
+        // What the groups' buffers take, should a list name them.
+        let groups =
+            4 * targets.len() + std::mem::size_of::<super::flat::GpuGroup>() * ctx.groups.spans.len();
+        let left = params.budget_bytes.saturating_sub(flat.bytes() + groups);
+        build_beams(scene, &flat, &ctx, &spawners, params, effects.shadows, left)
+    });
     crate::interrupt::check()?;
-    let flat = flat_tables(&built, &defs, scene, &targets, &ctx.groups)?;
-    flat.check(targets.len())?;
+    if beams.is_some() {
+        flat = flat_tables(&built, &defs, beams.as_ref(), scene, &ctx)?;
+    }
     Ok(Tables {
         walks: WalkBounds::of(scene, &flat, effects),
         flat,
@@ -182,11 +167,9 @@ pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables> {
         build_s: start.elapsed().as_secs_f64(),
         spawn: params.spawn,
         eps,
-        surface_n,
-        cluster_size,
         shadow_mode: params.shadow_mode,
         eye_image: params.eye_image(scene),
         built,
-        eye_inside: spheres_around(scene.camera.eye, &targets),
+        beams,
     })
 }

@@ -1,11 +1,12 @@
-//! The one table walker: a ray looks up the table of its origin entity, finds the cell of its
-//! direction, and walks the cell's list merged with the origin's always-test list by
+//! The one table walker: a ray finds its list, the cell of its direction in the direction
+//! cube of its origin entity (the eye, a light) or the beam it lies in (a ray leaving a
+//! surface, [`super::beams`]), and walks it merged with the origin's always-test list by
 //! increasing `d_min`, stopping as soon as the next `d_min` passes the nearest hit so far (the
 //! distance interval optimisation). A group entry tests the group's bounding sphere first and
 //! its members only when the ray meets it in time.
 //!
 //! Line-by-line twin of the walk in `shaders/shared/walk.wgsl` (keep them in sync): the same
-//! names (`walk_start`, `walk_next`, `walk_done`, `walk_nearest`, `walk_any`,
+//! names (`walk_start`, `start_walk`, `walk_next`, `walk_done`, `walk_nearest`, `walk_any`,
 //! `cube_walk_nearest`, `cube_walk_any`) and the same step budget, so that a walk may stop
 //! after `budget` loop iterations and resume where it stopped, as the GPU's stepped kernel
 //! does ([`WALK_CHUNK`] per step). The rest of `walk.wgsl` (`closest`, `closest_step`,
@@ -18,10 +19,10 @@
 
 use glam::Vec3;
 
+use super::beams::{beam_range, in_beams};
 use super::cube::cube_cell_range;
 use super::flat::{FlatTables, GpuEntry, GROUP_BIT, NO_ORIGIN};
 use super::groups::group_hit;
-use super::patches::triangle_patch;
 use crate::kernel::closest::{consider, no_closest, Closest, Dist};
 
 /// Loop iterations one kernel step spends on a walk, at most (plus the members of the last
@@ -39,10 +40,9 @@ pub enum OriginKey {
     Eye,
     /// Shadow rays traced from light `i` (index into `Scene::lights`) toward a point.
     Light(usize),
-    /// Secondary rays leaving primitive `id` (reflection, refraction, and shadow rays in
-    /// [`super::ShadowMode::HitObject`]) from point `at` (the ray's origin, relative to the
-    /// camera's eye as on the GPU): a large triangle's table is split into surface patches,
-    /// and the point picks the patch.
+    /// Secondary rays leaving primitive `id` (reflection, refraction, and shadow rays towards
+    /// lights without a table) from point `at` (the ray's origin, relative to the camera's
+    /// eye as on the GPU): classified into the beams by the point and the direction.
     Surface(u32, Vec3),
 }
 
@@ -68,34 +68,42 @@ pub struct WalkCount {
 }
 
 impl FlatTables {
-    /// The table a ray from `key` uses, or `None` when the tables have none for it (a
-    /// primitive that is no surface origin, a directional light, an empty scene).
-    pub fn table_of(&self, key: OriginKey) -> Option<u32> {
+    /// The direction cube a ray from `key` uses, or `None` when it has none (rays leaving
+    /// surfaces, a directional light, an empty scene).
+    pub fn cube_of(&self, key: OriginKey) -> Option<u32> {
         let o = match key {
             OriginKey::Eye => self.eye_origin,
             OriginKey::Light(i) => *self.light_origin.get(i)?,
-            OriginKey::Surface(id, at) => {
-                let base = *self.prim_origin.get(id as usize)?;
-                match self.patch_tris.get(&id) {
-                    Some(v) if base != NO_ORIGIN => {
-                        base + triangle_patch(v, self.prim_patches[id as usize], at)
-                    }
-                    _ => base,
-                }
-            }
+            OriginKey::Surface(..) => NO_ORIGIN,
         };
         (o != NO_ORIGIN).then_some(o)
     }
 
-    /// The origin whose table a ray from `key` walks: its own, or the fallback origin
-    /// (every primitive) when it has none (WGSL `cube_origin`).
-    pub fn cube_origin(&self, key: OriginKey) -> u32 {
-        self.table_of(key).unwrap_or(self.fallback_origin)
+    /// Whether the rays leaving primitive `id` are classified into the beams.
+    pub fn has_surface(&self, id: u32) -> bool {
+        self.prim_beams.get(id as usize).is_some_and(|&b| b != 0)
     }
 
-    /// Whether rays leaving primitive `id` have a table.
-    pub fn has_surface(&self, id: u32) -> bool {
-        self.prim_origin.get(id as usize).is_some_and(|&o| o != NO_ORIGIN)
+    /// Whether a ray from `key` has a list of its own: a direction cube, or a beam (its origin
+    /// in the beams' box); otherwise it walks the fallback origin, every primitive.
+    pub fn has_table(&self, key: OriginKey) -> bool {
+        match key {
+            OriginKey::Surface(id, at) => self.has_surface(id) && in_beams(self, at),
+            _ => self.cube_of(key).is_some(),
+        }
+    }
+
+    /// The walk of a ray from `key` along `d` (not zero): its cell of its direction cube, its
+    /// beam, or the fallback origin (WGSL `start_walk` and, for lights, `walk_start` of
+    /// `light_table`).
+    pub fn start_walk(&self, key: OriginKey, d: Vec3) -> Walk {
+        if let OriginKey::Surface(_, at) = key {
+            if self.has_table(key) {
+                let [i, iend] = beam_range(self, at, d);
+                return Walk { i, iend, j: 0, jend: 0 };
+            }
+        }
+        walk_start(self, self.cube_of(key).unwrap_or(self.fallback_origin), d)
     }
 }
 
@@ -109,7 +117,7 @@ pub struct Walk {
     pub jend: u32,
 }
 
-/// The walk of `origin`'s cell for direction `d` (not zero).
+/// The walk of direction cube `origin`'s cell for direction `d` (not zero).
 pub fn walk_start(t: &FlatTables, origin: u32, d: Vec3) -> Walk {
     let org = t.origins[origin as usize];
     let range = cube_cell_range(t, origin, d);
@@ -246,12 +254,13 @@ pub fn walk_any<F: Dist>(
     AnyHit::Clear
 }
 
-/// The nearest hit with `0 < t < t_max` from the table of `origin`, ties to the lower id,
-/// walked to its end; `skip` is never tested. A zero direction hits nothing.
+/// The nearest hit with `0 < t < t_max` of a ray from `key` ([`FlatTables::start_walk`]),
+/// ties to the lower id, walked to its end; `skip` is never tested. A zero direction hits
+/// nothing.
 #[allow(clippy::too_many_arguments)]
 pub fn cube_walk_nearest<F: Dist, H: Default>(
     t: &FlatTables,
-    origin: u32,
+    key: OriginKey,
     o: Vec3,
     d: Vec3,
     t_max: F,
@@ -263,16 +272,17 @@ pub fn cube_walk_nearest<F: Dist, H: Default>(
     if d.abs().max_element() == 0.0 {
         return best;
     }
-    let mut w = walk_start(t, origin, d);
+    let mut w = t.start_walk(key, d);
     walk_nearest(t, &mut w, &mut best, o, d, t_max, skip, UNBOUNDED, count, test);
     best
 }
 
-/// True when some primitive other than `skip` is hit at `0 < t < t_max` (walked to its end).
+/// True when a ray from `key` hits some primitive other than `skip` at `0 < t < t_max`
+/// (walked to its end).
 #[allow(clippy::too_many_arguments)]
 pub fn cube_walk_any<F: Dist>(
     t: &FlatTables,
-    origin: u32,
+    key: OriginKey,
     o: Vec3,
     d: Vec3,
     t_max: F,
@@ -283,6 +293,6 @@ pub fn cube_walk_any<F: Dist>(
     if d.abs().max_element() == 0.0 {
         return false;
     }
-    let mut w = walk_start(t, origin, d);
+    let mut w = t.start_walk(key, d);
     walk_any(t, &mut w, o, d, t_max, skip, UNBOUNDED, count, hits) == AnyHit::Blocked
 }

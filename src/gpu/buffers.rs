@@ -122,9 +122,9 @@ pub fn upload(
     let faces = table("faces", tables.map(|f| bytemuck::cast_slice(&f.faces)));
     let cell_start = table("cell_start", tables.map(|f| bytemuck::cast_slice(&f.cell_start)));
     let entries = table("entries", tables.map(|f| bytemuck::cast_slice(&f.entries)));
-    let prim_origin = table("prim_origin", tables.map(|f| bytemuck::cast_slice(&f.prim_origin)));
+    let prim_beams = table("prim_beams", tables.map(|f| bytemuck::cast_slice(&f.prim_beams)));
     let light_origin = table("light_origin", tables.map(|f| bytemuck::cast_slice(&f.light_origin)));
-    let prim_patches = table("prim_patches", tables.map(|f| bytemuck::cast_slice(&f.prim_patches)));
+    let beam_nodes = table("beam_nodes", tables.map(|f| bytemuck::cast_slice(&f.beam_nodes)));
     let groups = table("groups", tables.map(|f| bytemuck::cast_slice(&f.groups)));
     let group_prims = table("group_prims", tables.map(|f| bytemuck::cast_slice(&f.group_prims)));
     let bvh = packed.bvh.as_ref();
@@ -180,9 +180,9 @@ pub fn upload(
             (12, &faces),
             (13, &cell_start),
             (14, &entries),
-            (15, &prim_origin),
+            (15, &prim_beams),
             (16, &light_origin),
-            (17, &prim_patches),
+            (17, &beam_nodes),
             (18, &groups),
             (19, &group_prims),
             (20, &bvh_nodes),

@@ -78,6 +78,8 @@ struct Prepared {
 
 /// The tables a render traces: built for it, or read from a file (`render --tables`), with
 /// the bounds on their walks computed here.
+// One per render: the size of its variants does not matter.
+#[allow(clippy::large_enum_variant)]
 pub enum TableSet {
     Built(Tables),
     Stored(StoredTables, WalkBounds),
@@ -138,7 +140,9 @@ impl GpuRenderer {
     /// stored table file must have been built with.
     pub fn build_params(scene: &Scene, opts: &RenderOptions, aov: bool) -> Option<BuildParams> {
         let variant = Self::job_variant(scene, opts, aov);
-        variant.tables().then(|| table_params(scene, opts.width, opts.height, variant.effects(), opts.spawn))
+        variant.tables().then(|| {
+            table_params(scene, opts.width, opts.height, opts.max_depth, variant.effects(), opts.spawn)
+        })
     }
 
     /// What both renders do first: check the options, pick and compile the kernel, then
@@ -192,7 +196,8 @@ impl GpuRenderer {
         if !variant.tables() {
             return Ok(None);
         }
-        let params = table_params(scene, opts.width, opts.height, variant.effects(), opts.spawn);
+        let params =
+            table_params(scene, opts.width, opts.height, opts.max_depth, variant.effects(), opts.spawn);
         let t = coherence::build(scene, &params)?;
         log::info!(
             "tables: {} origins, {} entries, longest lists {} (nearest) {} (shadow), fallback reachable: {}",
@@ -421,10 +426,13 @@ impl GpuRenderer {
     }
 }
 
-/// Points the params at the tables' eye and fallback origins.
+/// Points the params at the tables' eye and fallback origins and the beams' box.
 pub fn point_at(params: &mut crate::layout::Params, flat: &FlatTables) {
     params.eye_origin = flat.eye_origin;
     params.fallback_origin = flat.fallback_origin;
+    params.beam_lo = flat.beam_lo;
+    params.beam_hi = flat.beam_hi;
+    params.beam_nodes = flat.beam_nodes.len() as u32;
 }
 
 /// The queries the GPU traces rays with for `accel`: `cube` and `auto` the candidate tables.

@@ -6,7 +6,8 @@
 //! binary. A tiny line-based preprocessor composes one module per [`Kernel`] and
 //! [`Variant`]: `#include "shared/file.wgsl"` pastes a file (once), and `#if NAME` / `#else` /
 //! `#endif` (nestable) keep or drop lines by the variant's flags `SHADOWS`, `REFLECTION`,
-//! `REFRACTION`, `TEXTURES` and `EMISSION`, and `TABLES`, `BVH` and `BRUTE`, of which exactly
+//! `REFRACTION`, `TEXTURES` and `EMISSION`, `SURFACE_RAYS` (reflection or shadows: rays
+//! leave surfaces, and the tables' beams classify them), and `TABLES`, `BVH` and `BRUTE`, of which exactly
 //! one is set: the ray queries, the candidate-table walk of `shared/walk.wgsl`, the BVH walk of
 //! `shared/bvh.wgsl` or the brute force of `shared/brute.wgsl`. A scene without mirrors thus gets a module with no reflection code at all,
 //! not a branch that is never taken.
@@ -166,6 +167,9 @@ impl Variant {
             "REFRACTION" => self.refraction,
             "TEXTURES" => self.textures,
             "EMISSION" => self.emission,
+            // Rays leave surfaces: reflection and refraction rays, and shadow rays towards
+            // directional lights (which have no table).
+            "SURFACE_RAYS" => self.reflection || self.shadows,
             "TABLES" => self.queries == Queries::Tables,
             "BVH" => self.queries == Queries::Bvh,
             "BRUTE" => self.queries == Queries::Brute,

@@ -132,12 +132,13 @@ pub fn tile_points(scene: &Scene, walks: Option<&WalkBounds>, tests: u64) -> u64
     tile.div_ceil(WORKGROUP as u64) * WORKGROUP as u64
 }
 
-/// How the kernels' tables are built: for the render's image and spawn policy, and only for
-/// the rays kernels with `effects` trace.
+/// How the kernels' tables are built: for the render's image, depth and spawn policy, and
+/// only for the rays kernels with `effects` trace.
 pub fn table_params(
     scene: &Scene,
     width: u32,
     height: u32,
+    max_depth: u32,
     effects: Effects,
     spawn: SpawnPolicy,
 ) -> BuildParams {
@@ -147,5 +148,11 @@ pub fn table_params(
         refraction: effects.refraction,
         ..scene.effects()
     };
-    BuildParams { image: Some((width, height)), spawn, effects: Some(effects), ..BuildParams::default() }
+    BuildParams {
+        image: Some((width, height)),
+        max_depth,
+        spawn,
+        effects: Some(effects),
+        ..BuildParams::default()
+    }
 }

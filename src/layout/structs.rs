@@ -55,6 +55,12 @@ pub struct Params {
     pub own_h: u32,
     /// `--accel bvh`: the nodes of one threaded order of the BVH ([`crate::layout::bvh`]).
     pub bvh_stride: u32,
+    /// `--accel cube`: the box of ray origins the beams classify (camera-relative), and the
+    /// beam nodes (0: none); rays leaving surfaces from outside it walk the fallback origin.
+    pub beam_lo: [f32; 3],
+    pub beam_nodes: u32,
+    pub beam_hi: [f32; 3],
+    pub beam_pad: u32,
 }
 
 /// One primitive (WGSL `Prim`, keep in sync with `shaders/shared/layout.wgsl`): sphere `a` =

@@ -264,7 +264,7 @@ impl Session {
             // and uploaded with the re-centred scene.
             packed = pack(&self.scene, w, h, self.opts.spawn);
             let all = Variant::for_effects(self.scene.effects(), MAX_DEPTH).with_queries(Queries::Tables);
-            let params = table_params(&self.scene, w, h, all.effects(), self.opts.spawn);
+            let params = table_params(&self.scene, w, h, self.opts.max_depth, all.effects(), self.opts.spawn);
             let eye_only = match tables.rebuild_eye(&self.scene, &params) {
                 Ok(eye_only) => eye_only,
                 Err(e) => {

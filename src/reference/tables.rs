@@ -1,5 +1,5 @@
 //! `--accel cube` on the CPU: the reference renderer's queries answered through the
-//! direction-cube candidate tables of [`crate::coherence`], walked by the one walker
+//! candidate tables of [`crate::coherence`] (direction cubes and beams), walked by the one walker
 //! ([`crate::coherence::walk`], the twin of the WGSL walk, in steps of [`WALK_CHUNK`] as the
 //! GPU walks) with the reference's own f64 intersection tests. This is the only file of the
 //! reference that knows the tables.
@@ -10,14 +10,14 @@
 //! table along the direction from the light to the shaded point, but each candidate is tested
 //! with the reference's own shadow ray (from the point towards the light): the segment it
 //! covers lies on the light's ray through the point, so the light's cell lists every
-//! primitive that can block it, and the answer is brute force's. Rays whose origin has no
-//! table walk the fallback origin, which lists every primitive: brute force in id order.
+//! primitive that can block it, and the answer is brute force's. Rays without a table walk
+//! the fallback origin, which lists every primitive: brute force in id order.
 
 use glam::{DVec3, Vec3};
 
 use super::accel::{count, Accel, NearestHit, RayOrigin, ShadowQuery};
 use super::geometry::{intersect, Intersection, Ray};
-use crate::coherence::walk::{walk_any, walk_nearest, walk_start, AnyHit, WALK_CHUNK};
+use crate::coherence::walk::{walk_any, walk_nearest, AnyHit, Walk, WALK_CHUNK};
 use crate::coherence::{self, BuildParams, FlatTables, OriginKey, Tables, WalkCount};
 use crate::error::Result;
 use crate::kernel::closest::no_closest;
@@ -35,8 +35,8 @@ pub struct TableAccel<'a> {
 impl<'a> TableAccel<'a> {
     /// Builds the tables `scene` calls for, with the eye table covering a `width`×`height`
     /// image.
-    pub fn new(scene: &'a Scene, width: u32, height: u32) -> Result<TableAccel<'a>> {
-        let params = BuildParams { image: Some((width, height)), ..BuildParams::default() };
+    pub fn new(scene: &'a Scene, width: u32, height: u32, max_depth: u32) -> Result<TableAccel<'a>> {
+        let params = BuildParams { image: Some((width, height)), max_depth, ..BuildParams::default() };
         let tables = coherence::build(scene, &params)?;
         Ok(TableAccel { prims: &scene.primitives, tables, eye: scene.camera.eye })
     }
@@ -64,11 +64,11 @@ impl<'a> TableAccel<'a> {
         }
     }
 
-    /// Whether `ray` (reaching `t_max`) meets something in the list of `origin`'s cell for
-    /// direction `d` from `at`, each candidate tested with the reference's shadow ray `test_ray`.
+    /// Whether something in the list of the ray from `key` at `at` along `d` lies before
+    /// `reach`, each candidate tested with the reference's shadow ray `test_ray`.
     fn any_hit(
         &self,
-        origin: u32,
+        key: OriginKey,
         at: Vec3,
         d: Vec3,
         reach: f64,
@@ -77,7 +77,7 @@ impl<'a> TableAccel<'a> {
     ) -> bool {
         let flat = self.flat();
         let mut walked = WalkCount::default();
-        let mut w = walk_start(flat, origin, d);
+        let mut w: Walk = flat.start_walk(key, d);
         let mut hits = |id: u32| {
             let prim = &self.prims[id as usize];
             count(prim, tests);
@@ -111,11 +111,10 @@ impl Accel for TableAccel<'_> {
             return None;
         }
         let d = ray.dir.as_vec3().normalize();
-        let o = flat.cube_origin(self.key(origin, ray.origin));
         let at = self.at(ray.origin);
         let mut walked = WalkCount::default();
         let mut best = no_closest::<f64, Intersection>();
-        let mut w = walk_start(flat, o, d);
+        let mut w = flat.start_walk(self.key(origin, ray.origin), d);
         let mut test = |id: u32| {
             let prim = &self.prims[id as usize];
             count(prim, tests);
@@ -140,17 +139,18 @@ impl Accel for TableAccel<'_> {
 
     fn occluded(&self, q: &ShadowQuery, tests: &mut TestCounts) -> bool {
         let flat = self.flat();
-        if let (Some(l), Some(lp)) = (flat.table_of(OriginKey::Light(q.light as usize)), q.light_position) {
+        let light = OriginKey::Light(q.light as usize);
+        if let (true, Some(lp)) = (flat.has_table(light), q.light_position) {
             // From the light through the point: candidates nearer than the point.
             let to_point = q.ray.origin - lp;
             let reach = to_point.length();
             if reach > 0.0 {
                 let d = (to_point / reach).as_vec3().normalize();
-                return self.any_hit(l, self.at(lp), d, reach, q, tests);
+                return self.any_hit(light, self.at(lp), d, reach, q, tests);
             }
         }
-        let o = flat.cube_origin(self.key(RayOrigin::Surface(q.object), q.ray.origin));
+        let key = self.key(RayOrigin::Surface(q.object), q.ray.origin);
         let d = q.ray.dir.as_vec3().normalize();
-        self.any_hit(o, self.at(q.ray.origin), d, q.t_max, q, tests)
+        self.any_hit(key, self.at(q.ray.origin), d, q.t_max, q, tests)
     }
 }
