@@ -3,9 +3,9 @@
 //!
 //! **Origins.** The box of all spawning primitives is split at the middle of its longest
 //! side, breadth first, until a node holds at most [`Builder::cluster_size`] spawning
-//! primitives and is no larger than [`CLUSTER_SIZE`] median target radii (a large mirror is
-//! cut into pieces), or cannot separate them, or clusters × targets reaches a pair budget,
-//! which bounds the build.
+//! primitives (and, among the first [`MIN_CLUSTERS`], is no larger than [`CLUSTER_SIZE`]
+//! median target radii: a large mirror is cut into pieces), or cannot separate them, or
+//! clusters × targets reaches a pair budget, which bounds the build.
 //!
 //! **Beam roots.** Each leaf of the origin tree splits by face into six beams, whose lists
 //! are culled from the whole scene: the bounding-sphere hierarchy walked nearest first,
@@ -55,9 +55,10 @@ pub const MAX_STALL: u32 = 4;
 /// The origin tree splits a cluster larger than this many median target radii across.
 pub const CLUSTER_SIZE: f64 = 8.0;
 
-/// Clusters × targets stays under this (and there are at least [`MIN_CLUSTERS`] where
-/// the primitives allow), which bounds the roots' culling.
+/// Clusters × targets stays under this (but [`MIN_CLUSTERS`] are allowed), which bounds
+/// the roots' culling.
 pub const PAIR_BUDGET: usize = 3_000_000;
+/// Clusters are split for their size alone only while there are fewer than this.
 pub const MIN_CLUSTERS: usize = 64;
 
 /// Lists longer than this try only two splits, shorter ones [`TRIED`].
@@ -274,8 +275,8 @@ impl<'a> Builder<'a> {
         // Breadth first, so that the cap on clusters stops the largest ones last.
         let mut queue = std::collections::VecDeque::from([0usize]);
         while let Some(n) = queue.pop_front() {
-            let split =
-                if clusters.len() + queue.len() + 1 < max_clusters { self.cluster_split(n) } else { None };
+            let open = clusters.len() + queue.len() + 1;
+            let split = if open < max_clusters { self.cluster_split(n, open < MIN_CLUSTERS) } else { None };
             let Some((axis, at, kids)) = split else {
                 clusters.push(n);
                 continue;
@@ -317,14 +318,17 @@ impl<'a> Builder<'a> {
     /// that separates its spawning primitives, while it holds more than the cluster size or
     /// is larger than the cluster extent; `None` for a cluster.
     #[allow(clippy::type_complexity)]
-    fn cluster_split(&self, n: usize) -> Option<(usize, f32, [([f32; 3], [f32; 3], Vec<u32>); 2])> {
+    fn cluster_split(
+        &self,
+        n: usize,
+        by_size: bool,
+    ) -> Option<(usize, f32, [([f32; 3], [f32; 3], Vec<u32>); 2])> {
         let node = &self.nodes[n];
         let (olo, ohi) = self.occupied(node.lo, node.hi, &node.spawners)?;
         let ext = ohi - olo;
         let count = node.spawners.len();
-        if (count <= self.cluster_size && ext.max_element() <= self.cluster_extent)
-            || node.depth >= BEAM_DEPTH / 2
-        {
+        let large = by_size && ext.max_element() > self.cluster_extent;
+        if (count <= self.cluster_size && !large) || node.depth >= BEAM_DEPTH / 2 {
             return None;
         }
         let mut axes = [0usize, 1, 2];
@@ -340,7 +344,7 @@ impl<'a> Builder<'a> {
             let l = self.spawners_in(node.lo, lhi, &node.spawners);
             let r = self.spawners_in(rlo, node.hi, &node.spawners);
             // A split must separate something, or shrink a cluster that is too large.
-            if (l.len() < count || r.len() < count) || ext[axis] > self.cluster_extent {
+            if (l.len() < count || r.len() < count) || (by_size && ext[axis] > self.cluster_extent) {
                 return Some((axis, at, [(node.lo, lhi, l), (rlo, node.hi, r)]));
             }
         }

@@ -10,8 +10,9 @@
 //! candidates (conservative lists hold the true nearest hit), then splits again where the
 //! candidates before each ray's hit average more than the cost target
 //! ([`crate::coherence::BuildParams::beam_target`]). Their hits spawn the next generation,
-//! down to the render's maximum depth. Shadow rays towards lights without a table of their
-//! own join their generation with their segment's length as the distance.
+//! down to the render's maximum depth (at most [`GENERATION`] rays per eye ray each). Shadow
+//! rays towards lights without a table of their own join their generation with their
+//! segment's length as the distance.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -33,6 +34,10 @@ use crate::scene::Scene;
 /// rays are traced.
 pub const COARSE: f64 = 32.0;
 
+/// A generation keeps at most this many rays per eye ray (every k-th, in order): glass
+/// doubles the rays at each depth, and the leaves they refine are shared anyway.
+pub const GENERATION: usize = 2;
+
 /// The nearest hit of a surface ray among its leaf's candidates (every primitive when the
 /// ray is not classified).
 fn nearest(b: &Builder, tree: &RayTree, r: &TreeRay) -> Closest<f32, PrimHit> {
@@ -52,6 +57,14 @@ fn nearest(b: &Builder, tree: &RayTree, r: &TreeRay) -> Closest<f32, PrimHit> {
         }
     }
     best
+}
+
+/// Keeps every k-th of `v`, at most `cap` of them.
+fn thin<T: Copy>(v: &mut Vec<T>, cap: usize) {
+    if v.len() > cap {
+        let k = v.len().div_ceil(cap);
+        *v = v.iter().step_by(k).copied().collect();
+    }
 }
 
 /// What the hits of `rays` spawn: the next generation and the shadow queries.
@@ -110,6 +123,7 @@ pub fn build_beams(
             })
         })
         .collect();
+    let cap = GENERATION * rays.len();
     let (mut rays, mut queries) = spawn_all(&tree, &rays, &hits, params.max_depth);
     let mut split_s = b.stats.split_s;
     let mut piloted: Vec<PilotRay> = Vec::new();
@@ -117,6 +131,8 @@ pub fn build_beams(
         if crate::interrupt::requested().is_some() {
             break;
         }
+        thin(&mut rays, cap);
+        thin(&mut queries, cap);
         // Shadow rays from surfaces towards lights without a table.
         let mut generation: Vec<PilotRay> = queries
             .iter()
