@@ -1,8 +1,8 @@
 //! The geometric Whitted ray tree in f32, as the kernels spawn it: what one hit spawns (a
-//! shadow query per light the surface faces, a reflection ray on reflecting surfaces, a
-//! refraction ray on transmitting ones by Snell's law, total internal reflection spawning a
-//! reflection instead), up to a maximum depth (the eye ray is depth 1), with the kernels'
-//! spawn offset and skip rule. No shading. Two tracers share it: [`super::bench`] (tests per
+//! shadow query per light the surface faces, a reflection ray on surfaces that reflect or
+//! transmit, a refraction ray on transmitting ones by Snell's law unless totally internally
+//! reflected), up to a maximum depth (the eye ray is depth 1), with the kernels' spawn
+//! offset and skip rule. No shading. Two tracers share it: [`super::bench`] (tests per
 //! ray over a whole image) and the beams' pilot pass ([`super::beams::pilot`]).
 
 use glam::{DVec3, Vec3};
@@ -136,18 +136,17 @@ impl<'a> RayTree<'a> {
             let skip = self.leave_skip(id, dir, ng);
             rays.push(TreeRay { kind, from: id, ray: make_ray(q, dir), skip, depth: ray.depth + 1 });
         };
-        let mut want_reflect = mat.reflects();
         if mat.transmits() {
             let eta = if outside { 1.0 / mat.ior as f32 } else { mat.ior as f32 };
             let cosi = -d.dot(nf);
             let k = 1.0 - eta * eta * (1.0 - cosi * cosi);
-            if k < 0.0 {
-                want_reflect = true;
-            } else {
+            if k >= 0.0 {
                 child(Kind::Refract, (eta * d + (eta * cosi - k.sqrt()) * nf).normalize());
             }
         }
-        if want_reflect {
+        // As the renderers do: every hit on glass also spawns a reflection ray (it carries
+        // the transmitted share under total internal reflection).
+        if mat.reflects() || mat.transmits() {
             child(Kind::Reflect, (d - 2.0 * d.dot(ng) * ng).normalize());
         }
     }

@@ -61,9 +61,11 @@ pub const PAIR_BUDGET: usize = 3_000_000;
 /// Clusters are split for their size alone only while there are fewer than this.
 pub const MIN_CLUSTERS: usize = 64;
 
-/// Lists longer than this try only two splits, shorter ones [`TRIED`].
-const LONG: usize = 256;
-const TRIED: usize = 2;
+/// Lists at least this long are filtered group by group first.
+const GROUP_FILTER: usize = 64;
+
+/// Triangles seen under a narrower cone than this (radians) are bounded by their sphere.
+const NARROW: f64 = 0.05;
 
 /// A node splits only for at least this many pilot rays: finer splits than the pilot's
 /// sampling leave the render's rays between the pilot's in siblings no pilot ray refined.
@@ -181,6 +183,9 @@ pub struct Builder<'a> {
     pub cluster_size: usize,
     /// Clusters larger than this are split (world units).
     cluster_extent: f64,
+    /// The diameter of the scene's bounding sphere: the distance that stands for an
+    /// escaping ray's.
+    scene_size: f64,
     nodes: Vec<Node>,
     /// The box of all origins (f32 frame).
     lo: [f32; 3],
@@ -223,6 +228,7 @@ impl<'a> Builder<'a> {
             spawner,
             cluster_size: (spawners.len() * ctx.targets.len()).div_ceil(PAIR_BUDGET).max(1),
             cluster_extent: CLUSTER_SIZE * median,
+            scene_size: ctx.bvh.nodes.first().map_or(0.0, |n| 2.0 * n.radius),
             nodes: Vec::new(),
             lo: [0.0; 3],
             hi: [0.0; 3],
@@ -437,15 +443,30 @@ impl<'a> Builder<'a> {
         let min_cover = 0.5 * cell.sin_b;
         let mut cut = f64::INFINITY;
         let mut list = Vec::with_capacity(parent.len());
+        // A long list is first filtered by group: one sphere test for up to 16 members
+        // (0: not tested yet, 1: may meet, 2: misses).
+        let groups = &self.ctx.groups;
+        let mut verdict =
+            if parent.len() >= GROUP_FILTER { vec![0u8; groups.spans.len()] } else { Vec::new() };
         for p in parent {
             if p.dmin > cut {
                 break;
+            }
+            if !verdict.is_empty() {
+                let g = groups.of[p.id as usize] as usize;
+                if verdict[g] == 0 {
+                    let (gc, gr) = groups.spheres[g];
+                    verdict[g] = if may_meet(c, r, gc, gr + eps, &cell, delta) { 1 } else { 2 };
+                }
+                if verdict[g] == 2 {
+                    continue;
+                }
             }
             let t = &self.ctx.targets[p.id as usize];
             if !may_meet(c, r, t.center, t.radius + eps, &cell, delta) {
                 continue;
             }
-            let pair = Pair::new(c, r, t, eps, delta, min_cover);
+            let pair = Pair::new_coarse(c, r, t, eps, delta, min_cover, NARROW);
             if !pair.meets(&cell, delta) {
                 continue;
             }
@@ -495,7 +516,7 @@ impl<'a> Builder<'a> {
                 if !may_meet(c, r, t.center, t.radius + eps, &cell, delta) {
                     continue;
                 }
-                let pair = Pair::new(c, r, t, eps, delta, min_cover);
+                let pair = Pair::new_coarse(c, r, t, eps, delta, min_cover, NARROW);
                 if !pair.meets(&cell, delta) {
                     continue;
                 }
@@ -582,19 +603,32 @@ impl<'a> Builder<'a> {
         out
     }
 
-    /// The best split of leaf `n` for `rays` (indices into `all`): the one that leaves them
-    /// the fewest candidates (the first of [`Builder::candidates`] on a tie), with its
-    /// children, or `None` when the node cannot split or has stalled [`MAX_STALL`] times.
-    /// The first three candidates are tried (two for a long list), the others only when none
-    /// of those gains.
+    /// The best split of leaf `n` for `rays` (indices into `all`), with its children, or
+    /// `None` when the node cannot split or has stalled [`MAX_STALL`] times. The beam's
+    /// width at its rays' typical distance `t` comes from its origins (the occupied box's
+    /// longest side) or its directions (the block's angle × `t`): the larger is split
+    /// first, and another candidate (of [`Builder::candidates`]) is tried only while none
+    /// gains.
     fn best_split(&self, n: usize, rays: &[u32], all: &[Classified]) -> Option<(Kind, [Node; 2])> {
         let node = &self.nodes[n];
         let now: usize = rays.iter().map(|&r| cost(&node.list, all[r as usize].ray.t)).sum();
         let gains = |total: usize| (total as f64) < MIN_GAIN * now as f64;
-        let first = if node.list.len() > LONG { 2 } else { TRIED };
+        let mut candidates = self.candidates(n);
+        let mut ts: Vec<f64> =
+            rays.iter().map(|&r| (all[r as usize].ray.t as f64).min(self.scene_size)).collect();
+        let t = *ts.select_nth_unstable_by(rays.len() / 2, f64::total_cmp).1;
+        let across = 2.0 * region_cone(node.face as usize, node.rect, BEAM_CELLS).beta * t;
+        let origin =
+            self.occupied(node.lo, node.hi, &node.spawners).map_or(0.0, |(a, b)| (b - a).max_element());
+        if across > origin {
+            if let Some(k) = candidates.iter().position(|c| c.0) {
+                let c = candidates.remove(k);
+                candidates.insert(0, c);
+            }
+        }
         let mut best: Option<(usize, Kind, [Node; 2])> = None;
-        for (k, (dir, axis, split)) in self.candidates(n).into_iter().enumerate() {
-            if k >= first && best.as_ref().is_some_and(|b| gains(b.0) || node.list.len() > LONG) {
+        for (dir, axis, split) in candidates {
+            if best.as_ref().is_some_and(|b| gains(b.0)) {
                 break;
             }
             let kids = self.children(n, dir, axis, split);
