@@ -38,10 +38,11 @@ fn per_test(scene: &Scene) -> u64 {
     }
 }
 
-/// Loop iterations a step spends besides its walks: the light loop, the counters' flush, and
-/// a margin for the short loops of shading.
+/// Loop iterations a step spends besides its walks: the light loop, the counters' flush,
+/// loading and storing the live part of the ray stack, and a margin for the short loops of
+/// shading.
 fn step_overhead(scene: &Scene) -> u64 {
-    scene.lights.len() as u64 + COUNTER_COUNT as u64 + 16
+    scene.lights.len() as u64 + COUNTER_COUNT as u64 + 2 * STACK_SIZE as u64 + 16
 }
 
 /// Loop iterations of one chunk of a walk: [`WALK_CHUNK`] entries and the members of the last
