@@ -1,5 +1,5 @@
 // The preview's `accumulate` kernel (src/preview/session.rs): adds one finished tile of the
-// `render` kernel's output to the whole-image accumulation.
+// wavefront kernels' output (`resolve`) to the whole-image accumulation.
 
 // Which points of the image the tile holds. Keep in sync with `Tile` in
 // src/preview/session.rs.

@@ -1,6 +1,6 @@
 //! Stopping early: a process-wide request, raised by whoever handles the user's signals (the
 //! CLI turns SIGINT and SIGTERM into one), that every long loop polls between bounded pieces
-//! of work: a kernel step, a table origin, a CPU pixel, the final write. They then return
+//! of work: a wave of kernel passes, a table origin, a CPU pixel, the final write. They then return
 //! [`Error::Interrupted`], and nothing is written.
 
 use std::sync::atomic::{AtomicI32, Ordering};

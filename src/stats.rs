@@ -154,23 +154,28 @@ pub struct Times {
     /// GPU kernel time from timestamp queries; `null` on the CPU backend or when the
     /// adapter has no timestamp queries.
     pub gpu_s: Option<f64>,
-    /// The same time per kernel (`render`: the ray-tree steps, `aov`: the AOV pass; `null`
-    /// for a kernel that did not run); all `null` where `gpu_s` is.
+    /// The same time per kernel ([`KernelTimes`]; `null` for a kernel that did not run); all
+    /// `null` where `gpu_s` is.
     pub gpu_kernel_s: KernelTimes,
     /// Wall-clock time of the kernel's compilation, done before the timed dispatches
     /// (lavapipe compiles at the first dispatch: seconds for a new variant, milliseconds once
     /// Mesa's shader cache holds it); `null` on the CPU.
     pub compile_s: Option<f64>,
-    /// The longest single submission of kernel steps, wall clock: a bound on what one
-    /// dispatch costs (real GPUs kill dispatches that run for about two seconds); `null` on
-    /// the CPU.
+    /// The longest single submission (a wave of a tile's passes), wall clock: a bound on
+    /// what one dispatch costs (real GPUs kill dispatches that run for about two seconds);
+    /// `null` on the CPU.
     pub longest_submit_s: Option<f64>,
 }
 
-/// GPU time per kernel, seconds.
+/// GPU time per kernel, seconds: the wavefront's (`generate` the eye rays, `nearest` the
+/// nearest-hit passes with the shading, `shadow` the shadow passes, `resolve` the colours)
+/// and the AOV pass's.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct KernelTimes {
-    pub render: Option<f64>,
+    pub generate: Option<f64>,
+    pub nearest: Option<f64>,
+    pub shadow: Option<f64>,
+    pub resolve: Option<f64>,
     pub aov: Option<f64>,
 }
 
@@ -317,7 +322,14 @@ impl Stats {
         if let Some(g) = self.time.gpu_s {
             o += &format!(", GPU kernels {g:.3} s");
             let k = &self.time.gpu_kernel_s;
-            for (name, t) in [("render", k.render), ("aov", k.aov)] {
+            let named = [
+                ("generate", k.generate),
+                ("nearest", k.nearest),
+                ("shadow", k.shadow),
+                ("resolve", k.resolve),
+                ("aov", k.aov),
+            ];
+            for (name, t) in named {
                 if let Some(t) = t {
                     o += &format!(" ({name} {t:.3} s)");
                 }

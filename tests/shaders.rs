@@ -11,9 +11,9 @@ fn module_of(k: Kernel, v: Variant) -> naga::Module {
     naga::front::wgsl::parse_str(&src).unwrap_or_else(|e| panic!("{k:?} {v:?}: {}", e.emit_to_string(&src)))
 }
 
-/// The `render` kernel of variant `v`.
+/// The `nearest` kernel of variant `v` (the one that traces and shades).
 fn module(v: Variant) -> naga::Module {
-    module_of(Kernel::Render, v)
+    module_of(Kernel::Nearest, v)
 }
 
 fn has_function(m: &naga::Module, name: &str) -> bool {
@@ -22,8 +22,11 @@ fn has_function(m: &naga::Module, name: &str) -> bool {
 
 #[test]
 fn every_kernel_and_variant_validates() {
-    for k in [Kernel::Render, Kernel::Aov] {
-        for v in Variant::all() {
+    for v in Variant::all() {
+        // A render runs the shadow kernel only with shadows.
+        let wavefront = Kernel::wavefront(v);
+        assert_eq!(wavefront.contains(&Kernel::Shadow), v.shadows, "{v:?}");
+        for k in wavefront.into_iter().chain([Kernel::Aov]) {
             let m = module_of(k, v);
             Validator::new(ValidationFlags::all(), Capabilities::default())
                 .validate(&m)
@@ -54,7 +57,8 @@ fn variant_functions_follow_the_flags() {
         assert_eq!(has_function(&m, "reflect_dir"), v.reflection, "{v:?}");
         assert_eq!(has_function(&m, "refract_dir"), v.refraction, "{v:?}");
         assert_eq!(has_function(&m, "sample_texture"), v.textures, "{v:?}");
-        assert_eq!(has_function(&m, "occluded"), v.shadows, "{v:?}");
+        assert_eq!(has_function(&m, "occluded_short"), v.shadows, "{v:?}");
+        assert_eq!(has_function(&m, "trace_shadow"), v.shadows, "{v:?}");
     }
 }
 
@@ -88,7 +92,7 @@ fn each_kernel_contains_only_its_own_queries() {
         // The beams only where rays leave surfaces.
         let surface_rays = v.reflection || v.shadows;
         assert_eq!(has_function(&m, "beam_range"), cube && surface_rays, "{v:?}: beam_range");
-        assert_eq!(has_function(&m, "cube_walk_any"), cube && v.shadows, "{v:?}");
+        assert_eq!(has_function(&m, "walk_any"), cube && v.shadows, "{v:?}");
         assert_eq!(has_function(&m, "bvh_nearest"), bvh, "{v:?}");
         assert_eq!(has_function(&m, "box_hit"), bvh, "{v:?}");
         assert_eq!(has_function(&m, "bvh_any"), bvh && v.shadows, "{v:?}");
@@ -105,7 +109,7 @@ fn each_kernel_contains_only_its_own_queries() {
         }
         // Only brute force loops over primitive ids; the table and BVH kernels loop over
         // candidate walks, group members and leaves.
-        let src = compose(Kernel::Render, v).unwrap();
+        let src = compose(Kernel::Nearest, v).unwrap();
         assert_eq!(src.contains("; id < end; id++"), brute, "{v:?}");
         assert!(!src.contains("< params.prim_count; id++"), "{v:?}: an unbounded loop");
     }
@@ -119,7 +123,7 @@ fn a_scene_without_mirrors_or_glass_has_no_such_code() {
         let v = Variant::for_effects(matte.effects(), 5).with_queries(q);
         let m = module(v);
         assert!(!has_function(&m, "reflect_dir") && !has_function(&m, "refract_dir"), "{v:?}");
-        assert!(has_function(&m, "occluded"), "the light casts shadows");
+        assert!(has_function(&m, "occluded_short"), "the light casts shadows");
     }
     // A mirror but no glass: reflection without refraction.
     let mirror = scene(&format!("{VIEW}l 3 3 3\nf 1 1 1 0.2 0.8 10 0 1\ns 0 0 0 1\n"));

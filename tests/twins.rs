@@ -112,7 +112,11 @@ fn rust_structs() -> BTreeMap<&'static str, Layout> {
             beam_lo,
             beam_nodes,
             beam_hi,
-            beam_pad,
+            ray_queue,
+            shadow_queue,
+            pad_q0,
+            pad_q1,
+            pad_q2,
         }),
         twin!(Prim { a, b, c, kind, material, flags, attr }),
         twin!(TriAttr { n0, n1, n2, uv01, uv2 }),
@@ -132,7 +136,8 @@ fn rust_structs() -> BTreeMap<&'static str, Layout> {
         twin!(TextureInfo { offset, width, height, flags }),
         twin!(Pending { o, kind, d, spawn, weight, from_prim }),
         twin!(WalkState { i, iend, j, jend, prim, t, b1, b2 }),
-        twin!(PointState { color, sp, sample, walking, pad1, pad2, walk, stack }),
+        twin!(Job { ray, point, walking, pad0, pad1, walk }),
+        twin!(PassDesc { src, next, shadow, retry, sample, pad0, pad1, pad2 }),
         twin!(GpuOrigin { n, always_start, always_count, kind }),
         twin!(GpuFace { iu0, iv0, width, height, cell_base, _pad0, _pad1, _pad2 }),
         twin!(GpuEntry { id, d_min }),
@@ -155,7 +160,20 @@ enum Value {
 fn rust_constants() -> BTreeMap<&'static str, Value> {
     use Value::*;
     BTreeMap::from([
-        ("STACK_SIZE", U32(STACK_SIZE as u32)),
+        ("MAX_DEPTH", U32(MAX_DEPTH)),
+        ("QUEUE_RAY0", U32(QUEUE_RAY0)),
+        ("QUEUE_RAY1", U32(QUEUE_RAY1)),
+        ("QUEUE_RETRY0", U32(QUEUE_RETRY0)),
+        ("QUEUE_RETRY1", U32(QUEUE_RETRY1)),
+        ("QUEUE_SHADOW", U32(QUEUE_SHADOW)),
+        ("QUEUE_SRETRY0", U32(QUEUE_SRETRY0)),
+        ("QUEUE_SRETRY1", U32(QUEUE_SRETRY1)),
+        ("QUEUE_COUNT", U32(QUEUE_COUNT)),
+        ("QUEUE_ARGS", U32(QUEUE_ARGS)),
+        ("QUEUE_OVERFLOW", U32(QUEUE_OVERFLOW)),
+        ("QUEUE_WORDS", U32(QUEUE_WORDS)),
+        ("POINT_UNOWNED", U32(POINT_UNOWNED)),
+        ("ACCUM_ONE", F32(ACCUM_ONE)),
         ("WALK_CHUNK", U32(WALK_CHUNK)),
         ("UNBOUNDED", U32(UNBOUNDED)),
         ("ANY_CLEAR", U32(AnyHit::Clear as u32)),
@@ -212,13 +230,18 @@ fn rust_constants() -> BTreeMap<&'static str, Value> {
     ])
 }
 
+/// The kernels that trace rays (and so include every shared file with every effect).
+fn is_trace_kernel(k: Kernel) -> bool {
+    !matches!(k, Kernel::Accumulate | Kernel::Display)
+}
+
 /// Every kernel, with every effect and each set of queries (every shared file included),
 /// through naga.
 fn modules() -> Vec<(Kernel, naga::Module)> {
     Kernel::ALL
         .iter()
         .flat_map(|&k| {
-            let variants: Vec<Variant> = if matches!(k, Kernel::Render | Kernel::Aov) {
+            let variants: Vec<Variant> = if is_trace_kernel(k) {
                 Queries::ALL.into_iter().map(Variant::full).collect()
             } else {
                 vec![Variant::default()]
@@ -369,9 +392,9 @@ fn workgroup_sizes_are_the_shared_constants() {
     for (k, m) in modules() {
         for e in &m.entry_points {
             let want = match k {
-                Kernel::Render | Kernel::Aov => WORKGROUP,
                 Kernel::Accumulate => ACCUMULATE_WORKGROUP,
                 Kernel::Display => continue,
+                _ => WORKGROUP,
             };
             assert_eq!(e.workgroup_size, [want, 1, 1], "{k:?}: entry point {}", e.name);
         }

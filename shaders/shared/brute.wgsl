@@ -1,7 +1,8 @@
 // Brute force: every primitive for every ray (`--accel brute`); `brute_nearest` is the twin
-// of src/kernel/closest.rs's (keep them in sync). The same queries as walk.wgsl (`closest`,
-// `occluded` and their stepped forms), which take the ray's origin entity although testing
-// everything needs none. The stepped forms test WALK_CHUNK primitives per step.
+// of src/kernel/closest.rs's (keep them in sync). The same queries as walk.wgsl (`closest`
+// and its stepped form, `occluded_short`, `occluded_step`), which take the ray's origin
+// entity although testing everything needs none. The stepped forms test WALK_CHUNK
+// primitives per pass.
 
 // Tests primitives first..end for the nearest hit with 0 < t < t_max (FAR: unbounded),
 // keeping it in `best` by the table walk's rule (`consider`), so that the answer does not
@@ -25,13 +26,13 @@ fn closest(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) -> Cl
     return brute_nearest(ray, t_max, skip, ray_kind);
 }
 
-// `closest` for the ray on top of the point's stack, WALK_CHUNK primitives per step:
-// `done` false when the test goes on in the next step.
+// `closest` for a job, WALK_CHUNK primitives per pass: `done` false when the test goes on
+// in a later pass.
 fn closest_step(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) -> Stepped {
     var best = no_closest();
     var first = 0u;
-    if state.walking != 0u {
-        let s = state.walk;
+    if walking != 0u {
+        let s = walk_state;
         first = s.i;
         if s.prim != NO_ID {
             best = Closest(true, s.prim, PrimHit(true, s.t, s.b1, s.b2));
@@ -40,11 +41,11 @@ fn closest_step(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) 
     let end = min(first + WALK_CHUNK, params.prim_count);
     brute_range(ray, t_max, skip, ray_kind, first, end, &best);
     if end >= params.prim_count {
-        state.walking = 0u;
+        walking = 0u;
         return Stepped(true, best);
     }
-    state.walking = 1u;
-    state.walk = WalkState(end, 0u, 0u, 0u, best.prim, best.hit.t, best.hit.b1, best.hit.b2);
+    walking = 1u;
+    walk_state = WalkState(end, 0u, 0u, 0u, best.prim, best.hit.t, best.hit.b1, best.hit.b2);
     return Stepped(false, best);
 }
 
@@ -67,42 +68,42 @@ fn brute_any_range(ray: Ray, t_max: f32, q_t: f32, skip: u32, first: u32, end: u
     return false;
 }
 
-// Whether light `light` is blocked from `q`, the spawn origin on primitive `from_prim`:
-// the shadow ray of `shadow_ray` (geometry.wgsl), the same ray the tables walk.
-fn occluded(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> bool {
-    let sr = shadow_ray(q, to_light, light);
-    return !sr.empty && brute_any_range(sr.ray, sr.t_max, sr.q_t, skip, 0u, params.prim_count);
-}
-
-// `occluded` when it tests at most `params.shadow_inline` primitives; ANY_UNFINISHED,
-// without testing, when there are more.
+// Whether light `light` is blocked from `q`, the spawn origin on primitive `from_prim` (the
+// shadow ray of `shadow_ray`, geometry.wgsl, the same ray the tables walk), when it tests at
+// most `params.shadow_inline` primitives; ANY_UNFINISHED, without testing, when there are
+// more.
 fn occluded_short(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> u32 {
     if params.prim_count > params.shadow_inline {
         return ANY_UNFINISHED;
     }
-    return select(ANY_CLEAR, ANY_BLOCKED, occluded(q, to_light, light, from_prim, skip));
+    let sr = shadow_ray(q, to_light, light);
+    if sr.empty {
+        return ANY_CLEAR;
+    }
+    let blocked = brute_any_range(sr.ray, sr.t_max, sr.q_t, skip, 0u, params.prim_count);
+    return select(ANY_CLEAR, ANY_BLOCKED, blocked);
 }
 
-// `occluded` for the shadow job on top of the point's stack, WALK_CHUNK primitives per
-// step: ANY_UNFINISHED when it goes on in the next step.
+// Whether light `light` is blocked from `q`, for a shadow job, WALK_CHUNK primitives per
+// pass: ANY_UNFINISHED when it goes on in a later pass.
 fn occluded_step(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> u32 {
     let sr = shadow_ray(q, to_light, light);
     if sr.empty {
-        state.walking = 0u;
+        walking = 0u;
         return ANY_CLEAR;
     }
-    let first = select(0u, state.walk.i, state.walking != 0u);
+    let first = select(0u, walk_state.i, walking != 0u);
     let end = min(first + WALK_CHUNK, params.prim_count);
     if brute_any_range(sr.ray, sr.t_max, sr.q_t, skip, first, end) {
-        state.walking = 0u;
+        walking = 0u;
         return ANY_BLOCKED;
     }
     if end >= params.prim_count {
-        state.walking = 0u;
+        walking = 0u;
         return ANY_CLEAR;
     }
-    state.walking = 1u;
-    state.walk = WalkState(end, 0u, 0u, 0u, NO_ID, 0.0, 0.0, 0.0);
+    walking = 1u;
+    walk_state = WalkState(end, 0u, 0u, 0u, NO_ID, 0.0, 0.0, 0.0);
     return ANY_UNFINISHED;
 }
 #endif

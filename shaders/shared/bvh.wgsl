@@ -4,7 +4,8 @@
 // and a `skip` index past every subtree. A ray takes the order of its direction and walks it
 // with one index and no stack: a missed box goes on at `skip`, a hit inner node at the next
 // node, a hit leaf tests its primitives and goes on at `skip`. A walk interrupted between
-// kernel steps keeps only that index and the leaf's primitives left. The same queries as walk.wgsl and brute.wgsl, with
+// passes keeps only that index and the leaf's primitives left. The same queries as walk.wgsl
+// and brute.wgsl, with
 // the same intersection functions and tie rule (`consider`); node tests are counted as
 // bound tests.
 
@@ -128,29 +129,29 @@ fn closest(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) -> Cl
     return best;
 }
 
-// `closest` for the ray on top of the point's stack, in bounded steps: `done` false when
-// the walk goes on in the next step (from the position kept in `state.walk`: `i` the node,
+// `closest` for a job, in bounded passes: `done` false when the walk goes on in a later
+// pass (from the position kept in `walk_state`: `i` the node,
 // `j..jend` the leaf's primitives left).
 fn closest_step(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) -> Stepped {
     var best = no_closest();
     var w = BvhWalk(0u, 0u, 0u);
-    if state.walking == 0u {
+    if walking == 0u {
         if max3(abs(ray.d)) == 0.0 {
             return Stepped(true, best);
         }
     } else {
-        let s = state.walk;
+        let s = walk_state;
         w = BvhWalk(s.i, s.j, s.jend);
         if s.prim != NO_ID {
             best = Closest(true, s.prim, PrimHit(true, s.t, s.b1, s.b2));
         }
     }
     if bvh_nearest(&w, &best, ray, box_ray(ray), t_max, skip, ray_kind, WALK_CHUNK) {
-        state.walking = 0u;
+        walking = 0u;
         return Stepped(true, best);
     }
-    state.walking = 1u;
-    state.walk = WalkState(w.at, 0u, w.k, w.kend, best.prim, best.hit.t, best.hit.b1, best.hit.b2);
+    walking = 1u;
+    walk_state = WalkState(w.at, 0u, w.k, w.kend, best.prim, best.hit.t, best.hit.b1, best.hit.b2);
     return Stepped(false, best);
 }
 
@@ -192,17 +193,11 @@ fn bvh_any(w: ptr<function, BvhWalk>, sr: ShadowRay, skip: u32, budget: u32) -> 
     return ANY_CLEAR;
 }
 
-// Whether light `light` is blocked from `q`, the spawn origin on primitive `from_prim`:
-// the shadow ray of `shadow_ray` (geometry.wgsl), the one the other queries trace.
-fn occluded(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> bool {
-    let sr = shadow_ray(q, to_light, light);
-    var w = BvhWalk(0u, 0u, 0u);
-    return !sr.empty && bvh_any(&w, sr, skip, UNBOUNDED) == ANY_BLOCKED;
-}
-
-// `occluded` when its walk ends within `params.shadow_inline` loop iterations (for the BVH
-// a budget of iterations, set by the host: `layout::budget::bvh_shadow_inline`);
-// ANY_UNFINISHED when it does not, and the shadow ray becomes a job whose walk starts over.
+// Whether light `light` is blocked from `q`, the spawn origin on primitive `from_prim` (the
+// shadow ray of `shadow_ray`, geometry.wgsl, the one the other queries trace), when its
+// walk ends within `params.shadow_inline` loop iterations (for the BVH a budget of
+// iterations, set by the host: `layout::budget::bvh_shadow_inline`); ANY_UNFINISHED when
+// it does not, and the shadow ray becomes a job whose walk starts over.
 fn occluded_short(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> u32 {
     let sr = shadow_ray(q, to_light, light);
     if sr.empty {
@@ -212,21 +207,21 @@ fn occluded_short(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32,
     return bvh_any(&w, sr, skip, params.shadow_inline);
 }
 
-// `occluded` for the shadow job on top of the point's stack, in bounded steps (the walk's
-// position kept in `state.walk`): ANY_UNFINISHED when it goes on in the next step.
+// Whether light `light` is blocked from `q`, for a shadow job, in bounded passes (the
+// walk's position kept in `walk_state`): ANY_UNFINISHED when it goes on in a later pass.
 fn occluded_step(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> u32 {
     let sr = shadow_ray(q, to_light, light);
     if sr.empty {
-        state.walking = 0u;
+        walking = 0u;
         return ANY_CLEAR;
     }
     var w = BvhWalk(0u, 0u, 0u);
-    if state.walking != 0u {
-        w = BvhWalk(state.walk.i, state.walk.j, state.walk.jend);
+    if walking != 0u {
+        w = BvhWalk(walk_state.i, walk_state.j, walk_state.jend);
     }
     let r = bvh_any(&w, sr, skip, WALK_CHUNK);
-    state.walking = select(0u, 1u, r == ANY_UNFINISHED);
-    state.walk = WalkState(w.at, 0u, w.k, w.kend, NO_ID, 0.0, 0.0, 0.0);
+    walking = select(0u, 1u, r == ANY_UNFINISHED);
+    walk_state = WalkState(w.at, 0u, w.k, w.kend, NO_ID, 0.0, 0.0, 0.0);
     return r;
 }
 #endif

@@ -54,7 +54,12 @@ struct Params {
     beam_lo: vec3<f32>,
     beam_nodes: u32,
     beam_hi: vec3<f32>,
-    beam_pad: u32,
+    // The wavefront's queues: jobs each ray queue and each shadow queue holds.
+    ray_queue: u32,
+    shadow_queue: u32,
+    pad_q0: u32,
+    pad_q1: u32,
+    pad_q2: u32,
 }
 
 // One primitive (kind KIND_*). Sphere: a = (centre, radius). Triangle: a, b, c = vertices.
@@ -115,9 +120,9 @@ struct TextureInfo {
     flags: u32,
 }
 
-// A ray waiting in a grid point's ray tree, with the weight its radiance counts with. A
-// shadow job (kind RAY_SHADOW) keeps its light's index in place of the depth and, in
-// `weight`, what the light adds unless blocked.
+// A ray of a grid point's ray tree, with the weight its radiance counts with. A shadow ray
+// (kind RAY_SHADOW) keeps its light's index in place of the depth and, in `weight`, what
+// the light adds unless blocked.
 struct Pending {
     o: vec3<f32>,
     // Ray kind (bits 0-1, RAY_KIND_MASK); RAY_SKIP_FROM: `from_prim` need not be tested
@@ -133,14 +138,13 @@ struct Pending {
     from_prim: u32,
 }
 
-// Deep enough for the largest --max-depth the GPU backend accepts (checked on the CPU);
-// shadow jobs go on top only while there is room (shade.wgsl).
-const STACK_SIZE: u32 = 16u;
+// The deepest ray tree the kernels trace (--max-depth, checked on the CPU).
+const MAX_DEPTH: u32 = 16u;
 
-// Loop iterations a step spends on one walk, at most (plus the members of the last group
+// Loop iterations a pass spends on one walk, at most (plus the members of the last group
 // entry): lavapipe ends an invocation's loops after 65535 iterations in all, so a long
-// candidate list (or brute force's every primitive) is walked over several steps, its
-// position kept in `state.walk`. Twin: src/coherence/walk.rs.
+// candidate list (or brute force's every primitive) is walked over several passes, its
+// position kept in the job (`Job::walk`). Twin: src/coherence/walk.rs.
 const WALK_CHUNK: u32 = 8192u;
 
 // The budget of a walk that runs to its end in one go (the `aov` kernel, inline shadow
@@ -152,9 +156,9 @@ const ANY_CLEAR: u32 = 0u;
 const ANY_BLOCKED: u32 = 1u;
 const ANY_UNFINISHED: u32 = 2u;
 
-// A walk interrupted at the end of a step: the merged lists' positions (`--accel cube`; brute
-// force: `i` the next primitive) and, for a nearest-hit walk, the nearest hit so far (prim
-// NO_ID: none yet).
+// A walk interrupted at the end of a pass: the merged lists' positions (`--accel cube`;
+// brute force: `i` the next primitive; the BVH: `i` the node, `j..jend` a leaf's primitives
+// left) and, for a nearest-hit walk, the nearest hit so far (prim NO_ID: none yet).
 struct WalkState {
     i: u32,
     iend: u32,
@@ -166,18 +170,54 @@ struct WalkState {
     b2: f32,
 }
 
-// One grid point's progress between kernel steps: radiance so far, pending rays, how many
-// of its samples have been started, and whether the top ray's table walk is under way.
-struct PointState {
-    color: vec3<f32>,
-    sp: u32,
-    sample: u32,
+// A ray in a queue of the wavefront kernels (src/gpu/schedule.rs): the ray, the tile point
+// whose radiance it adds to (bit POINT_UNOWNED set: the point lies outside the part of the
+// image the window owns, and its rays are not counted), and its walk when a pass ended it
+// unfinished (`walking` 1).
+struct Job {
+    ray: Pending,
+    point: u32,
     walking: u32,
+    pad0: u32,
+    pad1: u32,
+    walk: WalkState,
+}
+
+// What one pass of the wavefront kernels does, copied into `pass_desc` before its dispatch:
+// the queue it works through (`src`), where the rays it spawns go (`next`: secondary rays;
+// `shadow`: shadow rays whose walks are too long to trace inline; `retry`: rays whose walk
+// goes on in a later pass), and for `generate` the sample it starts.
+struct PassDesc {
+    src: u32,
+    next: u32,
+    shadow: u32,
+    retry: u32,
+    sample: u32,
+    pad0: u32,
     pad1: u32,
     pad2: u32,
-    walk: WalkState,
-    stack: array<Pending, STACK_SIZE>,
 }
+
+// The queues (QUEUE_* slots of `queues`): two of rays to trace, by depth in turn; two of
+// rays whose walk goes on, in turn; shadow rays; two of shadow rays whose walk goes on.
+// Queue q holds its jobs at jobs[queue_base(q) ..], at most queue_cap(q) of them.
+const QUEUE_RAY0: u32 = 0u;
+const QUEUE_RAY1: u32 = 1u;
+const QUEUE_RETRY0: u32 = 2u;
+const QUEUE_RETRY1: u32 = 3u;
+const QUEUE_SHADOW: u32 = 4u;
+const QUEUE_SRETRY0: u32 = 5u;
+const QUEUE_SRETRY1: u32 = 6u;
+const QUEUE_COUNT: u32 = 7u;
+// `queues` holds the queues' lengths (words 0..QUEUE_COUNT), then each queue's indirect
+// dispatch arguments (x, y, z) from word QUEUE_ARGS + 3q, then a word set when a push found
+// its queue full (QUEUE_OVERFLOW): the host then runs the tile again with smaller waves.
+const QUEUE_ARGS: u32 = 8u;
+const QUEUE_OVERFLOW: u32 = 29u;
+const QUEUE_WORDS: u32 = 32u;
+
+// Set in Job::point for a point the window does not own.
+const POINT_UNOWNED: u32 = 0x80000000u;
 
 // `params` is a read-only storage buffer, not a uniform: lavapipe specialises a shader on
 // the values of uniforms that steer its control flow ("inlined uniforms") and compiles a
@@ -194,9 +234,14 @@ struct PointState {
 @group(0) @binding(6) var<storage, read> texels: array<u32>;
 @group(0) @binding(7) var<storage, read_write> out_color: array<vec4<f32>>;
 @group(0) @binding(8) var<storage, read_write> counters: array<atomic<u32>>;
-@group(0) @binding(9) var<storage, read_write> states: array<PointState>;
-// [0]: grid points with work left after a step.
-@group(0) @binding(10) var<storage, read_write> points_left: array<atomic<u32>>;
+// The queues' jobs, and their lengths and dispatch arguments.
+@group(0) @binding(9) var<storage, read_write> jobs: array<Job>;
+@group(0) @binding(10) var<storage, read_write> queues: array<atomic<u32>, QUEUE_WORDS>;
+// The current pass.
+@group(0) @binding(22) var<storage, read> pass_desc: PassDesc;
+// Each tile point's radiance, summed exactly in 64-bit fixed point: per channel a low and
+// a high word (add_radiance), turned into `out_color` by the `resolve` kernel.
+@group(0) @binding(23) var<storage, read_write> accum: array<atomic<u32>>;
 
 // Invocations per workgroup of the `render` and `aov` kernels.
 const WORKGROUP: u32 = 64u;
@@ -323,8 +368,68 @@ fn flush_counters(lid: u32) {
     }
 }
 
-// The ray-tree walk of the current grid point, one node per step: `state` (loaded from and
-// stored back to `states` by the `render` kernel) holds the pending rays and the radiance so
-// far. Each invocation handles one node so that no invocation runs long loops (lavapipe
-// stops every loop of an invocation after 65535 iterations in all).
-var<private> state: PointState;
+// The walk of the job an invocation traces: whether it resumes one a pass ended unfinished
+// (`walking`), and where (`walk_state`); the stepped queries (`closest_step`,
+// `occluded_step`) read and update them, and the kernels store them in the job when the walk
+// goes on in a later pass.
+var<private> walking: u32;
+var<private> walk_state: WalkState;
+
+// Where queue `q`'s jobs start in `jobs`, and how many it holds at most: the ray queues
+// take params.ray_queue each, the shadow queues params.shadow_queue.
+fn queue_base(q: u32) -> u32 {
+    if q < QUEUE_SHADOW {
+        return q * params.ray_queue;
+    }
+    return QUEUE_SHADOW * params.ray_queue + (q - QUEUE_SHADOW) * params.shadow_queue;
+}
+
+fn queue_cap(q: u32) -> u32 {
+    return select(params.shadow_queue, params.ray_queue, q < QUEUE_SHADOW);
+}
+
+// How many jobs queue `q` holds.
+fn queue_len(q: u32) -> u32 {
+    return min(atomicLoad(&queues[q]), queue_cap(q));
+}
+
+// Appends `job` to queue `q` and widens its dispatch to cover it; a full queue drops the
+// job and raises QUEUE_OVERFLOW (the host then runs the tile again with smaller waves).
+fn push_job(q: u32, job: Job) {
+    let i = atomicAdd(&queues[q], 1u);
+    if i >= queue_cap(q) {
+        atomicOr(&queues[QUEUE_OVERFLOW], 1u);
+        return;
+    }
+    jobs[queue_base(q) + i] = job;
+    atomicMax(&queues[QUEUE_ARGS + 3u * q], i / WORKGROUP + 1u);
+}
+
+// A new job for ray `ray` of tile point `point` (its walk not started).
+fn new_job(ray: Pending, point: u32) -> Job {
+    return Job(ray, point, 0u, 0u, 0u, WalkState(0u, 0u, 0u, 0u, NO_ID, 0.0, 0.0, 0.0));
+}
+
+// The radiance scale of `accum`: 2^32 fixed-point units per unit.
+const ACCUM_ONE: f32 = 4294967296.0;
+
+// Adds `v` to channel `c` of tile point `point`'s radiance, in 64-bit fixed point with 32
+// fractional bits: exact, so the sum does not depend on the order of the additions (the
+// wavefront's order is not the ray trees'). `v` is split into whole and fractional parts,
+// both exact in f32; values under 2^-8 lose their bits below 2^-32.
+fn add_channel(point: u32, c: u32, v: f32) {
+    let whole = floor(v);
+    let hi = bitcast<u32>(i32(whole));
+    let lo = u32((v - whole) * ACCUM_ONE);
+    let w = 6u * (point & ~POINT_UNOWNED) + 2u * c;
+    let old = atomicAdd(&accum[w], lo);
+    atomicAdd(&accum[w + 1u], hi + select(0u, 1u, old + lo < old));
+}
+
+fn add_radiance(point: u32, v: vec3<f32>) {
+    for (var c = 0u; c < 3u; c++) {
+        if v[c] != 0.0 {
+            add_channel(point, c, v[c]);
+        }
+    }
+}

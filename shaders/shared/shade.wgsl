@@ -1,8 +1,8 @@
-// Whitted shading and the ray tree of one eye ray, as the CPU reference shades
-// (src/reference/shade.rs, written independently in f64).
-// The ray tree is walked with an explicit stack of pending rays (secondary rays, and
-// shadow rays whose walks are long), each carrying the weight its radiance contributes
-// with.
+// Whitted shading and the ray trees, as the CPU reference shades (src/reference/shade.rs,
+// written independently in f64). The trees are traced breadth first by the wavefront
+// kernels: a job's hit adds its radiance to its point and pushes the rays it spawns
+// (secondary rays, and shadow rays whose walks are long) into the queues of the current
+// pass, each carrying the weight its radiance contributes with.
 
 struct Incidence {
     ok: bool,
@@ -109,15 +109,13 @@ fn shade_local(id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>) -> 
 }
 
 #if SHADOWS
-// The shadow rays of a hit on primitive `id` (reached with `weight`). A light whose walk
-// is long becomes a shadow job on the stack (kind RAY_SHADOW, `depth` the light, `weight`
-// what it adds unless blocked), traced over the next steps like any other ray, so that no
-// step walks more than one long list. Jobs are pushed after the hit's secondary rays, so
-// they are traced first and the stack holds at most max depth + lights jobs; should it
-// be full, the shadow ray is traced at once, as are walks of at most
-// `params.shadow_inline` entries (a job costs a whole step, which loads and stores the
-// point's state: on gears_s4, jobs for every walk over 64 entries took 52 s instead of 38).
-fn push_shadow_rays(id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>, weight: vec3<f32>) {
+// The shadow rays of a hit on primitive `id` (reached with `weight`) of tile point `point`.
+// A walk of at most `params.shadow_inline` entries is traced at once; a longer one becomes a
+// shadow job (kind RAY_SHADOW, `depth` the light, `weight` what it adds unless blocked) in
+// the pass's shadow queue, traced by the `shadow` kernel, so that no invocation walks more
+// than one long list (a job costs its write and read: on gears_s4, jobs for every walk
+// over 64 entries took 52 s instead of 38 with the stepped kernel this replaced).
+fn push_shadow_rays(id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>, weight: vec3<f32>, point: u32) {
     let diffuse = base_color(m, s) * m.kd;
     for (var i = 0u; i < params.light_count; i++) {
         let lit = light_term(i, m, s, n, v, diffuse);
@@ -127,25 +125,18 @@ fn push_shadow_rays(id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>
         let o = spawn_origin(s, lit.dir);
         let spawn = spawn_offset(s);
         let skip = leave_skip(id, lit.dir, s.ng);
-        // A full stack takes no job: the walk is traced at once, however long.
-        var r = ANY_UNFINISHED;
-        if state.sp < STACK_SIZE {
-            r = occluded_short(o, lit.dir, i, id, skip);
-        } else {
-            r = select(ANY_CLEAR, ANY_BLOCKED, occluded(o, lit.dir, i, id, skip));
-        }
+        let r = occluded_short(o, lit.dir, i, id, skip);
         if r == ANY_UNFINISHED {
             let flags = select(0u, RAY_SKIP_FROM, skip != NO_ID);
-            state.stack[state.sp] =
-                Pending(o, RAY_SHADOW | flags | (i << RAY_DEPTH_SHIFT), lit.dir, spawn, weight * lit.c, id);
-            state.sp += 1u;
+            let ray = Pending(o, RAY_SHADOW | flags | (i << RAY_DEPTH_SHIFT), lit.dir, spawn, weight * lit.c, id);
+            push_job(pass_desc.shadow, new_job(ray, point));
             continue;
         }
         count(C_RAYS + RAY_SHADOW);
         if r == ANY_BLOCKED {
             count_blocked(spawn);
         } else {
-            state.color += weight * lit.c;
+            add_radiance(point, weight * lit.c);
         }
     }
 }
@@ -161,21 +152,26 @@ fn count_blocked(spawn: f32) {
     }
 }
 
-// Traces the shadow job on top of the stack (over several calls when its walk is long)
-// and, once answered, pops it and adds its light unless blocked.
-fn shadow_step(job: Pending) {
-    let skip = select(NO_ID, job.from_prim, (job.kind & RAY_SKIP_FROM) != 0u);
-    let light = job_depth(job);
-    let r = occluded_step(job.o, job.d, light, job.from_prim, skip);
+// Traces shadow job `job` (or the next part of its walk) and, once answered, adds its light
+// to its point unless blocked; an unfinished walk goes to the pass's retry queue.
+fn trace_shadow(job: Job) {
+    let ray = job.ray;
+    let skip = select(NO_ID, ray.from_prim, (ray.kind & RAY_SKIP_FROM) != 0u);
+    walking = job.walking;
+    walk_state = job.walk;
+    let r = occluded_step(ray.o, ray.d, job_depth(ray), ray.from_prim, skip);
     if r == ANY_UNFINISHED {
+        var next = job;
+        next.walking = 1u;
+        next.walk = walk_state;
+        push_job(pass_desc.retry, next);
         return;
     }
-    state.sp -= 1u;
     count(C_RAYS + RAY_SHADOW);
     if r == ANY_BLOCKED {
-        count_blocked(job.spawn);
+        count_blocked(ray.spawn);
     } else {
-        state.color += job.weight;
+        add_radiance(job.point, ray.weight);
     }
 }
 #endif
@@ -214,34 +210,33 @@ fn refract_dir(d: vec3<f32>, n: vec3<f32>, ng: vec3<f32>, entering: bool, ior: f
 }
 #endif
 
-// Traces the ray on top of the stack (a long table walk over several calls) and, once its
-// nearest hit is known, pops it and pushes the rays its hit spawns.
-fn trace_step() {
-    let job = state.stack[state.sp - 1u];
-    let kind = job.kind & RAY_KIND_MASK;
-#if SHADOWS
-    if kind == RAY_SHADOW {
-        shadow_step(job);
-        return;
-    }
-#endif
-    let ray = make_ray(job.o, job.d);
-    let skip = select(NO_ID, job.from_prim, (job.kind & RAY_SKIP_FROM) != 0u);
-    let stepped = closest_step(ray, FAR, kind, job.from_prim, skip);
+// Traces job `job` (or the next part of its walk; an unfinished walk goes to the pass's
+// retry queue) and, once its nearest hit is known, adds what the hit sends to its point and
+// pushes the rays the hit spawns into the pass's queues.
+fn trace_job(job: Job) {
+    let pending = job.ray;
+    let kind = pending.kind & RAY_KIND_MASK;
+    let ray = make_ray(pending.o, pending.d);
+    let skip = select(NO_ID, pending.from_prim, (pending.kind & RAY_SKIP_FROM) != 0u);
+    walking = job.walking;
+    walk_state = job.walk;
+    let stepped = closest_step(ray, FAR, kind, pending.from_prim, skip);
     if !stepped.done {
-        // The ray stays on the stack; its walk goes on in the next step.
+        var next = job;
+        next.walking = 1u;
+        next.walk = walk_state;
+        push_job(pass_desc.retry, next);
         return;
     }
     let h = stepped.c;
-    state.sp -= 1u;
     count(C_RAYS + kind);
     if !h.found {
-        state.color += job.weight * params.background;
+        add_radiance(job.point, pending.weight * params.background);
         return;
     }
     if kind == RAY_EYE {
         count(C_EYE_HIT);
-    } else if h.hit.t < SELF_HIT_SPAWNS * job.spawn {
+    } else if h.hit.t < SELF_HIT_SPAWNS * pending.spawn {
         count(C_SELF_HITS);
     }
     let prim = prims[h.prim];
@@ -251,9 +246,9 @@ fn trace_step() {
     let entering = dot(d, s.ng) < 0.0;
     let ng = select(-s.ng, s.ng, entering);
     let n = select(-s.ns, s.ns, entering);
-    state.color += job.weight * shade_local(h.prim, m, s, n, -d);
+    add_radiance(job.point, pending.weight * shade_local(h.prim, m, s, n, -d));
 #if REFLECTION
-    let depth = job_depth(job);
+    let depth = job_depth(pending);
     if depth < params.max_depth {
         let transmits = m.transmittance > 0.0;
         var weight = m.mirror;
@@ -268,10 +263,10 @@ fn trace_step() {
         }
         if refracted.ok {
             let flags = select(0u, RAY_SKIP_FROM, leave_skip(h.prim, refracted.dir, s.ng) != NO_ID);
-            state.stack[state.sp] = Pending(spawn_origin(s, refracted.dir),
+            let child = Pending(spawn_origin(s, refracted.dir),
                 RAY_REFRACT | flags | ((depth + 1u) << RAY_DEPTH_SHIFT), refracted.dir, spawn_offset(s),
-                job.weight * m.transmittance, h.prim);
-            state.sp += 1u;
+                pending.weight * m.transmittance, h.prim);
+            push_job(pass_desc.next, new_job(child, job.point));
         }
 #endif
         if max3(m.mirror) > 0.0 || transmits {
@@ -280,13 +275,13 @@ fn trace_step() {
                 r = reflect_dir(d, ng);
             }
             let flags = select(0u, RAY_SKIP_FROM, leave_skip(h.prim, r, s.ng) != NO_ID);
-            state.stack[state.sp] = Pending(spawn_origin(s, r), RAY_REFLECT | flags | ((depth + 1u) << RAY_DEPTH_SHIFT), r,
-                spawn_offset(s), job.weight * weight, h.prim);
-            state.sp += 1u;
+            let child = Pending(spawn_origin(s, r), RAY_REFLECT | flags | ((depth + 1u) << RAY_DEPTH_SHIFT), r,
+                spawn_offset(s), pending.weight * weight, h.prim);
+            push_job(pass_desc.next, new_job(child, job.point));
         }
     }
 #endif
 #if SHADOWS
-    push_shadow_rays(h.prim, m, s, n, -d, job.weight);
+    push_shadow_rays(h.prim, m, s, n, -d, pending.weight, job.point);
 #endif
 }

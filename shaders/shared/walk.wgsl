@@ -2,8 +2,8 @@
 // finds its list (the cell of its direction in the direction cube of the eye or the light it
 // is traced from; the beam of a ray leaving a surface) and walks it merged with the origin's
 // always-test list by increasing d_min, stopping once d_min passes the nearest hit so far; a
-// long walk is spread over several steps. Then the queries the
-// shading asks, `closest` and `occluded`, in their stepped forms too.
+// long walk is spread over several passes. Then the queries the shading asks: `closest`,
+// and its stepped form, and `occluded_short` and `occluded_step`.
 
 // A position in the merged walk of a cell's list (i..iend) and the always list (j..jend).
 struct Walk {
@@ -112,29 +112,29 @@ fn closest(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) -> Cl
     return cube_walk_nearest(from_prim, ray, t_max, skip, ray_kind);
 }
 
-// `closest` for the ray on top of the point's stack, in bounded steps: `done` false when
-// the walk goes on in the next step.
+// `closest` for a job, in bounded passes: `done` false when the walk goes on in a later
+// pass (its position kept in `walk_state`).
 fn closest_step(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) -> Stepped {
     var best = no_closest();
     var w: Walk;
-    if state.walking == 0u {
+    if walking == 0u {
         if max3(abs(ray.d)) == 0.0 {
             return Stepped(true, best);
         }
         w = start_walk(from_prim, ray.o, ray.d);
     } else {
-        let s = state.walk;
+        let s = walk_state;
         w = Walk(s.i, s.iend, s.j, s.jend);
         if s.prim != NO_ID {
             best = Closest(true, s.prim, PrimHit(true, s.t, s.b1, s.b2));
         }
     }
     if walk_nearest(&w, &best, ray, t_max, skip, ray_kind, WALK_CHUNK) {
-        state.walking = 0u;
+        walking = 0u;
         return Stepped(true, best);
     }
-    state.walking = 1u;
-    state.walk = WalkState(w.i, w.iend, w.j, w.jend, best.prim, best.hit.t, best.hit.b1, best.hit.b2);
+    walking = 1u;
+    walk_state = WalkState(w.i, w.iend, w.j, w.jend, best.prim, best.hit.t, best.hit.b1, best.hit.b2);
     return Stepped(false, best);
 }
 
@@ -194,13 +194,6 @@ fn walk_any(w: ptr<function, Walk>, ray: Ray, t_max: f32, skip: u32, budget: u32
     return ANY_CLEAR;
 }
 
-// True when some primitive other than `skip` is hit at 0 < t < t_max on the walk `w` (of
-// `ray`'s direction, not zero).
-fn cube_walk_any(w: Walk, ray: Ray, t_max: f32, skip: u32) -> bool {
-    var walk = w;
-    return walk_any(&walk, ray, t_max, skip, UNBOUNDED) == ANY_BLOCKED;
-}
-
 // The walk that answers whether light `light` is blocked from `q`, the spawn origin on
 // primitive `from_prim`: the one shadow ray of `shadow_ray` (geometry.wgsl), walked in the
 // light's table when it is traced from the light, else in the beam it lies in (the fallback
@@ -236,8 +229,9 @@ fn shadow_walk(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32) ->
     return ShadowWalk(w, sr.ray, sr.t_max, false, sr.q_t);
 }
 
-// `occluded` when its walk has at most `params.shadow_inline` entries (groups counted
-// once): ANY_CLEAR or ANY_BLOCKED; ANY_UNFINISHED, without walking, when it is longer.
+// Whether light `light` is blocked from `q` (see `shadow_walk`), when its walk has at most
+// `params.shadow_inline` entries (groups counted once): ANY_CLEAR or ANY_BLOCKED;
+// ANY_UNFINISHED, without walking, when it is longer.
 fn occluded_short(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> u32 {
     let sw = shadow_walk(q, to_light, light, from_prim);
     if sw.empty {
@@ -250,32 +244,21 @@ fn occluded_short(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32,
     return note_blocker(sw, walk_any(&w, sw.ray, sw.t_max, skip, UNBOUNDED));
 }
 
-// Whether light `light` is blocked from `q` (see `shadow_walk`), in one go.
-fn occluded(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> bool {
-    let sw = shadow_walk(q, to_light, light, from_prim);
-    if sw.empty {
-        return false;
-    }
-    let blocked = cube_walk_any(sw.walk, sw.ray, sw.t_max, skip);
-    note_blocker(sw, select(ANY_CLEAR, ANY_BLOCKED, blocked));
-    return blocked;
-}
-
-// `occluded` for the shadow job on top of the point's stack, in bounded steps (the walk's
-// position kept in `state.walk`): ANY_UNFINISHED when it goes on in the next step.
+// Whether light `light` is blocked from `q`, for a shadow job, in bounded passes (the
+// walk's position kept in `walk_state`): ANY_UNFINISHED when it goes on in a later pass.
 fn occluded_step(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> u32 {
     let sw = shadow_walk(q, to_light, light, from_prim);
     if sw.empty {
         return ANY_CLEAR;
     }
     var w = sw.walk;
-    if state.walking != 0u {
-        let s = state.walk;
+    if walking != 0u {
+        let s = walk_state;
         w = Walk(s.i, s.iend, s.j, s.jend);
     }
     let r = note_blocker(sw, walk_any(&w, sw.ray, sw.t_max, skip, WALK_CHUNK));
-    state.walking = select(0u, 1u, r == ANY_UNFINISHED);
-    state.walk = WalkState(w.i, w.iend, w.j, w.jend, NO_ID, 0.0, 0.0, 0.0);
+    walking = select(0u, 1u, r == ANY_UNFINISHED);
+    walk_state = WalkState(w.i, w.iend, w.j, w.jend, NO_ID, 0.0, 0.0, 0.0);
     return r;
 }
 #endif

@@ -7,12 +7,11 @@
 //!
 //! Line-by-line twin of the walk in `shaders/shared/walk.wgsl` (keep them in sync): the same
 //! names (`walk_start`, `start_walk`, `walk_next`, `walk_done`, `walk_nearest`, `walk_any`,
-//! `cube_walk_nearest`, `cube_walk_any`) and the same step budget, so that a walk may stop
-//! after `budget` loop iterations and resume where it stopped, as the GPU's stepped kernel
-//! does ([`WALK_CHUNK`] per step). The rest of `walk.wgsl` (`closest`, `closest_step`,
-//! `shadow_walk`, `occluded*`) is the kernels' own: it keeps a walk's position in the point
-//! state between steps and picks the ray a shadow query walks, which the CPU callers do for
-//! themselves. It is generic over the distance type and the hit payload
+//! `cube_walk_nearest`) and the same budget, so that a walk may stop after `budget` loop
+//! iterations and resume where it stopped, as the GPU's wavefront kernels do ([`WALK_CHUNK`]
+//! per pass). The rest of `walk.wgsl` (`closest`, `closest_step`, `shadow_walk`,
+//! `occluded*`) is the kernels' own: it keeps a walk's position in its job between passes
+//! and picks the ray a shadow query walks, which the CPU callers do for themselves. It is generic over the distance type and the hit payload
 //! ([`Closest`]): the GPU-side tests walk it with the f32 intersection twins, the CPU
 //! reference's `--accel cube` with its own f64 tests. Both look cells up with the f32
 //! direction, as the GPU does; the tables are widened for that.
@@ -25,7 +24,7 @@ use super::flat::{FlatTables, GpuEntry, GROUP_BIT, NO_ORIGIN};
 use super::groups::group_hit;
 use crate::kernel::closest::{consider, no_closest, Closest, Dist};
 
-/// Loop iterations one kernel step spends on a walk, at most (plus the members of the last
+/// Loop iterations one kernel pass spends on a walk, at most (plus the members of the last
 /// group entry): lavapipe ends an invocation's loops after 65535 iterations in all (WGSL
 /// `WALK_CHUNK`, keep them in sync).
 pub const WALK_CHUNK: u32 = 8192;

@@ -1,31 +1,66 @@
 //! The scene's buffers on the GPU: the packed scene and, with `--accel cube`, the flattened
-//! tables, or with `--accel bvh` the flattened BVH (uploaded once), and the kernels' outputs and per-point state (sized for a tile),
-//! with their one bind group.
+//! tables, or with `--accel bvh` the flattened BVH (uploaded once), and the kernels' outputs
+//! and the wavefront's queues (sized for a tile), with their one bind group.
 
 use super::GpuContext;
 use crate::coherence::FlatTables;
 use crate::error::{Error, Result};
 use crate::layout::counters::COUNTER_BYTES;
-use crate::layout::{Packed, Params, PointState, WORKGROUP};
+use crate::layout::{Job, Packed, Params, PassDesc, QUEUE_SHADOW, QUEUE_WORDS, WORKGROUP};
 
 /// A packed scene's buffers on the GPU with their bind group (the bindings of
-/// `shaders/shared/layout.wgsl`, `shaders/shared/tables.wgsl` and `shaders/shared/bvh.wgsl`), sized for tiles of up to
-/// `tile` grid points. Positions are
-/// relative to the eye: a camera move rewrites `prims`, `lights` and `params`.
+/// `shaders/shared/layout.wgsl`, `shaders/shared/tables.wgsl` and `shaders/shared/bvh.wgsl`),
+/// sized for tiles of up to `tile` grid points. Positions are relative to the eye: a camera
+/// move rewrites `prims`, `lights` and `params`.
 pub struct SceneBuffers {
     pub params: wgpu::Buffer,
     pub prims: wgpu::Buffer,
     pub lights: wgpu::Buffer,
-    /// One `vec4<f32>` per point of the tile: the radiance summed by `render` so far.
+    /// One `vec4<f32>` per point of the tile: its radiance (`resolve`) or its AOV (`aov`).
     pub out: wgpu::Buffer,
     /// The 64-bit counters (`COUNTER_COUNT` of them, low word first).
     pub counters: wgpu::Buffer,
-    /// One [`PointState`] per point of the tile (one only for the `aov` kernel).
-    pub states: wgpu::Buffer,
-    /// One `u32`: grid points with work left after a step.
-    pub active: wgpu::Buffer,
+    /// The wavefront's queues of [`Job`]s, their lengths and dispatch arguments
+    /// (`QUEUE_WORDS` words), the current pass, and each tile point's radiance in fixed
+    /// point (6 words a point).
+    pub jobs: wgpu::Buffer,
+    pub queues: wgpu::Buffer,
+    pub pass_desc: wgpu::Buffer,
+    pub accum: wgpu::Buffer,
+    /// The dispatch arguments of the current pass, copied from `queues` (a buffer the kernel
+    /// writes cannot also be its dispatch's argument buffer).
+    pub indirect: wgpu::Buffer,
     pub bind: wgpu::BindGroup,
     pub tile: u64,
+    /// Jobs each ray queue and each shadow queue holds (`Params::ray_queue`,
+    /// `Params::shadow_queue`).
+    pub ray_queue: u32,
+    pub shadow_queue: u32,
+}
+
+impl SceneBuffers {
+    /// Sets the queues' sizes in `params` (the kernels read them from there).
+    pub fn size_queues(&self, params: &mut Params) {
+        params.ray_queue = self.ray_queue;
+        params.shadow_queue = self.shadow_queue;
+    }
+}
+
+/// How large the wavefront's queues are for one point of a tile: rays of one depth per eye
+/// ray (2^(depth−1) at most where glass splits every ray; a tile that overflows runs again
+/// in halves), and shadow rays per ray (the lights, with shadows).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct QueueSizes {
+    pub rays_per_point: u32,
+    pub shadows_per_ray: u32,
+}
+
+impl QueueSizes {
+    /// Jobs per point of a tile, all queues together.
+    fn jobs_per_point(&self) -> u64 {
+        let rays = self.rays_per_point as u64;
+        QUEUE_SHADOW as u64 * rays + 3 * rays * self.shadows_per_ray as u64
+    }
 }
 
 /// Checks every storage buffer (`(name, bytes)`) against the adapter's limits on one binding
@@ -58,8 +93,8 @@ pub fn fit_tile(tile: u64, per_point: u64, limits: &wgpu::Limits) -> u64 {
 }
 
 /// Uploads `packed` (with its BVH, if any, and the candidate tables, when traced) and creates the kernels'
-/// buffers for tiles of up to `tile` grid points (`stepped`: with a point state each, for
-/// the `render` kernel; fewer when the adapter's limits call for it: the buffers' `tile` says
+/// buffers for tiles of up to `tile` grid points (`queues`: with the wavefront's queues,
+/// for a render; fewer points when the adapter's limits call for it: the buffers' `tile` says
 /// how many). A buffer over the adapter's limits is refused before anything is
 /// created, and a failed allocation is an error, not a lost device.
 pub fn upload(
@@ -68,18 +103,22 @@ pub fn upload(
     packed: &Packed,
     tables: Option<&FlatTables>,
     tile: u64,
-    stepped: bool,
+    queues: Option<QueueSizes>,
 ) -> Result<SceneBuffers> {
     let device = &ctx.device;
-    let state_bytes = std::mem::size_of::<PointState>() as u64;
-    let tile = fit_tile(tile, if stepped { state_bytes.max(16) } else { 16 }, &device.limits());
+    let job_bytes = std::mem::size_of::<Job>() as u64;
+    let per_point = queues.map_or(16, |q| (q.jobs_per_point() * job_bytes).max(24));
+    let tile = fit_tile(tile, per_point, &device.limits());
+    let ray_queue = queues.map_or(0, |q| tile * q.rays_per_point as u64) as u32;
+    let shadow_queue = queues.map_or(0, |q| ray_queue as u64 * q.shadows_per_ray as u64) as u32;
+    let jobs_bytes = (QUEUE_SHADOW as u64 * ray_queue as u64 + 3 * shadow_queue as u64) * job_bytes;
     let size = |bytes: usize| bytes as u64;
     let mut sizes = vec![
         ("prims", size(std::mem::size_of_val(packed.prims.as_slice()))),
         ("tri_attrs", size(std::mem::size_of_val(packed.tri_attrs.as_slice()))),
         ("texels", size(std::mem::size_of_val(packed.texels.as_slice()))),
         ("out", tile * 16),
-        ("point states", if stepped { tile * state_bytes } else { state_bytes }),
+        ("ray queues", jobs_bytes),
     ];
     if let Some(t) = tables {
         sizes.push(("cell_start", size(std::mem::size_of_val(t.cell_start.as_slice()))));
@@ -149,16 +188,34 @@ pub fn upload(
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
         mapped_at_creation: false,
     });
-    let states = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("point states"),
-        size: if stepped { tile * state_bytes } else { state_bytes },
+    let jobs = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("ray queues"),
+        size: jobs_bytes.max(job_bytes),
+        usage: wgpu::BufferUsages::STORAGE,
+        mapped_at_creation: false,
+    });
+    let queues_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("queue lengths"),
+        size: 4 * QUEUE_WORDS as u64,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let pass_desc = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("pass"),
+        size: std::mem::size_of::<PassDesc>() as u64,
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    let active = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("active"),
-        size: 4,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+    let indirect = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("dispatch arguments"),
+        size: 12,
+        usage: wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let accum = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("radiance sums"),
+        size: if queues.is_some() { tile * 24 } else { 24 },
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
     let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -174,8 +231,8 @@ pub fn upload(
             (6, &texels),
             (7, &out),
             (8, &counters),
-            (9, &states),
-            (10, &active),
+            (9, &jobs),
+            (10, &queues_buffer),
             (11, &origins),
             (12, &faces),
             (13, &cell_start),
@@ -187,6 +244,8 @@ pub fn upload(
             (19, &group_prims),
             (20, &bvh_nodes),
             (21, &bvh_prims),
+            (22, &pass_desc),
+            (23, &accum),
         ]
         .map(|(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }),
     });
@@ -195,7 +254,22 @@ pub fn upload(
         let mib = sizes.iter().map(|s| s.1).sum::<u64>() as f64 / (1u64 << 20) as f64;
         return Err(Error::Gpu(format!("cannot create the scene's buffers ({mib:.0} MiB and more): {e}")));
     }
-    Ok(SceneBuffers { params, prims, lights, out, counters, states, active, bind, tile })
+    Ok(SceneBuffers {
+        params,
+        prims,
+        lights,
+        out,
+        counters,
+        jobs,
+        queues: queues_buffer,
+        pass_desc,
+        accum,
+        indirect,
+        bind,
+        tile,
+        ray_queue,
+        shadow_queue,
+    })
 }
 
 #[cfg(test)]
@@ -221,6 +295,6 @@ mod tests {
         assert_eq!(fit_tile(32, 1000, &limits), 32);
         let small = wgpu::Limits { max_storage_buffer_binding_size: 10, ..limits };
         assert_eq!(fit_tile(4096, 1000, &small), WORKGROUP as u64);
-        assert!(check_limits(&[("point states", WORKGROUP as u64 * 1000)], &small).is_err());
+        assert!(check_limits(&[("ray queues", WORKGROUP as u64 * 1000)], &small).is_err());
     }
 }

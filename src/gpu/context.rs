@@ -104,6 +104,14 @@ impl GpuContext {
         }
     }
 
+    /// Waits until the queue has done everything submitted so far.
+    pub fn wait(&self) -> Result<()> {
+        self.device
+            .poll(wgpu::PollType::Wait { submission_index: None, timeout: None })
+            .map_err(|e| Error::Gpu(e.to_string()))?;
+        self.fault()
+    }
+
     /// Waits for the queue and copies the first `bytes` of mappable `buffer`.
     pub fn read(&self, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>> {
         self.fault()?;

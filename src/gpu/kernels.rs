@@ -1,6 +1,6 @@
 //! Compiled kernels: one pipeline per kernel and [`Variant`], compiled on first use and
 //! cached, over the one bind group layout of the scene buffers (`shaders/shared/layout.wgsl`
-//! `shaders/shared/tables.wgsl` and `shaders/shared/bvh.wgsl`: bindings 0 to 21).
+//! `shaders/shared/tables.wgsl` and `shaders/shared/bvh.wgsl`: bindings 0 to 23).
 //!
 //! Lavapipe compiles a kernel at its first dispatch, not at pipeline creation, and Mesa 24–25
 //! take 25–45 s over it; Mesa's disk cache then keeps the machine code for later runs. So the
@@ -19,8 +19,8 @@ use super::GpuContext;
 use crate::error::Result;
 
 /// The scene buffers' bindings: 0 `params`, 1–6 the read-only scene, 7–10 the kernels'
-/// outputs and state, 11–19 the candidate tables, 20–21 the BVH (a kernel binds only the
-/// buffers of its own queries).
+/// outputs and queues, 11–19 the candidate tables, 20–21 the BVH (a kernel binds only the
+/// buffers of its own queries), 22 the current pass, 23 the radiance sums.
 /// `params` is a read-only storage buffer, not a uniform: lavapipe would compile a variant
 /// of the kernel for every tile's values (see `shaders/shared/layout.wgsl`).
 fn bind_layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
@@ -35,10 +35,12 @@ fn bind_layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
     entries.extend((1..=6).map(|b| entry(b, storage(true))));
     entries.extend((7..=10).map(|b| entry(b, storage(false))));
     entries.extend((11..=21).map(|b| entry(b, storage(true))));
+    entries.push(entry(22, storage(true)));
+    entries.push(entry(23, storage(false)));
     entries
 }
 
-/// The compute pipelines of the trace kernels (`render`, `aov`) by variant.
+/// The compute pipelines of the trace kernels (the wavefront's, `aov`) by variant.
 pub struct Kernels {
     bind_layout: wgpu::BindGroupLayout,
     pipeline_layout: wgpu::PipelineLayout,
@@ -78,13 +80,15 @@ impl Kernels {
         self.compiles.load(Ordering::Relaxed)
     }
 
-    /// The pipeline of `kernel` (`render` or `aov`) for `variant`, compiled on first use.
+    /// The pipeline of `kernel` (a wavefront kernel or `aov`) for `variant`, compiled on
+    /// first use.
     pub fn get(
         &self,
         ctx: &GpuContext,
         kernel: Kernel,
         variant: Variant,
     ) -> Result<Arc<wgpu::ComputePipeline>> {
+        let variant = kernel.variant_of(variant);
         let mut cache = self.cache.lock().expect("kernel cache lock");
         if let Some(k) = cache.get(&(kernel, variant)) {
             return Ok(k.clone());
@@ -98,7 +102,7 @@ impl Kernels {
     /// Records that the pipeline of `kernel` for `variant` has been dispatched; `true` the
     /// first time in this process.
     pub fn first_warm_up(&self, kernel: Kernel, variant: Variant) -> bool {
-        self.warmed.lock().expect("warm-up lock").insert((kernel, variant))
+        self.warmed.lock().expect("warm-up lock").insert((kernel, kernel.variant_of(variant)))
     }
 }
 
@@ -109,6 +113,7 @@ impl Kernels {
 /// whether to print the notice: a missing or stale marker costs one line on stderr.
 pub fn first_compile_marker(ctx: &GpuContext, kernel: Kernel, variant: Variant) -> Result<Option<PathBuf>> {
     let Some(dir) = kernel_cache_dir() else { return Ok(None) };
+    let variant = kernel.variant_of(variant);
     let mut h = std::collections::hash_map::DefaultHasher::new();
     let info = &ctx.info;
     (&info.name, &info.driver, &info.driver_info, info.vendor, info.device).hash(&mut h);

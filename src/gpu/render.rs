@@ -11,9 +11,9 @@ use std::time::Instant;
 
 use indicatif::ProgressBar;
 
-use super::buffers::{upload, SceneBuffers};
+use super::buffers::{upload, QueueSizes, SceneBuffers};
 use super::kernels::{first_compile_marker, mark_compiled, Kernels};
-use super::schedule::{self, Pacing, Progress, Schedule};
+use super::schedule::{self, Pacing, Pipelines, Progress, Schedule, WavePlan};
 use super::shaders::{Kernel, Queries, Variant};
 use super::GpuContext;
 use crate::coherence::reach::WalkBounds;
@@ -36,23 +36,32 @@ pub struct GpuRenderer {
 }
 
 /// What a run over the grid returns: one `vec4<f32>` per grid point, the counters, the
-/// kernel time, the warm-up (compilation) time and the longest submission.
+/// kernel time (in all and by kernel: generate, nearest, shadow, resolve or the single
+/// kernel), the warm-up (compilation) time and the longest submission.
 struct RunOutput {
     values: Vec<[f32; 4]>,
     counters: Counters,
     gpu_s: Option<f64>,
+    kernel_s: Option<[f64; 4]>,
     compile_s: f64,
     longest_submit_s: f64,
 }
 
 impl RunOutput {
     /// The times of a render whose preprocessing took `preprocess_s` and whose run took
-    /// `trace_s`; `aov`: the kernel was the AOV pass.
-    fn times(&self, preprocess_s: f64, trace_s: f64, aov: bool) -> stats::Times {
+    /// `trace_s`; `aov`: the kernel was the AOV pass, `shadows`: the shadow kernel ran.
+    fn times(&self, preprocess_s: f64, trace_s: f64, aov: bool, shadows: bool) -> stats::Times {
+        let k = self.kernel_s;
         let kernel = if aov {
-            stats::KernelTimes { render: None, aov: self.gpu_s }
+            stats::KernelTimes { aov: k.map(|k| k[3]), ..Default::default() }
         } else {
-            stats::KernelTimes { render: self.gpu_s, aov: None }
+            stats::KernelTimes {
+                generate: k.map(|k| k[0]),
+                nearest: k.map(|k| k[1]),
+                shadow: k.filter(|_| shadows).map(|k| k[2]),
+                resolve: k.map(|k| k[3]),
+                aov: None,
+            }
         };
         stats::Times {
             preprocess_s,
@@ -68,9 +77,9 @@ impl RunOutput {
 /// The set-up shared by [`GpuRenderer::render`] and [`GpuRenderer::render_aov`]; `start` is
 /// when preprocessing began.
 struct Prepared {
-    kernel: Kernel,
     variant: Variant,
-    pipeline: std::sync::Arc<wgpu::ComputePipeline>,
+    /// The kernels the render runs, compiled.
+    pipelines: Vec<(Kernel, std::sync::Arc<wgpu::ComputePipeline>)>,
     packed: Packed,
     tables: Option<TableSet>,
     start: Instant,
@@ -157,8 +166,9 @@ impl GpuRenderer {
     ) -> Result<Prepared> {
         check(scene, opts)?;
         let variant = Self::job_variant(scene, opts, aov);
-        let kernel = if aov { Kernel::Aov } else { Kernel::Render };
-        let pipeline = self.kernel(kernel, variant)?;
+        let kernels = if aov { vec![Kernel::Aov] } else { Kernel::wavefront(variant) };
+        let pipelines =
+            kernels.into_iter().map(|k| Ok((k, self.kernel(k, variant)?))).collect::<Result<_>>()?;
         let start = Instant::now();
         let mut packed = pack(scene, opts.width, opts.height, opts.spawn);
         if variant.queries == Queries::Bvh {
@@ -181,7 +191,7 @@ impl GpuRenderer {
                 Some(TableSet::Stored(t, walks))
             }
         };
-        Ok(Prepared { kernel, variant, pipeline, packed, tables, start })
+        Ok(Prepared { variant, pipelines, packed, tables, start })
     }
 
     /// Builds the candidate tables when `variant` traces them (for all its effects) and
@@ -211,47 +221,55 @@ impl GpuRenderer {
         Ok(Some(t))
     }
 
-    /// Dispatches the pipeline of `kernel` for `variant` once over no points, the first time
-    /// in this process (see [`schedule::warm_up`]), so that compilation at first dispatch is
-    /// neither counted in the kernel time nor mistaken for a hang: the first time on this
-    /// machine it says so on stderr. Returns the warm-up's time (0 when warmed before).
+    /// Dispatches each of `pipelines` (kernels of `variant`) once over no points, the first
+    /// time in this process (see [`schedule::warm_up`]), so that compilation at first dispatch
+    /// is neither counted in the kernel time nor mistaken for a hang: the first time on this
+    /// machine one line on stderr says so. Returns the warm-ups' time (0 when warmed before).
     pub fn warm_up(
         &self,
-        kernel: Kernel,
         variant: Variant,
-        pipeline: &wgpu::ComputePipeline,
+        pipelines: &[(Kernel, std::sync::Arc<wgpu::ComputePipeline>)],
         buffers: &SceneBuffers,
         base: &crate::layout::Params,
     ) -> Result<f64> {
-        if !self.kernels.first_warm_up(kernel, variant) {
-            return Ok(0.0);
+        let cold: Vec<&(Kernel, std::sync::Arc<wgpu::ComputePipeline>)> =
+            pipelines.iter().filter(|(k, _)| self.kernels.first_warm_up(*k, variant)).collect();
+        let mut markers = Vec::new();
+        for (k, _) in &cold {
+            markers.extend(first_compile_marker(&self.ctx, *k, variant)?);
         }
-        let marker = first_compile_marker(&self.ctx, kernel, variant)?;
-        if marker.is_some() {
+        if !markers.is_empty() {
+            let names: Vec<&str> = cold.iter().map(|(k, _)| k.name()).collect();
             log::warn!(
-                "compiling the {} kernel for {}, {}: the first time on a machine this can take a minute",
-                kernel.name(),
+                "compiling the {} kernel{} for {}, {}: the first time on a machine this can take a minute",
+                names.join(", "),
+                if names.len() > 1 { "s" } else { "" },
                 self.ctx.info.name,
                 self.ctx.info.driver_info
             );
         }
-        let took = schedule::warm_up(&self.ctx, pipeline, buffers, base)?.as_secs_f64();
-        log::info!("{} kernel warmed up in {took:.2} s", kernel.name());
-        if let Some(m) = marker {
+        let mut took = 0.0;
+        for (k, p) in cold {
+            let t = schedule::warm_up(&self.ctx, p, buffers, base)?.as_secs_f64();
+            log::info!("{} kernel warmed up in {t:.2} s", k.name());
+            took += t;
+        }
+        for m in markers {
             mark_compiled(&m);
         }
         Ok(took)
     }
 
-    /// Uploads `packed` (and the tables) into buffers for tiles of up to `tile` points.
+    /// Uploads `packed` (and the tables) into buffers for tiles of up to `tile` points, with
+    /// the wavefront's queues of `queues` per point (`None`: the `aov` kernel's buffers).
     pub fn upload(
         &self,
         packed: &Packed,
         tables: Option<&FlatTables>,
         tile: u64,
-        stepped: bool,
+        queues: Option<QueueSizes>,
     ) -> Result<SceneBuffers> {
-        upload(&self.ctx, self.kernels.bind_layout(), packed, tables, tile, stepped)
+        upload(&self.ctx, self.kernels.bind_layout(), packed, tables, tile, queues)
     }
 
     /// Checks that no step of a render with these tables can pass lavapipe's loop limit
@@ -282,14 +300,14 @@ impl GpuRenderer {
         stored: Option<StoredTables>,
         progress: &ProgressBar,
     ) -> Result<Rendered> {
-        let Prepared { kernel, variant, pipeline, mut packed, tables, start } =
+        let Prepared { variant, pipelines, mut packed, tables, start } =
             self.prepare(scene, opts, false, stored)?;
         packed.params = job_params(opts, packed.params);
         let preprocess_s = start.elapsed().as_secs_f64();
         let start = Instant::now();
         let run = self.run(
-            (kernel, variant),
-            &pipeline,
+            variant,
+            &pipelines,
             Some(opts.max_depth),
             scene,
             &packed,
@@ -304,7 +322,7 @@ impl GpuRenderer {
             opts.settings(scene, "gpu", accel_name(variant)),
             simulated_effects(scene, opts.max_depth),
             &run.counters,
-            run.times(preprocess_s, trace_s, false),
+            run.times(preprocess_s, trace_s, false, variant.shadows),
         );
         stats.accel_bytes = accel_bytes(&packed, tables.as_ref());
         Ok(Rendered { image, stats })
@@ -332,7 +350,7 @@ impl GpuRenderer {
         progress: &ProgressBar,
     ) -> Result<Rendered> {
         let (w, h) = (opts.window().width(), opts.window().height());
-        let Prepared { kernel, variant, pipeline, mut packed, tables, start } =
+        let Prepared { variant, pipelines, mut packed, tables, start } =
             self.prepare(scene, opts, true, stored)?;
         let center = RenderOptions { spp: 1, sampling: Sampling::Center, max_depth: 1, ..opts.clone() };
         packed.params = job_params(&center, packed.params);
@@ -343,10 +361,9 @@ impl GpuRenderer {
         };
         let preprocess_s = start.elapsed().as_secs_f64();
         let start = Instant::now();
-        let run =
-            self.run((kernel, variant), &pipeline, None, scene, &packed, tables.as_ref(), (w, h), progress)?;
+        let run = self.run(variant, &pipelines, None, scene, &packed, tables.as_ref(), (w, h), progress)?;
         let trace_s = start.elapsed().as_secs_f64();
-        let times = run.times(preprocess_s, trace_s, true);
+        let times = run.times(preprocess_s, trace_s, true, false);
         let mut image = Image::new(w, h, true);
         image.pixels = run.values;
         let mut stats = Stats::new(
@@ -359,14 +376,14 @@ impl GpuRenderer {
         Ok(Rendered { image, stats })
     }
 
-    /// Runs `pipeline` over the `grid` of points with the fixed schedule: the stepped `render`
-    /// kernel (`max_depth` given) until every tile is done, the `aov` kernel once per tile,
-    /// after warming the pipeline (of `which` kernel and variant) up.
+    /// Runs the kernels over the `grid` of points with the fixed schedule: the wavefront
+    /// kernels (`max_depth` given) until every tile is done, or the `aov` kernel once per
+    /// tile, after warming each pipeline up.
     #[allow(clippy::too_many_arguments)]
     fn run(
         &self,
-        which: (Kernel, Variant),
-        pipeline: &wgpu::ComputePipeline,
+        variant: Variant,
+        pipelines: &[(Kernel, std::sync::Arc<wgpu::ComputePipeline>)],
         max_depth: Option<u32>,
         scene: &Scene,
         packed: &Packed,
@@ -377,20 +394,37 @@ impl GpuRenderer {
         let walks =
             tables.map(TableSet::walks).copied().or_else(|| packed.bvh.as_ref().map(|b| b.walk_bounds()));
         self.check_loop_budget(scene, walks.as_ref(), max_depth)?;
-        let stepped = max_depth.is_some();
         let total = grid.0 as u64 * grid.1 as u64;
         let tile = budget::tile_points(scene, walks.as_ref(), TESTS_PER_DISPATCH);
-        let buffers = self.upload(packed, tables.map(TableSet::flat), tile, stepped)?;
-        let compile_s = self.warm_up(which.0, which.1, pipeline, &buffers, &packed.params)?;
+        let sizes = max_depth.map(|_| queue_sizes(scene, variant));
+        let buffers = self.upload(packed, tables.map(TableSet::flat), tile, sizes)?;
+        let mut params = packed.params;
+        buffers.size_queues(&mut params);
+        let compile_s = self.warm_up(variant, pipelines, &buffers, &params)?;
+        let plan = max_depth.map(|d| WavePlan {
+            max_depth: d,
+            shadows: variant.shadows,
+            retries: budget::retry_passes(scene, walks.as_ref()),
+        });
+        let get = |k: Kernel| pipelines.iter().find(|p| p.0 == k).map(|p| p.1.as_ref());
+        let kernels = match get(Kernel::Aov) {
+            Some(aov) => Pipelines::Single(aov),
+            None => Pipelines::Wavefront {
+                generate: get(Kernel::Generate).expect("generate"),
+                nearest: get(Kernel::Nearest).expect("nearest"),
+                shadow: get(Kernel::Shadow),
+                resolve: get(Kernel::Resolve).expect("resolve"),
+            },
+        };
         let readback = self.ctx.readback_buffer("readback", buffers.tile * 16);
-        let mut schedule = Schedule::new(&self.ctx, total, buffers.tile, stepped, Pacing::Fixed, true);
+        let mut schedule = Schedule::new(&self.ctx, total, buffers.tile, plan, Pacing::Fixed, true);
         progress.set_length(total);
         let mut values = Vec::with_capacity(total as usize);
         loop {
-            // Between kernel steps a stop asked for ends the render.
+            // Between submissions a stop asked for ends the render.
             crate::interrupt::check()?;
             let Progress::TileDone { count, pass_done, .. } =
-                schedule.step(&self.ctx, pipeline, &buffers, &packed.params)?
+                schedule.step(&self.ctx, &kernels, &buffers, &params)?
             else {
                 continue;
             };
@@ -411,6 +445,7 @@ impl GpuRenderer {
             values,
             counters,
             gpu_s: schedule.gpu_s(),
+            kernel_s: schedule.kernel_s(),
             compile_s,
             longest_submit_s: schedule.longest_submit().as_secs_f64(),
         })
@@ -423,6 +458,16 @@ impl GpuRenderer {
         enc.copy_buffer_to_buffer(&buffers.counters, 0, &read, 0, COUNTER_BYTES);
         self.ctx.queue.submit([enc.finish()]);
         Ok(decode_counters(&self.ctx.read(&read, COUNTER_BYTES)?))
+    }
+}
+
+/// The wavefront's queues per point of a tile for `scene` with `variant`: one ray per depth
+/// and point without glass (reflection does not branch), four with it (a tile whose glass
+/// branches further overflows and runs again in halves), and a shadow ray per light.
+pub fn queue_sizes(scene: &Scene, variant: Variant) -> QueueSizes {
+    QueueSizes {
+        rays_per_point: if variant.refraction { 4 } else { 1 },
+        shadows_per_ray: if variant.shadows { scene.lights.len().max(1) as u32 } else { 0 },
     }
 }
 
@@ -465,7 +510,7 @@ pub fn check(scene: &Scene, opts: &RenderOptions) -> Result<()> {
     scene.validate()?;
     if opts.max_depth > MAX_DEPTH {
         return Err(Error::Options(format!(
-            "--max-depth {} is deeper than the GPU backend's ray stack allows ({MAX_DEPTH}); use --backend cpu",
+            "--max-depth {} is deeper than the GPU backend traces ({MAX_DEPTH}); use --backend cpu",
             opts.max_depth
         )));
     }

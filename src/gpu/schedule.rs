@@ -1,70 +1,149 @@
-//! The one dispatch schedule, shared by `render` and the preview: a grid of points (pixels,
-//! or pixel corners with SPD sampling) is worked through tile by tile; a stepped kernel
-//! advances each point of a tile by one ray per dispatch, and dispatches are repeated until
-//! no point of the tile has work left (the kernel counts them in `active`).
+//! The one dispatch schedule, shared by `render` and the preview: the wavefront kernels
+//! worked through a grid of points (pixels, or pixel corners with SPD sampling) tile by tile.
 //!
-//! Each grid point keeps its ray tree as a stack of pending rays in its state. A single
-//! invocation looping over its whole ray tree was the first design, but lavapipe ends all
-//! loops of an invocation after 65535 iterations in total (a safety limit in Mesa's gallivm),
-//! which silently cut ray trees short on scenes of a few hundred primitives; and real GPUs
-//! kill dispatches that run for seconds. So a step does a bounded amount of work (see
-//! [`crate::layout::budget`]), and tiles bound both a dispatch's length and the states'
-//! memory.
+//! A tile is a run of grid points. For each of its samples (a *wave*), `generate` puts the
+//! eye ray of every point into a queue; then, depth by depth, passes of `nearest` trace a
+//! queue of rays, add what their hits send to their points and push the rays the hits spawn
+//! into the next depth's queue, and passes of `shadow` trace the shadow rays too long to
+//! trace inline. A walk longer than a pass allows ([`crate::coherence::walk::WALK_CHUNK`]
+//! iterations: lavapipe ends an invocation's loops after 65535 iterations in all, and real
+//! GPUs kill long dispatches) goes into a retry queue, which the next pass of the same depth
+//! works through. The queues' lengths stay on the GPU and drive indirect dispatches; the host
+//! encodes each wave's passes ahead ([`WavePlan::passes`]) and reads back once per tile: the
+//! `resolve` kernel's colours, and whether a queue overflowed (the tile is then run again in
+//! smaller tiles) or a walk outlasted its passes (again, with more passes).
 //!
-//! [`Pacing::Fixed`] (headless renders) submits one dispatch at a time and measures each
-//! with timestamp queries; its tiles start at a quarter of the buffers' capacity and are
-//! halved after a tile whose longest submission passed [`SUBMIT_LIMIT`] (grown back when
-//! well under), because the static estimate of a step's work ([`crate::layout::budget`])
-//! cannot see how long secondary rays' walks really are. [`Pacing::Adaptive`] (the
-//! preview) grows or shrinks the tile and the dispatches per submission so that one
-//! submission takes about a target time, keeping the window responsive.
+//! Radiance is summed in 64-bit fixed point (exact, so that the breadth-first order of the
+//! additions, unlike the ray trees', changes nothing). The statistics counters are saved
+//! before a tile and restored when it runs again.
+//!
+//! [`Pacing::Fixed`] (headless renders) times every pass with timestamp queries and halves the
+//! tile after one whose longest pass took more than [`PASS_LIMIT`] (doubling it back when well
+//! under); [`Pacing::Adaptive`] (the preview) sizes tiles so that one submission (a wave) takes
+//! about a target time, keeping the window responsive.
 
 use std::time::{Duration, Instant};
 
 use super::buffers::SceneBuffers;
+use super::shaders::Kernel;
 use super::GpuContext;
-use crate::error::Result;
-use crate::layout::{Params, PointState, WORKGROUP};
+use crate::error::{Error, Result};
+use crate::layout::{
+    Params, PassDesc, QUEUE_ARGS, QUEUE_COUNT, QUEUE_OVERFLOW, QUEUE_RAY0, QUEUE_RAY1, QUEUE_RETRY0,
+    QUEUE_RETRY1, QUEUE_SHADOW, QUEUE_SRETRY0, QUEUE_SRETRY1, QUEUE_WORDS, WORKGROUP,
+};
 
-/// How submissions are sized.
+/// How tiles are sized.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Pacing {
-    /// One dispatch per submission over tiles as large as the buffers allow.
+    /// Tiles as large as the buffers allow, halved while a pass takes over [`PASS_LIMIT`].
     Fixed,
-    /// Tiles and dispatches per submission adapted towards `target` per submission.
+    /// Tiles adapted towards `target` per submission (one wave).
     Adaptive { target: Duration },
 }
 
-/// The smallest adaptive tile (grid points).
+/// The longest a pass (one dispatch) should take. Real GPUs reset a device whose
+/// submission runs for about 2 s; lavapipe on two cores is slower than any of them.
+pub const PASS_LIMIT: Duration = Duration::from_millis(100);
+
+/// The smallest tile (grid points).
 const MIN_TILE: u64 = WORKGROUP as u64;
 
-/// The most dispatches in one adaptive submission.
-const MAX_DISPATCHES: u32 = 16;
+/// The first tile of a schedule holds at most this many points (it shrinks or grows after).
+const FIRST_TILE: u64 = 16384;
 
-/// The first tile of an adaptive schedule holds at most this many points.
-const FIRST_ADAPTIVE_TILE: u64 = 4096;
+/// The queue a pass names for rays it must not spawn: a push there raises the second bit of
+/// the overflow word (a walk outlasted its passes).
+const NO_QUEUE: u32 = QUEUE_COUNT;
 
-/// The longest a fixed-pacing submission should take. Real GPUs reset a device whose
-/// submission runs for about 2 s; lavapipe on two cores is slower than any of them, so
-/// keeping its submissions to a quarter of that keeps every device's well under.
-pub const SUBMIT_LIMIT: Duration = Duration::from_millis(500);
+/// Overflow word bits: a queue was full; a walk needed more passes than planned.
+const FULL: u32 = 1;
+const UNFINISHED: u32 = 2;
 
 /// `points` rounded up to whole workgroups, at least one.
 fn whole_groups(points: u64) -> u64 {
     points.div_ceil(MIN_TILE).max(1) * MIN_TILE
 }
 
+/// What the waves of one render do: rays to `max_depth` (the eye ray is depth 1), shadow
+/// passes when `shadows`, and `retries` more passes per depth for walks longer than one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct WavePlan {
+    pub max_depth: u32,
+    pub shadows: bool,
+    pub retries: u32,
+}
+
+/// One pass of a wave: its kernel and descriptor, the queues to empty before it, and the
+/// queue whose length sizes its dispatch (`None`: one invocation per point of the tile).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Pass {
+    pub kernel: Kernel,
+    pub desc: PassDesc,
+    pub resets: Vec<u32>,
+    pub over: Option<u32>,
+}
+
+impl WavePlan {
+    /// The passes of the wave of sample `sample`.
+    pub fn passes(&self, sample: u32) -> Vec<Pass> {
+        let desc =
+            |src, next, shadow, retry| PassDesc { src, next, shadow, retry, sample, ..PassDesc::default() };
+        let mut v = vec![Pass {
+            kernel: Kernel::Generate,
+            desc: desc(NO_QUEUE, QUEUE_RAY0, NO_QUEUE, NO_QUEUE),
+            resets: vec![QUEUE_RAY0],
+            over: None,
+        }];
+        // Retry queues in turn; the last pass of a depth has none left.
+        let retry =
+            |r: u32, pair: [u32; 2]| if r == self.retries { NO_QUEUE } else { pair[(r % 2) as usize] };
+        for depth in 1..=self.max_depth {
+            let (src, next) =
+                if depth % 2 == 1 { (QUEUE_RAY0, QUEUE_RAY1) } else { (QUEUE_RAY1, QUEUE_RAY0) };
+            let pair = [QUEUE_RETRY0, QUEUE_RETRY1];
+            for r in 0..=self.retries {
+                let from = if r == 0 { src } else { pair[((r - 1) % 2) as usize] };
+                let into = retry(r, pair);
+                let mut resets = if r == 0 { vec![next, QUEUE_SHADOW] } else { Vec::new() };
+                resets.extend((into != NO_QUEUE).then_some(into));
+                v.push(Pass {
+                    kernel: Kernel::Nearest,
+                    desc: desc(from, next, QUEUE_SHADOW, into),
+                    resets,
+                    over: Some(from),
+                });
+            }
+            if self.shadows {
+                let pair = [QUEUE_SRETRY0, QUEUE_SRETRY1];
+                for r in 0..=self.retries {
+                    let from = if r == 0 { QUEUE_SHADOW } else { pair[((r - 1) % 2) as usize] };
+                    let into = retry(r, pair);
+                    let resets = (into != NO_QUEUE).then_some(into).into_iter().collect();
+                    v.push(Pass {
+                        kernel: Kernel::Shadow,
+                        desc: desc(from, NO_QUEUE, NO_QUEUE, into),
+                        resets,
+                        over: Some(from),
+                    });
+                }
+            }
+        }
+        v
+    }
+}
+
 /// What a [`Schedule::step`] got done.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Progress {
-    /// The current tile still has work.
+    /// The current tile still has waves to run.
     Stepping,
-    /// The tile of points `first..first + count` is done (its results are in the `out`
+    /// The tile of points `first..first + count` is done (its colours are in the `out`
     /// buffer); `pass_done` when it was the last of the grid (the next step starts over).
     TileDone { first: u64, count: u32, pass_done: bool },
 }
 
-/// Timestamp queries around the dispatches of one submission.
+/// Timestamp queries around every pass of a wave.
 struct Timer {
     set: wgpu::QuerySet,
     resolve: wgpu::Buffer,
@@ -72,29 +151,95 @@ struct Timer {
     period_s: f64,
 }
 
-/// Where a kernel's run over a grid stands.
+/// The tile under way: its points, the samples its points take (a wave each), the waves
+/// run, and the longest pass so far.
+#[derive(Clone, Copy, Debug)]
+struct Tile {
+    first: u64,
+    count: u32,
+    samples: (u32, u32),
+    wave: u32,
+    longest_pass: f64,
+}
+
+/// Where a run of the wavefront kernels over a grid stands.
 pub struct Schedule {
     total: u64,
     /// Points the buffers hold (the largest tile).
     capacity: u64,
     tile_size: u64,
-    dispatches: u32,
     pacing: Pacing,
-    stepped: bool,
+    /// The waves' passes, or `None`: one dispatch of a single kernel per tile.
+    plan: Option<WavePlan>,
     next_point: u64,
-    current: Option<(u64, u32)>,
-    active_read: wgpu::Buffer,
+    current: Option<Tile>,
+    /// The descriptors of a wave's passes, copied into `pass_desc` one by one; room for
+    /// `per_wave` passes (and as many timestamp pairs).
+    table: wgpu::Buffer,
+    per_wave: usize,
+    queues_read: wgpu::Buffer,
+    counters_saved: wgpu::Buffer,
+    timed: bool,
     timer: Option<Timer>,
     gpu_s: f64,
+    /// Kernel time by kernel: generate, nearest, shadow, resolve.
+    kernel_s: [f64; 4],
     last_submit: Duration,
     longest_submit: Duration,
-    /// The longest submission of the current tile.
-    tile_longest: Duration,
 }
 
-/// Dispatches `pipeline` once over no points (it writes nothing), so that a driver that
-/// compiles kernels at their first dispatch (lavapipe) does so here rather than inside a timed
-/// schedule; returns how long the dispatch took, compilation included.
+/// Index of a wavefront kernel in [`Schedule::kernel_s`].
+fn kernel_slot(k: Kernel) -> usize {
+    match k {
+        Kernel::Generate => 0,
+        Kernel::Nearest => 1,
+        Kernel::Shadow => 2,
+        _ => 3,
+    }
+}
+
+/// The pipelines a schedule dispatches: the wavefront kernels (a render), or one kernel
+/// run once over each tile (the `aov` kernel).
+pub enum Pipelines<'a> {
+    Wavefront {
+        generate: &'a wgpu::ComputePipeline,
+        nearest: &'a wgpu::ComputePipeline,
+        /// `None` without shadows.
+        shadow: Option<&'a wgpu::ComputePipeline>,
+        resolve: &'a wgpu::ComputePipeline,
+    },
+    Single(&'a wgpu::ComputePipeline),
+}
+
+impl Pipelines<'_> {
+    fn of(&self, k: Kernel) -> &wgpu::ComputePipeline {
+        match (self, k) {
+            (Pipelines::Single(p), _) => p,
+            (Pipelines::Wavefront { generate, .. }, Kernel::Generate) => generate,
+            (Pipelines::Wavefront { nearest, .. }, Kernel::Nearest) => nearest,
+            (Pipelines::Wavefront { shadow, .. }, Kernel::Shadow) => {
+                shadow.expect("a shadow pass runs only with shadows")
+            }
+            (Pipelines::Wavefront { resolve, .. }, _) => resolve,
+        }
+    }
+}
+
+/// The `queues` words a tile starts from: every queue empty, dispatch arguments (0, 1, 1).
+fn fresh_queues() -> [u32; QUEUE_WORDS as usize] {
+    let mut w = [0u32; QUEUE_WORDS as usize];
+    for q in 0..QUEUE_COUNT {
+        let a = (QUEUE_ARGS + 3 * q) as usize;
+        w[a + 1] = 1;
+        w[a + 2] = 1;
+    }
+    w
+}
+
+/// Dispatches `pipeline` once over no points (it writes nothing: empty queues, no tile
+/// points), so that a driver that compiles kernels at their first dispatch (lavapipe) does
+/// so here rather than inside a timed schedule; returns how long the dispatch took,
+/// compilation included.
 pub fn warm_up(
     ctx: &GpuContext,
     pipeline: &wgpu::ComputePipeline,
@@ -103,7 +248,7 @@ pub fn warm_up(
 ) -> Result<Duration> {
     let p = Params { first_point: 0, point_count: 0, ..*base };
     ctx.queue.write_buffer(&buffers.params, 0, bytemuck::bytes_of(&p));
-    let read = ctx.readback_buffer("warm-up readback", 4);
+    ctx.queue.write_buffer(&buffers.queues, 0, bytemuck::cast_slice(&fresh_queues()));
     let mut enc = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
     {
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -114,66 +259,105 @@ pub fn warm_up(
         pass.set_bind_group(0, &buffers.bind, &[]);
         pass.dispatch_workgroups(1, 1, 1);
     }
-    enc.copy_buffer_to_buffer(&buffers.active, 0, &read, 0, 4);
     let start = Instant::now();
     ctx.queue.submit([enc.finish()]);
-    ctx.read(&read, 4)?;
+    ctx.wait()?;
     Ok(start.elapsed())
 }
 
 impl Schedule {
-    /// A schedule over `total` grid points for buffers of `capacity` points; `stepped`: the
-    /// kernel advances points step by step (`render`) rather than in one dispatch (`aov`);
-    /// `timed`: measure the kernel time with timestamp queries (when the adapter has them).
+    /// A schedule over `total` grid points for buffers of `capacity` points, with waves laid
+    /// out by `plan` (`None`: a single kernel dispatched once per tile); kernel times are
+    /// measured with timestamp queries when the adapter has them and `timed`. Each point
+    /// takes the samples `sample_first..sample_end` of the params its tile starts with.
     pub fn new(
         ctx: &GpuContext,
         total: u64,
         capacity: u64,
-        stepped: bool,
+        plan: Option<WavePlan>,
         pacing: Pacing,
         timed: bool,
     ) -> Schedule {
+        let mut s = Schedule {
+            total,
+            capacity,
+            tile_size: capacity.min(FIRST_TILE),
+            pacing,
+            plan,
+            next_point: 0,
+            current: None,
+            table: ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("pass table"),
+                size: 4,
+                usage: wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            per_wave: 0,
+            queues_read: ctx.readback_buffer("queues readback", 4 * QUEUE_WORDS as u64),
+            counters_saved: ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("counters saved"),
+                size: crate::layout::counters::COUNTER_BYTES,
+                usage: wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            timed,
+            timer: None,
+            gpu_s: 0.0,
+            kernel_s: [0.0; 4],
+            last_submit: Duration::ZERO,
+            longest_submit: Duration::ZERO,
+        };
+        s.make_room(ctx);
+        s
+    }
+
+    /// Makes the pass table and the timestamp queries large enough for the waves of the
+    /// deepest plan (with eight retry passes per depth more than the plan's).
+    fn make_room(&mut self, ctx: &GpuContext) {
+        let per_wave = self.plan.map_or(1, |p| {
+            WavePlan { max_depth: crate::layout::MAX_DEPTH, retries: p.retries + 8, ..p }.passes(0).len() + 1
+        });
+        if per_wave <= self.per_wave {
+            return;
+        }
+        self.per_wave = per_wave;
         let device = &ctx.device;
-        let timer = (timed && ctx.timestamps).then(|| Timer {
+        let per_wave = per_wave as u64;
+        self.table = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("pass table"),
+            size: std::mem::size_of::<PassDesc>() as u64 * per_wave,
+            usage: wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        self.timer = (self.timed && ctx.timestamps).then(|| Timer {
             set: device.create_query_set(&wgpu::QuerySetDescriptor {
-                label: Some("kernel times"),
+                label: Some("pass times"),
                 ty: wgpu::QueryType::Timestamp,
-                count: 2,
+                count: 2 * per_wave as u32,
             }),
             resolve: device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("timestamps"),
-                size: 16,
+                size: 16 * per_wave,
                 usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             }),
-            read: ctx.readback_buffer("timestamps readback", 16),
+            read: ctx.readback_buffer("timestamps readback", 16 * per_wave),
             period_s: ctx.queue.get_timestamp_period() as f64 * 1e-9,
         });
-        let tile_size = match pacing {
-            Pacing::Fixed => whole_groups(capacity / 4),
-            Pacing::Adaptive { .. } => capacity.min(FIRST_ADAPTIVE_TILE),
-        };
-        Schedule {
-            total,
-            capacity,
-            tile_size,
-            dispatches: 1,
-            pacing,
-            stepped,
-            next_point: 0,
-            current: None,
-            active_read: ctx.readback_buffer("active readback", 4),
-            timer,
-            gpu_s: 0.0,
-            last_submit: Duration::ZERO,
-            longest_submit: Duration::ZERO,
-            tile_longest: Duration::ZERO,
+    }
+
+    /// Lays the waves out by `plan` from now on (the preview's depth or effects changed);
+    /// the schedule starts again.
+    pub fn set_plan(&mut self, ctx: &GpuContext, plan: WavePlan) {
+        if let Some(p) = self.plan.as_mut() {
+            *p = WavePlan { retries: p.retries.max(plan.retries), ..plan };
         }
+        self.make_room(ctx);
+        self.restart();
     }
 
     /// Drops the current tile and starts again from the first point.
     pub fn restart(&mut self) {
-        self.tile_longest = Duration::ZERO;
         self.next_point = 0;
         self.current = None;
     }
@@ -183,7 +367,13 @@ impl Schedule {
         self.timer.as_ref().map(|_| self.gpu_s)
     }
 
-    /// How long the last submission took, from submit to its readback.
+    /// Kernel time by kernel (generate, nearest, shadow, resolve; a single kernel counts as
+    /// resolve), when timed.
+    pub fn kernel_s(&self) -> Option<[f64; 4]> {
+        self.timer.as_ref().map(|_| self.kernel_s)
+    }
+
+    /// How long the last submission took, from submit to its end.
     pub fn last_submit(&self) -> Duration {
         self.last_submit
     }
@@ -193,120 +383,254 @@ impl Schedule {
         self.longest_submit
     }
 
-    /// One submission: starts the next tile when none is under way (writing `base` with the
-    /// tile's points into the params and clearing the tile's point states), runs the kernel,
-    /// and reads how many points have work left.
+    /// One submission: a wave of the current tile (starting the next tile when none is
+    /// under way), and after its last wave the tile's colours and a check of its queues.
     pub fn step(
         &mut self,
         ctx: &GpuContext,
-        pipeline: &wgpu::ComputePipeline,
+        pipelines: &Pipelines,
         buffers: &SceneBuffers,
         base: &Params,
     ) -> Result<Progress> {
         let (device, queue) = (&ctx.device, &ctx.queue);
         let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-        let (first, count) = match self.current {
-            Some(c) => c,
+        let mut tile = match self.current {
+            Some(t) => t,
             None => {
                 let count = self.tile_size.min(self.total - self.next_point) as u32;
                 let p = Params { first_point: self.next_point as u32, point_count: count, ..*base };
                 queue.write_buffer(&buffers.params, 0, bytemuck::bytes_of(&p));
-                if self.stepped {
-                    let state_bytes = std::mem::size_of::<PointState>() as u64;
-                    enc.clear_buffer(&buffers.states, 0, Some(count as u64 * state_bytes));
+                queue.write_buffer(&buffers.queues, 0, bytemuck::cast_slice(&fresh_queues()));
+                if self.plan.is_some() {
+                    enc.clear_buffer(&buffers.accum, 0, Some(count as u64 * 24));
                 }
-                self.current = Some((self.next_point, count));
-                (self.next_point, count)
+                let bytes = crate::layout::counters::COUNTER_BYTES;
+                enc.copy_buffer_to_buffer(&buffers.counters, 0, &self.counters_saved, 0, bytes);
+                let samples = (base.sample_first, base.sample_end.max(base.sample_first + 1));
+                Tile { first: self.next_point, count, samples, wave: 0, longest_pass: 0.0 }
             }
         };
-        // Several dispatches per submission save a wait each; dispatches after a tile is done
-        // change nothing (`active` counts the last one).
-        for k in 0..self.dispatches {
-            enc.clear_buffer(&buffers.active, 0, None);
-            // The first pass writes the start time, the last the end time.
-            let (first_pass, last_pass) = (k == 0, k + 1 == self.dispatches);
-            let timestamp_writes = self.timer.as_ref().filter(|_| first_pass || last_pass).map(|t| {
-                wgpu::ComputePassTimestampWrites {
-                    query_set: &t.set,
-                    beginning_of_pass_write_index: first_pass.then_some(0),
-                    end_of_pass_write_index: last_pass.then_some(1),
-                }
-            });
+        let sample = tile.samples.0 + tile.wave;
+        let passes = self.plan.map_or_else(Vec::new, |p| p.passes(sample));
+        let desc_bytes = std::mem::size_of::<PassDesc>() as u64;
+        let descs: Vec<PassDesc> = passes.iter().map(|p| p.desc).collect();
+        queue.write_buffer(&self.table, 0, bytemuck::cast_slice(&descs));
+        let last_wave = self.plan.is_none() || sample + 1 >= tile.samples.1;
+        let groups = tile.count.div_ceil(WORKGROUP);
+        let mut kernels = Vec::with_capacity(passes.len() + 1);
+        for (i, p) in passes.iter().enumerate() {
+            enc.copy_buffer_to_buffer(&self.table, i as u64 * desc_bytes, &buffers.pass_desc, 0, desc_bytes);
+            for &q in &p.resets {
+                enc.clear_buffer(&buffers.queues, 4 * q as u64, Some(4));
+                enc.clear_buffer(&buffers.queues, 4 * (QUEUE_ARGS + 3 * q) as u64, Some(4));
+            }
+            if let Some(q) = p.over {
+                enc.copy_buffer_to_buffer(
+                    &buffers.queues,
+                    4 * (QUEUE_ARGS + 3 * q) as u64,
+                    &buffers.indirect,
+                    0,
+                    12,
+                );
+            }
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("kernel step"),
-                timestamp_writes,
+                label: Some(p.kernel.name()),
+                timestamp_writes: self.timestamps(kernels.len()),
             });
-            pass.set_pipeline(pipeline);
+            pass.set_pipeline(pipelines.of(p.kernel));
             pass.set_bind_group(0, &buffers.bind, &[]);
-            pass.dispatch_workgroups(count.div_ceil(WORKGROUP), 1, 1);
+            match p.over {
+                Some(_) => pass.dispatch_workgroups_indirect(&buffers.indirect, 0),
+                None => pass.dispatch_workgroups(groups, 1, 1),
+            }
+            drop(pass);
+            kernels.push(p.kernel);
         }
-        enc.copy_buffer_to_buffer(&buffers.active, 0, &self.active_read, 0, 4);
+        if last_wave {
+            // The tile's colours (`resolve`), or the single kernel's pass.
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("resolve"),
+                timestamp_writes: self.timestamps(kernels.len()),
+            });
+            pass.set_pipeline(pipelines.of(Kernel::Resolve));
+            pass.set_bind_group(0, &buffers.bind, &[]);
+            pass.dispatch_workgroups(groups, 1, 1);
+            drop(pass);
+            kernels.push(Kernel::Resolve);
+            enc.copy_buffer_to_buffer(&buffers.queues, 0, &self.queues_read, 0, 4 * QUEUE_WORDS as u64);
+        }
         if let Some(t) = &self.timer {
-            enc.resolve_query_set(&t.set, 0..2, &t.resolve, 0);
-            enc.copy_buffer_to_buffer(&t.resolve, 0, &t.read, 0, 16);
+            let n = 2 * kernels.len() as u32;
+            enc.resolve_query_set(&t.set, 0..n, &t.resolve, 0);
+            enc.copy_buffer_to_buffer(&t.resolve, 0, &t.read, 0, 8 * n as u64);
         }
         let start = Instant::now();
         queue.submit([enc.finish()]);
-        let left = u32::from_le_bytes(ctx.read(&self.active_read, 4)?.try_into().expect("4 bytes"));
+        ctx.wait()?;
         self.last_submit = start.elapsed();
         self.longest_submit = self.longest_submit.max(self.last_submit);
-        self.tile_longest = self.tile_longest.max(self.last_submit);
         if let Some(t) = &self.timer {
-            let ts = ctx.read(&t.read, 16)?;
+            let n = 2 * kernels.len() as u64;
+            let ts = ctx.read(&t.read, 8 * n)?;
             let ts: &[u64] = bytemuck::cast_slice(&ts);
-            self.gpu_s += ts[1].saturating_sub(ts[0]) as f64 * t.period_s;
+            for (k, pair) in kernels.iter().zip(ts.chunks_exact(2)) {
+                let s = pair[1].saturating_sub(pair[0]) as f64 * t.period_s;
+                self.gpu_s += s;
+                self.kernel_s[kernel_slot(*k)] += s;
+                tile.longest_pass = tile.longest_pass.max(s);
+            }
         }
         log::trace!(
-            "step: {count} points x {} dispatches, {:.1} ms, {left} left",
-            self.dispatches,
+            "wave {} of {} points: {} passes, {:.1} ms",
+            tile.wave,
+            tile.count,
+            kernels.len(),
             self.last_submit.as_secs_f64() * 1e3
         );
+        tile.wave += 1;
+        self.current = Some(tile);
         self.adapt();
-        if self.stepped && left > 0 {
+        if !last_wave {
             return Ok(Progress::Stepping);
         }
         self.current = None;
-        self.fit_tile_to_submit_limit();
-        self.next_point = first + count as u64;
+        let words = ctx.read(&self.queues_read, 4 * QUEUE_WORDS as u64)?;
+        let overflow = bytemuck::cast_slice::<u8, u32>(&words)[QUEUE_OVERFLOW as usize];
+        if overflow != 0 {
+            self.redo(ctx, buffers, tile, overflow)?;
+            return Ok(Progress::Stepping);
+        }
+        self.fit_tile(tile.longest_pass);
+        self.next_point = tile.first + tile.count as u64;
         let pass_done = self.next_point == self.total;
         if pass_done {
             self.next_point = 0;
         }
-        Ok(Progress::TileDone { first, count, pass_done })
+        Ok(Progress::TileDone { first: tile.first, count: tile.count, pass_done })
     }
 
-    /// Fixed pacing, at the end of a tile: the next tile is half as large when this one's
-    /// longest submission passed [`SUBMIT_LIMIT`], twice as large (up to the capacity) when
-    /// it stayed under a quarter of it.
-    fn fit_tile_to_submit_limit(&mut self) {
-        let longest = std::mem::take(&mut self.tile_longest);
-        if self.pacing != Pacing::Fixed {
+    /// The timestamp writes of pass `i` of a wave, when timed.
+    fn timestamps(&self, i: usize) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
+        self.timer.as_ref().map(|t| wgpu::ComputePassTimestampWrites {
+            query_set: &t.set,
+            beginning_of_pass_write_index: Some(2 * i as u32),
+            end_of_pass_write_index: Some(2 * i as u32 + 1),
+        })
+    }
+
+    /// A tile that overflowed a queue or outlasted its passes: its counts are restored and
+    /// it runs again, in a tile half as large (a full queue) or with another pass per depth.
+    fn redo(&mut self, ctx: &GpuContext, buffers: &SceneBuffers, tile: Tile, overflow: u32) -> Result<()> {
+        let mut enc = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        let bytes = crate::layout::counters::COUNTER_BYTES;
+        enc.copy_buffer_to_buffer(&self.counters_saved, 0, &buffers.counters, 0, bytes);
+        ctx.queue.submit([enc.finish()]);
+        ctx.wait()?;
+        if overflow & FULL != 0 {
+            if tile.count as u64 <= MIN_TILE {
+                return Err(Error::Gpu(format!(
+                    "the ray queues overflow even for {MIN_TILE} points: a ray tree this wide does not fit \
+                     the GPU's buffers; render with a smaller --max-depth or with --backend cpu"
+                )));
+            }
+            self.tile_size = whole_groups(tile.count as u64 / 2);
+            self.capacity = self.tile_size;
+        }
+        if let (true, Some(plan)) = (overflow & UNFINISHED != 0, self.plan.as_mut()) {
+            plan.retries += 1;
+            log::debug!("a walk outlasted its passes: {} retry passes per depth", plan.retries);
+            self.make_room(ctx);
+        }
+        log::debug!("tile of {} points runs again ({overflow:#b})", tile.count);
+        self.next_point = tile.first;
+        Ok(())
+    }
+
+    /// At the end of a tile whose longest pass took `longest` seconds (fixed pacing): the
+    /// next tile is half as large when it passed [`PASS_LIMIT`], twice as large (up to the
+    /// capacity) when it stayed under a quarter of it.
+    fn fit_tile(&mut self, longest: f64) {
+        if self.pacing != Pacing::Fixed || self.timer.is_none() {
             return;
         }
-        if longest > SUBMIT_LIMIT {
+        let limit = PASS_LIMIT.as_secs_f64();
+        if longest > limit {
             self.tile_size = whole_groups(self.tile_size / 2);
-        } else if longest < SUBMIT_LIMIT / 4 {
+        } else if longest < limit / 4.0 {
             self.tile_size = (self.tile_size * 2).min(self.capacity);
         }
     }
 
-    /// Adaptive pacing: towards the target, larger tiles first, then more dispatches per
-    /// submission.
+    /// Adaptive pacing: tiles grow or shrink towards the target per submission.
     fn adapt(&mut self) {
         let Pacing::Adaptive { target } = self.pacing else { return };
         let took = self.last_submit;
         if took > target * 2 {
-            if self.dispatches > 1 {
-                self.dispatches /= 2;
-            } else {
-                self.tile_size = (self.tile_size / 2).max(MIN_TILE);
-            }
+            self.tile_size = whole_groups(self.tile_size / 2);
         } else if took < target / 2 {
-            if self.tile_size < self.capacity {
-                self.tile_size = (self.tile_size * 2).min(self.capacity);
-            } else {
-                self.dispatches = (self.dispatches * 2).min(MAX_DISPATCHES);
-            }
+            self.tile_size = (self.tile_size * 2).min(self.capacity);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each queue a pass reads was emptied before the pass that fills it and is read only
+    /// after: following the passes, every read finds a queue some earlier pass wrote into
+    /// since its last reset, and nothing reads a queue it writes.
+    #[test]
+    fn passes_read_what_earlier_passes_wrote() {
+        for plan in [
+            WavePlan { max_depth: 1, shadows: false, retries: 0 },
+            WavePlan { max_depth: 5, shadows: true, retries: 0 },
+            WavePlan { max_depth: 5, shadows: true, retries: 3 },
+            WavePlan { max_depth: 16, shadows: false, retries: 1 },
+        ] {
+            let passes = plan.passes(7);
+            assert_eq!(passes[0].kernel, Kernel::Generate);
+            assert_eq!(passes[0].desc.sample, 7);
+            let nearest = passes.iter().filter(|p| p.kernel == Kernel::Nearest).count() as u32;
+            let shadow = passes.iter().filter(|p| p.kernel == Kernel::Shadow).count() as u32;
+            assert_eq!(nearest, plan.max_depth * (plan.retries + 1), "{plan:?}");
+            assert_eq!(shadow, if plan.shadows { plan.max_depth * (plan.retries + 1) } else { 0 });
+            // Queues written since their last reset.
+            let mut filled = [false; QUEUE_COUNT as usize];
+            for p in &passes {
+                for &q in &p.resets {
+                    filled[q as usize] = false;
+                }
+                if let Some(q) = p.over {
+                    assert!(filled[q as usize], "{plan:?}: {p:?} reads queue {q}, which nothing filled");
+                    assert!(p.desc.next != q && p.desc.shadow != q && p.desc.retry != q, "{p:?}");
+                }
+                for q in [p.desc.next, p.desc.shadow, p.desc.retry] {
+                    if q < QUEUE_COUNT && (p.kernel != Kernel::Shadow || q == p.desc.retry) {
+                        filled[q as usize] = true;
+                    }
+                }
+            }
+            // The last pass of each depth has no retry queue: a longer walk is reported.
+            let last_nearest: Vec<&Pass> = passes
+                .iter()
+                .filter(|p| p.kernel == Kernel::Nearest)
+                .skip(plan.retries as usize)
+                .step_by(plan.retries as usize + 1)
+                .collect();
+            assert!(last_nearest.iter().all(|p| p.desc.retry == NO_QUEUE), "{plan:?}");
+        }
+    }
+
+    #[test]
+    fn fresh_queues_are_empty_with_dispatch_arguments_x_1_1() {
+        let w = fresh_queues();
+        for q in 0..QUEUE_COUNT {
+            assert_eq!(w[q as usize], 0);
+            let a = (QUEUE_ARGS + 3 * q) as usize;
+            assert_eq!(&w[a..a + 3], &[0, 1, 1]);
+        }
+        assert_eq!(w[QUEUE_OVERFLOW as usize], 0);
+        const { assert!(QUEUE_ARGS + 3 * QUEUE_COUNT <= QUEUE_OVERFLOW) };
     }
 }

@@ -17,7 +17,10 @@ use crate::scene::Effects;
 
 /// The shader sources, by their path under `shaders/`.
 const SOURCES: &[(&str, &str)] = &[
-    ("render.wgsl", include_str!("../../shaders/render.wgsl")),
+    ("generate.wgsl", include_str!("../../shaders/generate.wgsl")),
+    ("nearest.wgsl", include_str!("../../shaders/nearest.wgsl")),
+    ("shadow.wgsl", include_str!("../../shaders/shadow.wgsl")),
+    ("resolve.wgsl", include_str!("../../shaders/resolve.wgsl")),
     ("aov.wgsl", include_str!("../../shaders/aov.wgsl")),
     ("accumulate.wgsl", include_str!("../../shaders/accumulate.wgsl")),
     ("display.wgsl", include_str!("../../shaders/display.wgsl")),
@@ -35,8 +38,15 @@ const SOURCES: &[(&str, &str)] = &[
 /// A kernel: its file `shaders/NAME.wgsl`, its entry point(s) and its pipeline share the name.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Kernel {
-    /// Advances every grid point of a tile by one ray (stepped, see `gpu::schedule`).
-    Render,
+    /// The wavefront's first pass: the eye rays of one sample of every point of a tile (see
+    /// `gpu::schedule`).
+    Generate,
+    /// Traces a queue of rays for their nearest hits and shades the hits.
+    Nearest,
+    /// Traces a queue of shadow rays (variants with shadows).
+    Shadow,
+    /// The tile's radiance, summed in fixed point, as f32 colours.
+    Resolve,
     /// Writes depth, normal or object id from the eye ray through each pixel centre.
     Aov,
     /// The preview's accumulation of a finished tile.
@@ -46,15 +56,46 @@ pub enum Kernel {
 }
 
 impl Kernel {
-    pub const ALL: [Kernel; 4] = [Kernel::Render, Kernel::Aov, Kernel::Accumulate, Kernel::Display];
+    pub const ALL: [Kernel; 7] = [
+        Kernel::Generate,
+        Kernel::Nearest,
+        Kernel::Shadow,
+        Kernel::Resolve,
+        Kernel::Aov,
+        Kernel::Accumulate,
+        Kernel::Display,
+    ];
+
+    /// The wavefront kernels a render with `variant` runs (the shadow kernel only with
+    /// shadows).
+    pub fn wavefront(variant: Variant) -> Vec<Kernel> {
+        let mut k = vec![Kernel::Generate, Kernel::Nearest];
+        if variant.shadows {
+            k.push(Kernel::Shadow);
+        }
+        k.push(Kernel::Resolve);
+        k
+    }
 
     /// The kernel's name: its file stem, entry point (compute kernels) and pipeline label.
     pub fn name(self) -> &'static str {
         match self {
-            Kernel::Render => "render",
+            Kernel::Generate => "generate",
+            Kernel::Nearest => "nearest",
+            Kernel::Shadow => "shadow",
+            Kernel::Resolve => "resolve",
             Kernel::Aov => "aov",
             Kernel::Accumulate => "accumulate",
             Kernel::Display => "display",
+        }
+    }
+
+    /// The variant `kernel` is compiled in for a render of `variant`: `generate` and
+    /// `resolve` trace nothing, so one module of each serves every variant.
+    pub fn variant_of(self, variant: Variant) -> Variant {
+        match self {
+            Kernel::Generate | Kernel::Resolve => Variant::default(),
+            _ => variant,
         }
     }
 
@@ -251,8 +292,8 @@ mod tests {
 
     #[test]
     fn flags_select_lines() {
-        let all = compose(Kernel::Render, Variant::full(Queries::Tables)).unwrap();
-        let none = compose(Kernel::Render, Variant::default()).unwrap();
+        let all = compose(Kernel::Nearest, Variant::full(Queries::Tables)).unwrap();
+        let none = compose(Kernel::Nearest, Variant::default()).unwrap();
         assert!(all.contains("fn reflect_dir") && all.contains("fn refract_dir"));
         assert!(!none.contains("fn reflect_dir") && !none.contains("fn refract_dir"));
         assert!(!none.contains("#"), "a directive leaked into the module");

@@ -1,10 +1,10 @@
-//! What one kernel step may do: lavapipe's software compiler ends every loop of an invocation
-//! once all of its loops have run 65535 iterations in total (a safety limit in Mesa's
-//! gallivm), and real GPUs kill dispatches that run for seconds. So a step walks at most
-//! [`WALK_CHUNK`] entries of one list, traces the short shadow walks of a hit inline
-//! ([`shadow_inline`]), and a tile holds a bounded number of grid points ([`tile_points`]).
-//! [`check_loop_budget`] refuses a render whose steps could still pass the limit, rather than
-//! letting it come out silently wrong.
+//! What one invocation of a kernel pass may do: lavapipe's software compiler ends every loop
+//! of an invocation once all of its loops have run 65535 iterations in total (a safety limit
+//! in Mesa's gallivm), and real GPUs kill dispatches that run for seconds. So a pass walks
+//! at most [`WALK_CHUNK`] entries of one job's list, traces the short shadow walks of a hit
+//! inline ([`shadow_inline`]), and a tile holds a bounded number of grid points
+//! ([`tile_points`]). [`check_loop_budget`] refuses a render whose passes could still pass
+//! the limit, rather than letting it come out silently wrong.
 
 use crate::coherence::groups::GROUP_SIZE;
 use crate::coherence::reach::WalkBounds;
@@ -15,10 +15,8 @@ use crate::kernel::spawn::SpawnPolicy;
 use crate::scene::{Effects, Scene};
 
 use super::counters::COUNTER_COUNT;
-use super::structs::{STACK_SIZE, WORKGROUP};
-
-/// The deepest ray tree the kernels' stack holds (`STACK_SIZE` pending rays).
-pub const MAX_DEPTH: u32 = STACK_SIZE as u32;
+pub use super::structs::MAX_DEPTH;
+use super::structs::WORKGROUP;
 
 /// Mesa's llvmpipe limit on the loop iterations of one invocation (all loops together).
 pub const LAVAPIPE_LOOP_LIMIT: u64 = 65535;
@@ -26,7 +24,7 @@ pub const LAVAPIPE_LOOP_LIMIT: u64 = 65535;
 /// Rough budget of primitive tests per eye sample and dispatch, which sets the tile size.
 pub const TESTS_PER_DISPATCH: u64 = 1 << 24;
 
-/// The most grid points per dispatch: bounds the point states' memory (832 bytes each).
+/// The most grid points per tile.
 pub const MAX_TILE: u64 = 1 << 16;
 
 /// Loop iterations per intersection test: a cylinder test loops over its two roots.
@@ -38,11 +36,10 @@ fn per_test(scene: &Scene) -> u64 {
     }
 }
 
-/// Loop iterations a step spends besides its walks: the light loop, the counters' flush,
-/// loading and storing the live part of the ray stack, and a margin for the short loops of
-/// shading.
+/// Loop iterations an invocation spends besides its walks: the light loop, the counters'
+/// flush, and a margin for the short loops of shading.
 fn step_overhead(scene: &Scene) -> u64 {
-    scene.lights.len() as u64 + COUNTER_COUNT as u64 + 2 * STACK_SIZE as u64 + 16
+    scene.lights.len() as u64 + COUNTER_COUNT as u64 + 16
 }
 
 /// Loop iterations of one chunk of a walk: [`WALK_CHUNK`] entries and the members of the last
@@ -51,10 +48,10 @@ fn chunk_iterations(scene: &Scene) -> u64 {
     per_test(scene) * (WALK_CHUNK as u64 + GROUP_SIZE as u64)
 }
 
-/// Shadow walks of at most this many entries are traced within the step that found the hit
-/// (`Params::shadow_inline`): as many as keep a step, with one whole walk and every light's
-/// inline walk (each entry possibly a group of `GROUP_SIZE`), within lavapipe's loop limit.
-/// Longer walks become jobs on the ray stack, one step each at least.
+/// Shadow walks of at most this many entries are traced by the invocation that found the
+/// hit (`Params::shadow_inline`): as many as keep it, with one whole chunk of a walk and
+/// every light's inline walk (each entry possibly a group of `GROUP_SIZE`), within
+/// lavapipe's loop limit. Longer walks become jobs of the shadow queue.
 pub fn shadow_inline(scene: &Scene) -> u32 {
     let lights = scene.lights.len() as u64;
     let step = chunk_iterations(scene) + step_overhead(scene);
@@ -75,16 +72,14 @@ pub fn bvh_shadow_inline(scene: &Scene) -> u32 {
     iterations.saturating_sub(crate::bvh::MAX_LEAF as u64).min(u32::MAX as u64) as u32
 }
 
-/// Checks that no kernel step can pass lavapipe's loop limit; were one to need more, the
-/// result would be silently wrong, so it is an error instead.
+/// Checks that no invocation of a kernel pass can pass lavapipe's loop limit; were one to
+/// need more, the result would be silently wrong, so it is an error instead.
 ///
-/// `walks`: the tables' bounds, or `None` for brute force. `max_depth`: `Some(d)` for the
-/// stepped `render` kernel with ray trees up to depth `d`. Each of its steps walks one list
-/// (a ray's, or a shadow job's) for at most [`WALK_CHUNK`] iterations, brute force included,
-/// leaving the rest to later steps, plus the shadow walks of at most [`shadow_inline`]
-/// entries that a hit traces at once; only when the ray stack can fill up (`d +` lights
-/// over `STACK_SIZE`) may a hit trace all its shadow rays at once, each walking its whole
-/// list. `None`: the `aov` kernel, which walks an eye ray's whole list in one go.
+/// `walks`: the tables' bounds, or `None` for brute force. `max_depth`: `Some(_)` for the
+/// wavefront kernels, whose invocations walk one job's list for at most [`WALK_CHUNK`]
+/// iterations, brute force included, leaving the rest to later passes, plus the shadow walks
+/// of at most [`shadow_inline`] entries that a hit traces at once. `None`: the `aov`
+/// kernel, which walks an eye ray's whole list in one go.
 pub fn check_loop_budget(scene: &Scene, walks: Option<&WalkBounds>, max_depth: Option<u32>) -> Result<()> {
     let c = scene.counts();
     let lights = scene.lights.len() as u64;
@@ -96,15 +91,10 @@ pub fn check_loop_budget(scene: &Scene, walks: Option<&WalkBounds>, max_depth: O
     };
     let what = if walks.is_some() { "the longest candidate lists" } else { "brute force" };
     let steps = match max_depth {
-        Some(d) => {
+        Some(_) => {
             let group = GROUP_SIZE as u64;
             let chunk = chunk_iterations(scene);
-            // The eye ray is depth 1, so secondary rays take at most `d` slots.
-            let inline = if d as u64 + lights > STACK_SIZE as u64 {
-                lights * shadow
-            } else {
-                lights * shadow.min(per_test * shadow_inline(scene) as u64 * (1 + group))
-            };
+            let inline = lights * shadow.min(per_test * shadow_inline(scene) as u64 * (1 + group));
             closest.max(shadow).min(chunk) + inline
         }
         None => eye,
@@ -118,6 +108,17 @@ pub fn check_loop_budget(scene: &Scene, walks: Option<&WalkBounds>, max_depth: O
         )));
     }
     Ok(())
+}
+
+/// Passes more than one that a walk of a render with these bounds (`None`: brute force) may
+/// need at [`WALK_CHUNK`] loop iterations a pass ([`crate::gpu::schedule::WavePlan`]); a tile
+/// whose walk outlasts them runs again with one more.
+pub fn retry_passes(scene: &Scene, walks: Option<&WalkBounds>) -> u32 {
+    let worst = match walks {
+        Some(t) => t.worst_closest.max(t.worst_shadow),
+        None => scene.primitives.len() as u64,
+    };
+    worst.div_ceil(WALK_CHUNK as u64).saturating_sub(1) as u32
 }
 
 /// Grid points per tile for about `tests` primitive tests per dispatch: one step of a

@@ -4,7 +4,8 @@
 //! order lists the nodes depth first, the child nearer along its axis first, and gives every
 //! node the index to go on at when its box is missed (`skip`, past its subtree); a hit box
 //! goes on at the next node, or past a leaf once its primitives are tested. So a walk is one
-//! index, with no stack, and a walk interrupted between kernel steps keeps only that.
+//! index, with no stack, and a walk interrupted between kernel passes keeps only that (and a
+//! leaf's primitives left).
 //!
 //! Boxes are grown so that the f32 box test is conservative against the f32 primitive tests:
 //! by [`BVH_PAD_REL`] of the box's size and distance from the eye here, and in the kernel by

@@ -2,7 +2,7 @@
 //! `shaders/shared/layout.wgsl` ([`structs`], [`counters`]; the tables' are in
 //! [`crate::coherence::flat`]), the scene packed into them
 //! ([`pack`](mod@pack)), the BVH flattened for the kernels' walk ([`bvh`]), and the limits
-//! one kernel step keeps to ([`budget`]).
+//! one kernel pass keeps to ([`budget`]).
 
 pub mod budget;
 pub mod bvh;

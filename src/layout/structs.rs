@@ -40,7 +40,7 @@ pub struct Params {
     pub eye_origin: u32,
     pub fallback_origin: u32,
     /// Shadow walks of at most this many entries are traced within the step that found the
-    /// hit; longer ones become jobs on the ray stack ([`super::budget::shadow_inline`]).
+    /// hit; longer ones become jobs of the shadow queue ([`super::budget::shadow_inline`]).
     pub shadow_inline: u32,
     /// The spawn offset is `scale·spawn_rel + spawn_abs` ([`crate::kernel::spawn`]).
     pub spawn_rel: f32,
@@ -60,7 +60,13 @@ pub struct Params {
     pub beam_lo: [f32; 3],
     pub beam_nodes: u32,
     pub beam_hi: [f32; 3],
-    pub beam_pad: u32,
+    /// The wavefront's queues: jobs each ray queue and each shadow queue holds
+    /// ([`crate::gpu::schedule`]).
+    pub ray_queue: u32,
+    pub shadow_queue: u32,
+    pub pad_q0: u32,
+    pub pad_q1: u32,
+    pub pad_q2: u32,
 }
 
 /// One primitive (WGSL `Prim`, keep in sync with `shaders/shared/layout.wgsl`): sphere `a` =
@@ -140,10 +146,10 @@ pub struct TextureInfo {
     pub flags: u32,
 }
 
-/// A pending ray of a grid point's ray tree (WGSL `Pending`, keep in sync with
+/// A ray of a grid point's ray tree (WGSL `Pending`, keep in sync with
 /// `shaders/shared/layout.wgsl`). `kind` is a `RAY_*` kind, with [`RAY_SKIP_FROM`] set when
 /// `from_prim` need not be tested, and the ray's depth from bit [`RAY_DEPTH_SHIFT`] on (a
-/// shadow job: its light, with what the light adds unless blocked in `weight`). `spawn` is
+/// shadow ray: its light, with what the light adds unless blocked in `weight`). `spawn` is
 /// how far the origin was moved off the surface it leaves (0 for the eye).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
@@ -156,10 +162,10 @@ pub struct Pending {
     pub from_prim: u32,
 }
 
-/// Pending rays per grid point (WGSL `STACK_SIZE`).
-pub const STACK_SIZE: usize = 16;
+/// The deepest ray tree the kernels trace (WGSL `MAX_DEPTH`).
+pub const MAX_DEPTH: u32 = 16;
 
-/// A table walk interrupted between steps (WGSL `WalkState`, keep in sync with
+/// A walk interrupted between passes (WGSL `WalkState`, keep in sync with
 /// `shaders/shared/layout.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
@@ -174,23 +180,59 @@ pub struct WalkState {
     pub b2: f32,
 }
 
-/// A grid point's progress between kernel steps (WGSL `PointState`, keep in sync with
-/// `shaders/shared/layout.wgsl`); all zero at the start.
+/// A ray in a queue of the wavefront kernels (WGSL `Job`, keep in sync with
+/// `shaders/shared/layout.wgsl`): the ray, the tile point it adds to (with
+/// [`POINT_UNOWNED`]), and its walk when a pass ended it unfinished (`walking` 1).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-pub struct PointState {
-    pub color: [f32; 3],
-    pub sp: u32,
-    pub sample: u32,
-    /// 1 while the top ray's nearest-hit walk continues in the next step.
+pub struct Job {
+    pub ray: Pending,
+    pub point: u32,
     pub walking: u32,
+    pub pad0: u32,
     pub pad1: u32,
-    pub pad2: u32,
     pub walk: WalkState,
-    pub stack: [Pending; STACK_SIZE],
 }
 
-/// Invocations per workgroup of the `render` and `aov` kernels (WGSL `WORKGROUP`).
+/// One pass of the wavefront kernels (WGSL `PassDesc`, keep in sync with
+/// `shaders/shared/layout.wgsl`): the queue it works through, the queues the rays it spawns
+/// go to, and for `generate` the sample it starts.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct PassDesc {
+    pub src: u32,
+    pub next: u32,
+    pub shadow: u32,
+    pub retry: u32,
+    pub sample: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
+}
+
+/// The wavefront's queues (WGSL `QUEUE_*`): rays to trace by depth in turn, rays whose walk
+/// goes on (in turn), shadow rays, shadow rays whose walk goes on (in turn).
+pub const QUEUE_RAY0: u32 = 0;
+pub const QUEUE_RAY1: u32 = 1;
+pub const QUEUE_RETRY0: u32 = 2;
+pub const QUEUE_RETRY1: u32 = 3;
+pub const QUEUE_SHADOW: u32 = 4;
+pub const QUEUE_SRETRY0: u32 = 5;
+pub const QUEUE_SRETRY1: u32 = 6;
+pub const QUEUE_COUNT: u32 = 7;
+/// Words of the `queues` buffer: the lengths, from [`QUEUE_ARGS`] each queue's indirect
+/// dispatch arguments (x, y, z), and the overflow flag at [`QUEUE_OVERFLOW`].
+pub const QUEUE_ARGS: u32 = 8;
+pub const QUEUE_OVERFLOW: u32 = 29;
+pub const QUEUE_WORDS: u32 = 32;
+
+/// Set in [`Job::point`] for a point the window does not own: its rays are not counted.
+pub const POINT_UNOWNED: u32 = 0x8000_0000;
+
+/// Fixed-point units per unit of radiance in the `accum` buffer (WGSL `ACCUM_ONE`).
+pub const ACCUM_ONE: f32 = 4_294_967_296.0;
+
+/// Invocations per workgroup of the wavefront and `aov` kernels (WGSL `WORKGROUP`).
 pub const WORKGROUP: u32 = 64;
 
 /// [`Prim::kind`] codes (WGSL `KIND_*`); they also index the test counters.

@@ -1,6 +1,6 @@
 //! Progressive rendering on the GPU, independent of any window: a [`Session`] runs the
-//! headless renderer's `render` kernel one sample pass at a time, tile by tile and step
-//! by step, and adds each finished tile to a whole-image accumulation buffer.
+//! headless renderer's wavefront kernels one sample pass at a time, tile by tile, and adds
+//! each finished tile to a whole-image accumulation buffer.
 //!
 //! Pass `k` renders sample `σ(k)` of the same `spp`-sample lattice and seed as
 //! `cuberay render --spp N`, where `σ` is a golden-ratio permutation of `0..spp`: any
@@ -8,7 +8,7 @@
 //! passes the accumulation holds the same samples as the headless render, summed in
 //! another order (equal up to f32 rounding).
 //!
-//! The tiles, steps and their pacing are the headless renderer's own schedule
+//! The tiles, waves and their pacing are the headless renderer's own schedule
 //! ([`crate::gpu::schedule`]) with adaptive pacing. Only [`Session::set_camera`] does the work
 //! that depends on the eye (packing the geometry relative to the eye again and, with the
 //! direction-cube tables, rebuilding the eye's table), and it restarts the accumulation.
@@ -16,16 +16,17 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use crate::coherence::FlatTables;
 use crate::coherence::Tables;
 use crate::error::{Error, Result};
 use crate::gpu::buffers::check_limits;
 use crate::gpu::kernels::compute_pipeline;
-use crate::gpu::schedule::{Pacing, Progress, Schedule};
+use crate::gpu::schedule::{Pacing, Pipelines, Progress, Schedule, WavePlan};
 use crate::gpu::shaders::{Kernel, Queries, Variant};
 use crate::gpu::{self, GpuRenderer, SceneBuffers};
 use crate::job::{grid_image, RenderOptions};
-use crate::layout::budget::{table_params, tile_points, MAX_DEPTH, TESTS_PER_DISPATCH};
-use crate::layout::{job_params, pack, Params};
+use crate::layout::budget::{retry_passes, table_params, tile_points, MAX_DEPTH, TESTS_PER_DISPATCH};
+use crate::layout::{job_params, pack, Packed, Params};
 use crate::output::Image;
 use crate::scene::{Camera, Effects, Scene, Transfer};
 
@@ -102,8 +103,8 @@ pub struct Session {
     toggles: Toggles,
     /// Passes after which the session is complete (at most `opts.spp`).
     limit: u32,
-    /// The `render` kernel of the current effects and depth.
-    pipeline: Arc<wgpu::ComputePipeline>,
+    /// The wavefront kernels of the current effects and depth.
+    pipelines: Vec<(Kernel, Arc<wgpu::ComputePipeline>)>,
     /// The queries the kernels trace: the tables, the BVH, or brute force (also when the
     /// tables could not be rebuilt for a new eye).
     queries: Queries,
@@ -151,10 +152,11 @@ impl Session {
         let walks = tables.as_ref().map(|t| t.walks).or_else(|| packed.bvh.as_ref().map(|b| b.walk_bounds()));
         gpu.check_loop_budget(&scene, walks.as_ref(), Some(MAX_DEPTH))?;
         let first = variant(&scene, toggles, opts.max_depth, all.queries);
-        let pipeline = gpu.kernel(Kernel::Render, first)?;
         let tile = tile_points(&scene, walks.as_ref(), TESTS_PER_DISPATCH);
-        let buffers = gpu.upload(&packed, tables.as_ref().map(|t| &t.flat), tile, true)?;
-        gpu.warm_up(Kernel::Render, first, &pipeline, &buffers, &packed.params)?;
+        let sizes = gpu::queue_sizes(&scene, all);
+        let buffers = gpu.upload(&packed, tables.as_ref().map(|t| &t.flat), tile, Some(sizes))?;
+        buffers.size_queues(&mut packed.params);
+        let pipelines = compile(&gpu, first, &buffers, &packed.params)?;
         let grid = opts.grid();
         let ctx = &gpu.ctx;
         let total = grid.0 as u64 * grid.1 as u64;
@@ -173,8 +175,19 @@ impl Session {
         });
         let accumulate = compute_pipeline(ctx, Kernel::Accumulate, Variant::default(), None)?;
         let accumulate_bind = accumulate_bind(ctx, &accumulate, &tile_buffer, &buffers, &accum);
-        let schedule =
-            Schedule::new(ctx, total, buffers.tile, true, Pacing::Adaptive { target: STEP_TARGET }, false);
+        let plan = WavePlan {
+            max_depth: opts.max_depth,
+            shadows: first.shadows,
+            retries: retry_passes(&scene, walks.as_ref()),
+        };
+        let schedule = Schedule::new(
+            ctx,
+            total,
+            buffers.tile,
+            Some(plan),
+            Pacing::Adaptive { target: STEP_TARGET },
+            false,
+        );
         let mut s = Session {
             base: job_params(&opts, packed.params),
             gpu,
@@ -182,7 +195,7 @@ impl Session {
             scene,
             opts,
             toggles,
-            pipeline,
+            pipelines,
             queries: all.queries,
             tables,
             buffers,
@@ -271,7 +284,7 @@ impl Session {
                     // Without tables the session falls back to brute force.
                     let brute = variant(&self.scene, self.toggles, self.opts.max_depth, Queries::Brute);
                     self.queries = Queries::Brute;
-                    self.buffers = self.gpu.upload(&packed, None, self.buffers.tile, true)?;
+                    self.buffers = self.upload(&mut packed, None)?;
                     self.use_kernel(brute)?;
                     self.rebind();
                     return Err(Error::Scene(format!("cannot rebuild the candidate tables: {e}")));
@@ -280,7 +293,7 @@ impl Session {
             gpu::point_at(&mut packed.params, &tables.flat);
             self.gpu.check_loop_budget(&self.scene, Some(&tables.walks), Some(MAX_DEPTH))?;
             log::debug!("tables for the new eye in {:.3} s (eye table only: {eye_only})", tables.build_s);
-            self.buffers = self.gpu.upload(&packed, Some(&tables.flat), self.buffers.tile, true)?;
+            self.buffers = self.upload(&mut packed, Some(&tables.flat))?;
             self.tables = Some(tables);
             self.rebind();
         } else if self.queries == Queries::Bvh {
@@ -289,7 +302,7 @@ impl Session {
             if let Some(b) = &packed.bvh {
                 self.gpu.check_loop_budget(&self.scene, Some(&b.walk_bounds()), Some(MAX_DEPTH))?;
             }
-            self.buffers = self.gpu.upload(&packed, None, self.buffers.tile, true)?;
+            self.buffers = self.upload(&mut packed, None)?;
             self.rebind();
         } else {
             // Brute force: only the geometry moves (textures do not depend on the eye).
@@ -316,9 +329,24 @@ impl Session {
             eye_origin: p.eye_origin,
             fallback_origin: p.fallback_origin,
             bvh_stride: p.bvh_stride,
+            beam_lo: p.beam_lo,
+            beam_hi: p.beam_hi,
+            beam_nodes: p.beam_nodes,
+            ray_queue: self.buffers.ray_queue,
+            shadow_queue: self.buffers.shadow_queue,
             ..self.base
         };
         Ok(())
+    }
+
+    /// Uploads `packed` (with `tables`) into buffers with the queues of the scene's every
+    /// effect, for tiles as large as the current ones; sets the queues' sizes in `packed`.
+    fn upload(&self, packed: &mut Packed, tables: Option<&FlatTables>) -> Result<SceneBuffers> {
+        let all = GpuRenderer::variant(self.scene.effects(), MAX_DEPTH, self.opts.accel);
+        let sizes = gpu::queue_sizes(&self.scene, all);
+        let buffers = self.gpu.upload(packed, tables, self.buffers.tile, Some(sizes))?;
+        buffers.size_queues(&mut packed.params);
+        Ok(buffers)
     }
 
     /// Points the accumulation pass at the current output buffer.
@@ -333,18 +361,23 @@ impl Session {
         let mut opts = self.opts.clone();
         opts.max_depth = max_depth;
         gpu::check(&self.scene, &opts)?;
-        self.use_kernel(variant(&self.scene, toggles, max_depth, self.queries))?;
+        let v = variant(&self.scene, toggles, max_depth, self.queries);
+        self.use_kernel(v)?;
         self.toggles = toggles;
         self.opts = opts;
         self.base.max_depth = max_depth;
+        let walks = self.tables.as_ref().map(|t| t.walks);
+        let plan =
+            WavePlan { max_depth, shadows: v.shadows, retries: retry_passes(&self.scene, walks.as_ref()) };
+        self.schedule.set_plan(&self.gpu.ctx, plan);
         self.restart();
         Ok(())
     }
 
-    /// Traces with the render kernel of `v` from now on, compiled and warmed up on first use.
+    /// Traces with the wavefront kernels of `v` from now on, compiled and warmed up on first
+    /// use.
     fn use_kernel(&mut self, v: Variant) -> Result<()> {
-        self.pipeline = self.gpu.kernel(Kernel::Render, v)?;
-        self.gpu.warm_up(Kernel::Render, v, &self.pipeline, &self.buffers, &self.base)?;
+        self.pipelines = compile(&self.gpu, v, &self.buffers, &self.base)?;
         Ok(())
     }
 
@@ -379,13 +412,21 @@ impl Session {
         Ok(())
     }
 
-    /// One submission of the `render` kernel over the current tile of pass `passes` (sample
-    /// `pass_sample(passes)` of the lattice); a finished tile is added to the accumulation.
+    /// One submission of the wavefront kernels over the current tile of pass `passes`
+    /// (sample `pass_sample(passes)` of the lattice); a finished tile is added to the
+    /// accumulation.
     fn step(&mut self) -> Result<()> {
         let sample = pass_sample(self.passes, self.opts.spp);
         let base = Params { sample_first: sample, sample_end: sample + 1, ..self.base };
+        let get = |k: Kernel| self.pipelines.iter().find(|p| p.0 == k).map(|p| p.1.as_ref());
+        let kernels = Pipelines::Wavefront {
+            generate: get(Kernel::Generate).expect("generate"),
+            nearest: get(Kernel::Nearest).expect("nearest"),
+            shadow: get(Kernel::Shadow),
+            resolve: get(Kernel::Resolve).expect("resolve"),
+        };
         let Progress::TileDone { first, count, pass_done } =
-            self.schedule.step(&self.gpu.ctx, &self.pipeline, &self.buffers, &base)?
+            self.schedule.step(&self.gpu.ctx, &kernels, &self.buffers, &base)?
         else {
             return Ok(());
         };
@@ -429,7 +470,20 @@ impl Session {
     }
 }
 
-/// The accumulation pass's bind group: the tile, the kernel's output, the
+/// The wavefront kernels of `v`, compiled and warmed up on first use.
+fn compile(
+    gpu: &GpuRenderer,
+    v: Variant,
+    buffers: &SceneBuffers,
+    base: &Params,
+) -> Result<Vec<(Kernel, Arc<wgpu::ComputePipeline>)>> {
+    let pipelines =
+        Kernel::wavefront(v).into_iter().map(|k| Ok((k, gpu.kernel(k, v)?))).collect::<Result<Vec<_>>>()?;
+    gpu.warm_up(v, &pipelines, buffers, base)?;
+    Ok(pipelines)
+}
+
+/// The accumulation pass's bind group: the tile, the kernels' output, the
 /// accumulation.
 fn accumulate_bind(
     ctx: &gpu::GpuContext,
