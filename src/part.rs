@@ -443,6 +443,10 @@ fn add_times(a: Times, b: &Times) -> Times {
             aov: sum(a.gpu_kernel_s.aov, b.gpu_kernel_s.aov),
         },
         compile_s: sum(a.compile_s, b.compile_s),
+        longest_dispatch_s: match (a.longest_dispatch_s, b.longest_dispatch_s) {
+            (Some(x), Some(y)) => Some(x.max(y)),
+            (x, y) => x.or(y),
+        },
         longest_submit_s: match (a.longest_submit_s, b.longest_submit_s) {
             (Some(x), Some(y)) => Some(x.max(y)),
             (x, y) => x.or(y),

@@ -165,6 +165,9 @@ pub struct Times {
     /// what one dispatch costs (real GPUs kill dispatches that run for about two seconds);
     /// `null` on the CPU.
     pub longest_submit_s: Option<f64>,
+    /// The longest single pass (one dispatch) from timestamp queries; `null` on the CPU or
+    /// without timestamp queries.
+    pub longest_dispatch_s: Option<f64>,
 }
 
 /// GPU time per kernel, seconds: the wavefront's (`generate` the eye rays, `nearest` the
@@ -337,6 +340,9 @@ impl Stats {
         }
         if let Some(c) = self.time.compile_s {
             o += &format!(", compile {c:.3} s");
+        }
+        if let Some(l) = self.time.longest_dispatch_s {
+            o += &format!(", longest dispatch {:.1} ms", l * 1e3);
         }
         if let Some(l) = self.time.longest_submit_s {
             o += &format!(", longest submission {:.1} ms", l * 1e3);

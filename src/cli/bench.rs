@@ -1,8 +1,8 @@
 //! `cuberay bench`: renders a set of scenes with each chosen accelerator and backend, a
 //! warm-up run and then the median of `--runs`, and prints what each costs: preprocessing,
 //! bytes of the acceleration structure, kernel time, rays per second, tests and bound tests
-//! per ray by kind, and the kernel time's ratio to the BVH's on the same backend in the same
-//! run. Speed targets are checked with this command, never with timed tests.
+//! per ray by kind, the kernel time's ratio to the BVH's on the same backend in the same
+//! run, and the longest single dispatch. Speed targets are checked with this command, never with timed tests.
 
 use std::path::PathBuf;
 
@@ -76,6 +76,8 @@ struct Row {
     bound_tests_per_ray: TestsPerRay,
     /// `kernel_s` over the BVH's on the same scene and backend; `null` without a BVH row.
     ratio_to_bvh: Option<f64>,
+    /// GPU: the longest single dispatch over the timed runs (`null` on the CPU).
+    longest_dispatch_s: Option<f64>,
 }
 
 #[derive(Serialize)]
@@ -173,6 +175,10 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
                     tests_per_ray: s.tests_per_ray,
                     bound_tests_per_ray: s.bound_tests_per_ray,
                     ratio_to_bvh: None,
+                    longest_dispatch_s: runs
+                        .iter()
+                        .filter_map(|r| r.stats.time.longest_dispatch_s)
+                        .reduce(f64::max),
                 });
             }
         }
@@ -212,12 +218,12 @@ fn table(rows: &[Row], args: &BenchArgs, adapter: Option<&str>) -> String {
         args.runs,
         adapter.map(|a| format!(", GPU: {a}")).unwrap_or_default()
     );
-    out += "| scene | accel | backend | preprocess s | MiB | kernel s | M rays/s | tests/ray eye | shadow | reflect | refract | all | bound/ray all | × BVH |\n";
-    out += "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+    out += "| scene | accel | backend | preprocess s | MiB | kernel s | M rays/s | tests/ray eye | shadow | reflect | refract | all | bound/ray all | × BVH | longest dispatch ms |\n";
+    out += "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for r in rows {
         let t = &r.tests_per_ray;
         out += &format!(
-            "| {} | {} | {} | {:.3} | {:.1} | {:.3} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {} |\n",
+            "| {} | {} | {} | {:.3} | {:.1} | {:.3} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {} |\n",
             r.scene,
             r.accel,
             r.backend,
@@ -232,6 +238,7 @@ fn table(rows: &[Row], args: &BenchArgs, adapter: Option<&str>) -> String {
             t.all,
             r.bound_tests_per_ray.all,
             r.ratio_to_bvh.map_or("–".into(), |x| format!("{x:.2}")),
+            r.longest_dispatch_s.map_or("–".into(), |x| format!("{:.1}", x * 1e3)),
         );
     }
     out

@@ -45,6 +45,7 @@ struct RunOutput {
     kernel_s: Option<[f64; 4]>,
     compile_s: f64,
     longest_submit_s: f64,
+    longest_dispatch_s: Option<f64>,
 }
 
 impl RunOutput {
@@ -70,6 +71,7 @@ impl RunOutput {
             gpu_kernel_s: kernel,
             compile_s: Some(self.compile_s),
             longest_submit_s: Some(self.longest_submit_s),
+            longest_dispatch_s: self.longest_dispatch_s,
         }
     }
 }
@@ -448,6 +450,7 @@ impl GpuRenderer {
             kernel_s: schedule.kernel_s(),
             compile_s,
             longest_submit_s: schedule.longest_submit().as_secs_f64(),
+            longest_dispatch_s: schedule.longest_pass(),
         })
     }
 

@@ -186,6 +186,8 @@ pub struct Schedule {
     kernel_s: [f64; 4],
     last_submit: Duration,
     longest_submit: Duration,
+    /// The longest pass so far, seconds (from the timestamps).
+    longest_pass: f64,
 }
 
 /// Index of a wavefront kernel in [`Schedule::kernel_s`].
@@ -306,6 +308,7 @@ impl Schedule {
             kernel_s: [0.0; 4],
             last_submit: Duration::ZERO,
             longest_submit: Duration::ZERO,
+            longest_pass: 0.0,
         };
         s.make_room(ctx);
         s
@@ -381,6 +384,11 @@ impl Schedule {
     /// The longest submission so far.
     pub fn longest_submit(&self) -> Duration {
         self.longest_submit
+    }
+
+    /// The longest pass (one dispatch) so far, seconds, when timed.
+    pub fn longest_pass(&self) -> Option<f64> {
+        self.timer.as_ref().map(|_| self.longest_pass)
     }
 
     /// One submission: a wave of the current tile (starting the next tile when none is
@@ -478,6 +486,7 @@ impl Schedule {
                 self.gpu_s += s;
                 self.kernel_s[kernel_slot(*k)] += s;
                 tile.longest_pass = tile.longest_pass.max(s);
+                self.longest_pass = self.longest_pass.max(s);
             }
         }
         log::trace!(
