@@ -28,6 +28,25 @@ pub enum AccelKind {
     Cube,
 }
 
+/// The arithmetic of the GPU kernels' intersection tests and hit points (`--precision`):
+/// f32, or f64 where the adapter has `SHADER_F64` (a kernel variant, much slower). The scene,
+/// the rays and the tables stay in f32; the CPU reference always computes in f64.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, clap::ValueEnum)]
+pub enum Precision {
+    #[default]
+    F32,
+    F64,
+}
+
+impl Precision {
+    pub fn name(self) -> &'static str {
+        match self {
+            Precision::F32 => "f32",
+            Precision::F64 => "f64",
+        }
+    }
+}
+
 /// What to render and how.
 #[derive(Clone, Debug)]
 pub struct RenderOptions {
@@ -44,6 +63,11 @@ pub struct RenderOptions {
     /// How far the GPU kernels move spawned rays off their surfaces (the candidate tables
     /// are built for it). The CPU reference keeps its own, much smaller f64 offset.
     pub spawn: SpawnPolicy,
+    /// The GPU kernels' intersection arithmetic ([`Precision`]).
+    pub precision: Precision,
+    /// Cells per face edge of the eye's direction cube; `None`: about two pixels a cell.
+    /// Changes the tables' time and memory, never the image.
+    pub eye_cells: Option<u32>,
     /// How a PNG encodes the values; `None`: the scene's ([`Scene::transfer`]).
     pub transfer: Option<Transfer>,
     /// The part of the image to render (`--tile`, `--crop`); `None`: all of it. The
@@ -87,6 +111,8 @@ impl RenderOptions {
             max_depth: 5,
             accel: AccelKind::Auto,
             spawn: SpawnPolicy::Scaled,
+            precision: Precision::F32,
+            eye_cells: None,
             transfer: None,
             window: None,
         }
@@ -109,6 +135,11 @@ impl RenderOptions {
         }
         if self.max_depth == 0 {
             return bad("--max-depth must be at least 1 (the eye ray)".into());
+        }
+        if let Some(n) = self.eye_cells {
+            if !(1..=8192).contains(&n) {
+                return bad(format!("the eye table's {n} cells per face edge are not within 1..=8192"));
+            }
         }
         if let Some(w) = self.window {
             if w.x0 >= w.x1 || w.y0 >= w.y1 || w.x1 > self.width || w.y1 > self.height {
@@ -168,6 +199,7 @@ impl RenderOptions {
             },
             seed: self.seed,
             max_depth: self.max_depth,
+            precision: if backend == "cpu" { "f64".into() } else { self.precision.name().into() },
             transfer: self.transfer_for(scene),
             window: self.window.filter(|w| !w.is_full(self.width, self.height)),
         }

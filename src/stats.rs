@@ -198,6 +198,9 @@ pub struct Settings {
     pub seed: u64,
     /// Maximum ray-tree depth, the eye ray being depth 1.
     pub max_depth: u32,
+    /// The intersection arithmetic: `f32` or `f64` (the CPU reference: always `f64`).
+    #[serde(default)]
+    pub precision: String,
     /// How a PNG encodes the values: `srgb` or `display` (see [`crate::scene::Transfer`]).
     pub transfer: crate::scene::Transfer,
     /// `--tile` or `--crop`: the pixels rendered, `{x0, y0, x1, y1}` (ends exclusive) of the

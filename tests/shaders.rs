@@ -16,6 +16,15 @@ fn module(v: Variant) -> naga::Module {
     module_of(Kernel::Nearest, v)
 }
 
+/// Whether any type of `m` is (or holds) a 64-bit float.
+fn has_f64(m: &naga::Module) -> bool {
+    let f64 = |s: naga::Scalar| s.kind == naga::ScalarKind::Float && s.width == 8;
+    m.types.iter().any(|(_, t)| match t.inner {
+        naga::TypeInner::Scalar(s) | naga::TypeInner::Vector { scalar: s, .. } => f64(s),
+        _ => false,
+    })
+}
+
 fn has_function(m: &naga::Module, name: &str) -> bool {
     m.functions.iter().any(|(_, f)| f.name.as_deref() == Some(name))
 }
@@ -28,7 +37,8 @@ fn every_kernel_and_variant_validates() {
         assert_eq!(wavefront.contains(&Kernel::Shadow), v.shadows, "{v:?}");
         for k in wavefront.into_iter().chain([Kernel::Aov]) {
             let m = module_of(k, v);
-            Validator::new(ValidationFlags::all(), Capabilities::default())
+            let caps = if v.f64 { Capabilities::FLOAT64 } else { Capabilities::default() };
+            Validator::new(ValidationFlags::all(), caps)
                 .validate(&m)
                 .unwrap_or_else(|e| panic!("{k:?} {v:?}: {e:?}"));
             // The kernel's file, entry point and pipeline share its name.
@@ -57,6 +67,7 @@ fn variant_functions_follow_the_flags() {
         assert_eq!(has_function(&m, "reflect_dir"), v.reflection, "{v:?}");
         assert_eq!(has_function(&m, "refract_dir"), v.refraction, "{v:?}");
         assert_eq!(has_function(&m, "sample_texture"), v.textures, "{v:?}");
+        assert_eq!(has_f64(&m), v.f64, "{v:?}: f64 only in the f64 variant");
         assert_eq!(has_function(&m, "occluded_short"), v.shadows, "{v:?}");
         assert_eq!(has_function(&m, "trace_shadow"), v.shadows, "{v:?}");
     }

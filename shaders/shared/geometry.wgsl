@@ -1,6 +1,15 @@
 // Rays and primitive intersection in f32, the surface at a hit and the spawn offset. Keep in
 // sync with their Rust twins of the same names in src/kernel/geometry.rs, closest.rs and
-// spawn.rs.
+// spawn.rs. The intersection tests and the hit points compute in `real`: f32, or f64 in the
+// F64 variant (`--precision f64`), from the f32 scene and rays, rounding their answers to
+// f32.
+
+#if F64
+alias real = f64;
+#else
+alias real = f32;
+#endif
+alias vec3r = vec3<real>;
 
 struct Ray {
     o: vec3<f32>,
@@ -83,10 +92,11 @@ struct Stepped {
 
 // Ray/sphere, Haines' precise form: the discriminant as r² − |f + b·d|².
 fn intersect_sphere(center: vec3<f32>, radius: f32, inside_only: bool, ray: Ray, t_max: f32) -> PrimHit {
-    let f = ray.o - center;
-    let b = -dot(f, ray.d);
-    let r2 = radius * radius;
-    let g = f + ray.d * b;
+    let d = vec3r(ray.d);
+    let f = vec3r(ray.o) - vec3r(center);
+    let b = -dot(f, d);
+    let r2 = real(radius) * real(radius);
+    let g = f + d * b;
     let disc = r2 - dot(g, g);
     if disc < 0.0 {
         return no_hit();
@@ -99,21 +109,27 @@ fn intersect_sphere(center: vec3<f32>, radius: f32, inside_only: bool, ray: Ray,
     let r0 = k / q;
     let t0 = min(r0, q);
     let t1 = max(r0, q);
-    if !inside_only && t0 > 0.0 && t0 < t_max {
-        return hit_at(t0);
+    if !inside_only && t0 > 0.0 && t0 < real(t_max) {
+        return hit_at(f32(t0));
     }
-    if t1 > 0.0 && t1 < t_max {
-        return hit_at(t1);
+    if t1 > 0.0 && t1 < real(t_max) {
+        return hit_at(f32(t1));
     }
     return no_hit();
 }
 
 // Ray/triangle, watertight; both sides are hit.
 fn intersect_triangle(p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>, ray: Ray, t_max: f32) -> PrimHit {
+#if F64
+    let dr = vec3r(ray.d);
+    let s = vec3r(dr[ray.kx] / dr[ray.kz], dr[ray.ky] / dr[ray.kz], 1.0 / dr[ray.kz]);
+#else
     let s = ray.shear;
-    let a = p0 - ray.o;
-    let b = p1 - ray.o;
-    let c = p2 - ray.o;
+#endif
+    let o = vec3r(ray.o);
+    let a = vec3r(p0) - o;
+    let b = vec3r(p1) - o;
+    let c = vec3r(p2) - o;
     let ax = a[ray.kx] - s.x * a[ray.kz];
     let ay = a[ray.ky] - s.y * a[ray.kz];
     let bx = b[ray.kx] - s.x * b[ray.kz];
@@ -131,25 +147,26 @@ fn intersect_triangle(p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>, ray: Ray, t_m
         return no_hit();
     }
     let t_scaled = s.z * (u * a[ray.kz] + v * b[ray.kz] + w * c[ray.kz]);
+    let tm = real(t_max);
     if det > 0.0 {
-        if t_scaled <= 0.0 || t_scaled >= t_max * det {
+        if t_scaled <= 0.0 || t_scaled >= tm * det {
             return no_hit();
         }
-    } else if t_scaled >= 0.0 || t_scaled <= t_max * det {
+    } else if t_scaled >= 0.0 || t_scaled <= tm * det {
         return no_hit();
     }
     let inv = 1.0 / det;
     let t = t_scaled * inv;
-    if !(t > 0.0 && t < t_max) {
+    if !(t > 0.0 && t < tm) {
         return no_hit();
     }
-    return PrimHit(true, t, v * inv, w * inv);
+    return PrimHit(true, f32(t), f32(v * inv), f32(w * inv));
 }
 
 // Outward unit normal of a cone; at a cone's tip any direction across the axis serves.
-fn cone_normal(axis: vec3<f32>, slope: f32, radial: vec3<f32>) -> vec3<f32> {
+fn cone_normal(axis: vec3r, slope: real, radial: vec3r) -> vec3r {
     let len = length(radial);
-    var radial_dir: vec3<f32>;
+    var radial_dir: vec3r;
     if len > 0.0 {
         radial_dir = radial / len;
     } else {
@@ -159,26 +176,27 @@ fn cone_normal(axis: vec3<f32>, slope: f32, radial: vec3<f32>) -> vec3<f32> {
 }
 
 // A unit vector orthogonal to unit `v` (the same construction as glam's).
-fn any_orthonormal(v: vec3<f32>) -> vec3<f32> {
-    let sign = select(-1.0, 1.0, v.z >= 0.0);
+fn any_orthonormal(v: vec3r) -> vec3r {
+    let sign = select(real(-1.0), real(1.0), v.z >= 0.0);
     let a = -1.0 / (sign + v.z);
     let b = v.x * v.y * a;
-    return vec3<f32>(b, sign + v.y * v.y * a, -v.y);
+    return vec3r(b, sign + v.y * v.y * a, -v.y);
 }
 
 // Ray/cylinder or truncated cone without caps; the discriminant as a difference of
 // squared lengths.
 fn intersect_cylinder(base: vec4<f32>, apex: vec4<f32>, inside_only: bool, ray: Ray, t_max: f32) -> PrimHit {
-    let v = apex.xyz - base.xyz;
+    let d = vec3r(ray.d);
+    let v = vec3r(apex.xyz) - vec3r(base.xyz);
     let height = length(v);
     let axis = v / height;
-    let slope = (apex.w - base.w) / height;
-    let w = ray.o - base.xyz;
+    let slope = (real(apex.w) - real(base.w)) / height;
+    let w = vec3r(ray.o) - vec3r(base.xyz);
     let s0 = dot(w, axis);
-    let ds = dot(ray.d, axis);
+    let ds = dot(d, axis);
     let r_o = w - axis * s0;
-    let r_d = ray.d - axis * ds;
-    let r0 = base.w + slope * s0;
+    let r_d = d - axis * ds;
+    let r0 = real(base.w) + slope * s0;
     let dr = slope * ds;
     let qa = dot(r_d, r_d) - dr * dr;
     let qb = dot(r_o, r_d) - r0 * dr;
@@ -193,7 +211,7 @@ fn intersect_cylinder(base: vec4<f32>, apex: vec4<f32>, inside_only: bool, ray: 
     if q == 0.0 {
         return no_hit();
     }
-    var roots = array<f32, 2>(qc / q, 0.0);
+    var roots = array<real, 2>(qc / q, 0.0);
     var n_roots = 1u;
     if qa != 0.0 {
         let other = q / qa;
@@ -207,7 +225,7 @@ fn intersect_cylinder(base: vec4<f32>, apex: vec4<f32>, inside_only: bool, ray: 
     }
     for (var i = 0u; i < n_roots; i++) {
         let t = roots[i];
-        if !(t > 0.0 && t < t_max) {
+        if !(t > 0.0 && t < real(t_max)) {
             continue;
         }
         let s = s0 + t * ds;
@@ -216,11 +234,11 @@ fn intersect_cylinder(base: vec4<f32>, apex: vec4<f32>, inside_only: bool, ray: 
         }
         if inside_only {
             let n = cone_normal(axis, slope, r_o + r_d * t);
-            if dot(n, ray.d) <= 0.0 {
+            if dot(n, d) <= 0.0 {
                 continue;
             }
         }
-        return hit_at(t);
+        return hit_at(f32(t));
     }
     return no_hit();
 }
@@ -296,22 +314,29 @@ fn surface(prim: Prim, ray: Ray, h: PrimHit) -> Surface {
     var s: Surface;
     s.has_uv = false;
     s.uv = vec2<f32>(0.0);
+    let o = vec3r(ray.o);
+    let d = vec3r(ray.d);
     switch prim.kind {
         case KIND_SPHERE: {
-            let v = ray.o + ray.d * h.t - prim.a.xyz;
-            s.ng = v / length(v);
-            s.p = prim.a.xyz + s.ng * prim.a.w;
+            let c = vec3r(prim.a.xyz);
+            let v = o + d * real(h.t) - c;
+            let ng = v / length(v);
+            s.ng = vec3<f32>(ng);
+            s.p = vec3<f32>(c + ng * real(prim.a.w));
             s.ns = s.ng;
             s.scale = max(max3(abs(s.p)), max3(abs(prim.a.xyz)) + prim.a.w);
         }
         case KIND_TRIANGLE: {
-            let b0 = 1.0 - h.b1 - h.b2;
-            s.p = prim.a.xyz * b0 + prim.b.xyz * h.b1 + prim.c.xyz * h.b2;
+            let b1 = real(h.b1);
+            let b2 = real(h.b2);
+            let b0 = 1.0 - b1 - b2;
+            s.p = vec3<f32>(vec3r(prim.a.xyz) * b0 + vec3r(prim.b.xyz) * b1 + vec3r(prim.c.xyz) * b2);
             s.ng = normalize(cross(prim.b.xyz - prim.a.xyz, prim.c.xyz - prim.a.xyz));
             s.ns = s.ng;
             if (prim.flags & FLAG_NORMALS) != 0u {
                 let at = tri_attrs[prim.attr];
-                let n = at.n0.xyz * b0 + at.n1.xyz * h.b1 + at.n2.xyz * h.b2;
+                let fb0 = f32(b0);
+                let n = at.n0.xyz * fb0 + at.n1.xyz * h.b1 + at.n2.xyz * h.b2;
                 let len = length(n);
                 if len > 1e-12 {
                     let sn = n / len;
@@ -320,28 +345,29 @@ fn surface(prim: Prim, ray: Ray, h: PrimHit) -> Surface {
             }
             if (prim.flags & FLAG_UVS) != 0u {
                 let at = tri_attrs[prim.attr];
-                s.uv = at.uv01.xy * b0 + at.uv01.zw * h.b1 + at.uv2.xy * h.b2;
+                s.uv = at.uv01.xy * f32(b0) + at.uv01.zw * h.b1 + at.uv2.xy * h.b2;
                 s.has_uv = true;
             }
             let extent = max(max3(abs(prim.a.xyz)), max(max3(abs(prim.b.xyz)), max3(abs(prim.c.xyz))));
             s.scale = max(max3(abs(s.p)), extent);
         }
         default: {
-            let v = prim.b.xyz - prim.a.xyz;
+            let base = vec3r(prim.a.xyz);
+            let v = vec3r(prim.b.xyz) - base;
             let height = length(v);
             let axis = v / height;
-            let slope = (prim.b.w - prim.a.w) / height;
-            let w = ray.o + ray.d * h.t - prim.a.xyz;
+            let slope = (real(prim.b.w) - real(prim.a.w)) / height;
+            let w = o + d * real(h.t) - base;
             let along = dot(w, axis);
             let radial = w - axis * along;
-            s.ng = cone_normal(axis, slope, radial);
+            s.ng = vec3<f32>(cone_normal(axis, slope, radial));
             s.ns = s.ng;
             let len = length(radial);
-            let radius = prim.a.w + slope * along;
+            let radius = real(prim.a.w) + slope * along;
             if len > 0.0 {
-                s.p = prim.a.xyz + axis * along + radial * (radius / len);
+                s.p = vec3<f32>(base + axis * along + radial * (radius / len));
             } else {
-                s.p = prim.a.xyz + w;
+                s.p = vec3<f32>(base + w);
             }
             let extent = max(max3(abs(prim.a.xyz)), max3(abs(prim.b.xyz)));
             s.scale = max(max3(abs(s.p)), extent);

@@ -9,7 +9,7 @@ use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use cuberay::gpu::GpuRenderer;
-use cuberay::job::{AccelKind, RenderOptions, Window};
+use cuberay::job::{AccelKind, Precision, RenderOptions, Window};
 use cuberay::load::{self, Loaded};
 use cuberay::output::{self, Aov, OutputFormat};
 use cuberay::part::{self, PartInfo, SceneId};
@@ -129,6 +129,14 @@ pub struct TraceArgs {
     /// bounding volume hierarchy (the baseline); brute: every primitive for every ray.
     #[arg(long, value_enum, default_value_t = AccelKind::Auto)]
     pub accel: AccelKind,
+    /// The GPU kernels' intersection arithmetic: f32, or f64 where the adapter has 64-bit
+    /// floats in shaders (lavapipe has; much slower). The CPU reference is always f64.
+    #[arg(long, value_enum, default_value_t = Precision::F32)]
+    pub precision: Precision,
+    /// Cells per face edge of the eye's direction cube (default: about two pixels a cell):
+    /// the tables' time and memory, never the image.
+    #[arg(long)]
+    pub eye_cells: Option<u32>,
     /// glTF: index of the camera to use.
     #[arg(long)]
     pub camera: Option<usize>,
@@ -166,6 +174,8 @@ impl TraceArgs {
             sampling: self.sampling,
             max_depth: self.max_depth,
             accel: self.accel,
+            precision: self.precision,
+            eye_cells: self.eye_cells,
             transfer: self.transfer,
             ..RenderOptions::new(1, 1)
         };

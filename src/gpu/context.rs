@@ -17,6 +17,8 @@ pub struct GpuContext {
     pub info: wgpu::AdapterInfo,
     /// Timestamp queries are available: kernel times can be measured on the GPU.
     pub timestamps: bool,
+    /// Whether kernels may compute in f64 (`SHADER_F64`: `--precision f64`).
+    pub f64: bool,
     /// The first fault the device reported on its own (a lost device, or an error no
     /// operation of ours captured): every later wait returns it as an error.
     fault: Arc<Mutex<Option<String>>>,
@@ -44,7 +46,7 @@ impl GpuContext {
     pub async fn open(instance: &Instance, surface: Option<&wgpu::Surface<'_>>) -> Result<GpuContext> {
         let adapter = pick_adapter(instance, desc_backends(), surface).await?;
         let info = adapter.get_info();
-        let wanted = Features::TIMESTAMP_QUERY;
+        let wanted = Features::TIMESTAMP_QUERY | Features::SHADER_F64;
         let features = adapter.features() & wanted;
         // Ask for the adapter's own storage limits: the tables are large.
         let adapter_limits = adapter.limits();
@@ -84,6 +86,7 @@ impl GpuContext {
             device,
             queue,
             timestamps: features.contains(Features::TIMESTAMP_QUERY),
+            f64: features.contains(Features::SHADER_F64),
             info,
             fault,
         })

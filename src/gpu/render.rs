@@ -19,7 +19,7 @@ use super::GpuContext;
 use crate::coherence::reach::WalkBounds;
 use crate::coherence::{self, BuildParams, FlatTables, Tables};
 use crate::error::{Error, Result};
-use crate::job::{grid_image, simulated_effects, AccelKind, RenderOptions, Rendered};
+use crate::job::{grid_image, simulated_effects, AccelKind, Precision, RenderOptions, Rendered};
 use crate::layout::budget::{self, check_loop_budget, table_params, MAX_DEPTH, TESTS_PER_DISPATCH};
 use crate::layout::counters::{decode_counters, COUNTER_BYTES};
 use crate::layout::{job_params, pack, Packed, AOV_DEPTH, AOV_ID, AOV_NORMAL};
@@ -143,7 +143,7 @@ impl GpuRenderer {
     fn job_variant(scene: &Scene, opts: &RenderOptions, aov: bool) -> Variant {
         let effects = if aov { Effects::default() } else { scene.effects() };
         let depth = if aov { 1 } else { opts.max_depth };
-        Self::variant(effects, depth, opts.accel)
+        Self::variant(effects, depth, opts.accel).with_f64(opts.precision == Precision::F64)
     }
 
     /// The parameters the render of `scene` with `opts` builds its tables with (`aov`: the
@@ -152,7 +152,9 @@ impl GpuRenderer {
     pub fn build_params(scene: &Scene, opts: &RenderOptions, aov: bool) -> Option<BuildParams> {
         let variant = Self::job_variant(scene, opts, aov);
         variant.tables().then(|| {
-            table_params(scene, opts.width, opts.height, opts.max_depth, variant.effects(), opts.spawn)
+            let p =
+                table_params(scene, opts.width, opts.height, opts.max_depth, variant.effects(), opts.spawn);
+            BuildParams { eye_n: opts.eye_cells, ..p }
         })
     }
 
@@ -167,6 +169,12 @@ impl GpuRenderer {
         stored: Option<StoredTables>,
     ) -> Result<Prepared> {
         check(scene, opts)?;
+        if opts.precision == Precision::F64 && !self.ctx.f64 {
+            return Err(Error::Options(format!(
+                "--precision f64 needs 64-bit floats in shaders (SHADER_F64), which {} does not offer",
+                self.ctx.info.name
+            )));
+        }
         let variant = Self::job_variant(scene, opts, aov);
         let kernels = if aov { vec![Kernel::Aov] } else { Kernel::wavefront(variant) };
         let pipelines =
@@ -210,6 +218,7 @@ impl GpuRenderer {
         }
         let params =
             table_params(scene, opts.width, opts.height, opts.max_depth, variant.effects(), opts.spawn);
+        let params = BuildParams { eye_n: opts.eye_cells, ..params };
         let t = coherence::build(scene, &params)?;
         log::info!(
             "tables: {} origins, {} entries, longest lists {} (nearest) {} (shadow), fallback reachable: {}",

@@ -140,6 +140,8 @@ pub struct Variant {
     pub emission: bool,
     /// The ray queries: the candidate tables, the BVH or brute force.
     pub queries: Queries,
+    /// Intersection tests and hit points in f64 (`--precision f64`; `SHADER_F64`).
+    pub f64: bool,
 }
 
 impl Variant {
@@ -154,7 +156,13 @@ impl Variant {
             textures: e.textures,
             emission: e.emission,
             queries: Queries::Tables,
+            f64: false,
         }
+    }
+
+    /// The same effects with intersections in f64 (`true`) or f32.
+    pub fn with_f64(self, f64: bool) -> Variant {
+        Variant { f64, ..self }
     }
 
     /// The same effects traced with `queries`.
@@ -178,19 +186,23 @@ impl Variant {
         }
     }
 
-    /// Every one of the 96 variants: the 32 effect sets for each of [`Queries::ALL`], the
-    /// effect sets in the order of their bits (the last of each 32 has every effect).
+    /// Every one of the 192 variants: the 32 effect sets for each of [`Queries::ALL`], in f32
+    /// and in f64, the effect sets in the order of their bits (the last of each 32 has every
+    /// effect).
     pub fn all() -> Vec<Variant> {
-        Queries::ALL
+        [false, true]
             .into_iter()
-            .flat_map(|queries| {
-                (0..32u32).map(move |b| Variant {
-                    shadows: b & 1 != 0,
-                    reflection: b & 2 != 0,
-                    refraction: b & 4 != 0,
-                    textures: b & 8 != 0,
-                    emission: b & 16 != 0,
-                    queries,
+            .flat_map(|f64| {
+                Queries::ALL.into_iter().flat_map(move |queries| {
+                    (0..32u32).map(move |b| Variant {
+                        shadows: b & 1 != 0,
+                        reflection: b & 2 != 0,
+                        refraction: b & 4 != 0,
+                        textures: b & 8 != 0,
+                        emission: b & 16 != 0,
+                        queries,
+                        f64,
+                    })
                 })
             })
             .collect()
@@ -198,7 +210,15 @@ impl Variant {
 
     /// Every effect with `queries`.
     pub fn full(queries: Queries) -> Variant {
-        Variant { shadows: true, reflection: true, refraction: true, textures: true, emission: true, queries }
+        Variant {
+            shadows: true,
+            reflection: true,
+            refraction: true,
+            textures: true,
+            emission: true,
+            queries,
+            f64: false,
+        }
     }
 
     fn flag(&self, name: &str) -> Option<bool> {
@@ -208,6 +228,7 @@ impl Variant {
             "REFRACTION" => self.refraction,
             "TEXTURES" => self.textures,
             "EMISSION" => self.emission,
+            "F64" => self.f64,
             // Rays leave surfaces: reflection and refraction rays, and shadow rays towards
             // directional lights (which have no table).
             "SURFACE_RAYS" => self.reflection || self.shadows,
