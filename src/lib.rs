@@ -9,7 +9,8 @@
 //! ```
 //!
 //! Layers, each using only those before it: [`scene`] ← [`load`]; [`scene`] ← [`kernel`] ←
-//! [`coherence`] ← [`layout`] ← [`gpu`] ← [`preview`]; the CPU [`reference`](mod@reference) beside them.
+//! [`coherence`] ← [`layout`] ← [`gpu`] ← [`preview`], [`accuracy`]; the CPU
+//! [`reference`](mod@reference) beside them.
 //! [`job`], [`sampling`], [`bvh`], [`stats`], [`output`], [`window`], [`part`] and [`error`] are
 //! shared by both backends.
 //!
@@ -31,8 +32,11 @@
 //!   the partial EXRs that `cuberay merge` assembles;
 //! - [`tablefile`]: candidate tables stored on disk, so that the tasks of a split render
 //!   share one build;
+//! - [`accuracy`]: what accuracy costs in time: settings swept on the GPU against a
+//!   converged CPU reference, with error metrics and a plot;
 //! - [`error`]: the library's one error type.
 
+pub mod accuracy;
 pub mod bvh;
 pub mod coherence;
 pub mod compare;

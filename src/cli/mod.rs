@@ -9,6 +9,7 @@ use clap::{Parser, Subcommand};
 use cuberay::info::SceneInfo;
 use cuberay::load::{self, LoadOptions, Loaded};
 
+mod accuracy;
 mod bench;
 mod compare;
 mod merge;
@@ -52,6 +53,10 @@ enum Command {
     /// Time accelerators against each other on a set of scenes (default: the SPD canonical
     /// scenes, the tables against the BVH on the GPU).
     Bench(bench::BenchArgs),
+    /// Sweep the settings that trade accuracy for time (samples, depth, precision, spawn
+    /// offset, table resolution, accelerator) against a converged CPU reference: a table,
+    /// JSON, CSV and a plot of error against GPU time.
+    Accuracy(accuracy::AccuracyArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -134,6 +139,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Merge(args) => merge::run(args),
         Command::Tables(args) => tables::run(args),
         Command::Bench(args) => bench::run(args),
+        Command::Accuracy(args) => accuracy::run(args),
     }
 }
 

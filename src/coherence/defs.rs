@@ -137,6 +137,26 @@ fn rect_area(rects: &[Option<[f64; 4]>; 6]) -> f64 {
     rects.iter().flatten().map(|r| ((r[1] - r[0]).max(0.0)) * ((r[3] - r[2]).max(0.0))).sum()
 }
 
+/// The eye cube's cells per face edge for pixels `pixel_angle` radians apart (infinite for
+/// an orthographic camera): about `eye_pixels_per_cell` pixels a cell.
+fn eye_cells(pixel_angle: f64, params: &BuildParams) -> u32 {
+    if pixel_angle.is_finite() {
+        (2.0 / (pixel_angle * params.eye_pixels_per_cell)).ceil().clamp(16.0, 8192.0) as u32
+    } else {
+        64
+    }
+}
+
+/// The eye cube's cells per face edge a build with `params` chooses for `scene` when not
+/// told (`BuildParams::eye_n`).
+pub fn default_eye_cells(scene: &Scene, params: &BuildParams) -> u32 {
+    let (_, h) = params.eye_image(scene);
+    match scene.camera.projection {
+        Projection::Perspective { fov_y, .. } => eye_cells(fov_y / h as f64, params),
+        Projection::Orthographic { .. } => eye_cells(f64::INFINITY, params),
+    }
+}
+
 pub fn eye_def(scene: &Scene, params: &BuildParams, eps: f64) -> OriginDef {
     let cam = &scene.camera;
     let (w, h) = params.eye_image(scene);
@@ -161,13 +181,7 @@ pub fn eye_def(scene: &Scene, params: &BuildParams, eps: f64) -> OriginDef {
             (half_diag + eps, rects, f64::INFINITY)
         }
     };
-    let n = params.eye_n.unwrap_or_else(|| {
-        if pixel_angle.is_finite() {
-            (2.0 / (pixel_angle * params.eye_pixels_per_cell)).ceil().clamp(16.0, 8192.0) as u32
-        } else {
-            64
-        }
-    });
+    let n = params.eye_n.unwrap_or_else(|| eye_cells(pixel_angle, params));
     OriginDef {
         kind: OriginKind::Eye,
         center: cam.eye,

@@ -1,0 +1,175 @@
+//! `cuberay accuracy`: sweeps the settings that trade accuracy for time on one scene (see
+//! [`cuberay::accuracy`]), prints the table and writes `accuracy.json`, `accuracy.csv`,
+//! `accuracy.png` and `accuracy.svg` into `--out-dir`, all only once every row is measured.
+
+use std::io::Write;
+use std::path::PathBuf;
+
+use anyhow::{bail, Context};
+use clap::Args;
+use serde::Serialize;
+
+use cuberay::accuracy::{self, plot, Parameter, Row, Settings, Summary};
+use cuberay::gpu::GpuRenderer;
+use cuberay::output::write_atomically;
+
+use super::render::progress_bar;
+
+#[derive(Args, Debug)]
+pub struct AccuracyArgs {
+    /// Scene file (.nff, .gltf, .glb).
+    pub scene: PathBuf,
+    /// Folder for the results and the reference's cache file. Created when missing.
+    #[arg(long, default_value = "accuracy")]
+    pub out_dir: PathBuf,
+    /// Image width and height.
+    #[arg(long, default_value_t = 256)]
+    pub width: u32,
+    #[arg(long, default_value_t = 256)]
+    pub height: u32,
+    /// The parameters to sweep, comma-separated (default: all).
+    #[arg(
+        long,
+        value_enum,
+        value_delimiter = ',',
+        default_value = "spp,max-depth,precision,offset,table-resolution,accel"
+    )]
+    pub params: Vec<Parameter>,
+    /// Timed runs per row after a warm-up; the median is reported.
+    #[arg(long, default_value_t = 3)]
+    pub runs: u32,
+    /// The FLIP mean the equal-quality summary asks for.
+    #[arg(long, default_value_t = 0.01)]
+    pub threshold: f64,
+    /// 64×64, at most 8 samples per pixel, one timed run: a quick look, not a measurement.
+    #[arg(long)]
+    pub quick: bool,
+    /// glTF: index of the camera to use.
+    #[arg(long)]
+    pub camera: Option<usize>,
+}
+
+#[derive(Serialize)]
+struct Report<'a> {
+    scene: String,
+    adapter: String,
+    settings: &'a Settings,
+    reference: ReferenceInfo,
+    rows: &'a [Row],
+    summary: &'a Summary,
+}
+
+#[derive(Serialize)]
+struct ReferenceInfo {
+    renderer: &'static str,
+    spp: u32,
+    max_depth: u32,
+    seconds: f64,
+    cache: String,
+}
+
+pub fn run(args: AccuracyArgs) -> anyhow::Result<()> {
+    if args.params.is_empty() {
+        bail!("--params is empty: name at least one of spp, max-depth, precision, offset, table-resolution, accel");
+    }
+    if args.runs == 0 {
+        bail!("--runs must be at least 1");
+    }
+    if !(args.threshold.is_finite() && args.threshold >= 0.0) {
+        bail!("--threshold {} is not a non-negative number", args.threshold);
+    }
+    if args.width == 0 || args.height == 0 {
+        bail!("the image is empty: --width and --height must be at least 1");
+    }
+    // The folder must take files before minutes of rendering, not after.
+    std::fs::create_dir_all(&args.out_dir)
+        .with_context(|| format!("cannot create --out-dir {}", args.out_dir.display()))?;
+    if !args.out_dir.is_dir() {
+        bail!("--out-dir {} is not a folder", args.out_dir.display());
+    }
+    tempfile::tempfile_in(&args.out_dir)
+        .with_context(|| format!("cannot write into --out-dir {}", args.out_dir.display()))?;
+
+    let loaded = super::load_scene(&args.scene, args.camera, None)?;
+    let scene = &loaded.scene;
+    let scene_bytes =
+        std::fs::read(&args.scene).with_context(|| format!("cannot read {}", args.scene.display()))?;
+    let mut params: Vec<Parameter> = Vec::new();
+    for &p in &args.params {
+        if !params.contains(&p) {
+            params.push(p);
+        }
+    }
+    let mut settings = Settings::new(args.width, args.height, args.quick, params);
+    settings.threshold = args.threshold;
+    if !args.quick {
+        settings.runs = args.runs;
+    }
+    let gpu = GpuRenderer::new()?;
+    let adapter = format!("{} ({})", gpu.ctx.info.name, gpu.ctx.info.driver_info);
+
+    let cache = accuracy::reference_cache(&args.out_dir, &scene_bytes, &settings);
+    let ref_opts = settings.reference_options();
+    let bar = progress_bar("reference (CPU, f64)");
+    let reference = accuracy::reference(scene, &settings, &cache, &bar)?;
+    bar.finish_and_clear();
+    if reference.cached {
+        eprintln!("reference: read from {}", cache.display());
+    } else {
+        eprintln!(
+            "reference: {} spp, depth {}, rendered in {:.1} s, kept in {}",
+            ref_opts.spp,
+            ref_opts.max_depth,
+            reference.seconds,
+            cache.display()
+        );
+    }
+
+    let bar = progress_bar("sweep");
+    let rows = accuracy::sweep(&gpu, scene, &settings, &reference, &bar)?;
+    bar.finish_and_clear();
+    let summary = accuracy::summary(&rows, settings.threshold);
+
+    let name = args.scene.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+    let title = format!("{name}, {}×{}: error against time", settings.width, settings.height);
+    let report = Report {
+        scene: args.scene.display().to_string(),
+        adapter: adapter.clone(),
+        settings: &settings,
+        reference: ReferenceInfo {
+            renderer: "CPU reference, f64",
+            spp: ref_opts.spp,
+            max_depth: ref_opts.max_depth,
+            seconds: reference.seconds,
+            cache: cache.display().to_string(),
+        },
+        rows: &rows,
+        summary: &summary,
+    };
+    // Everything is drawn and encoded before the first file is written.
+    let json = serde_json::to_string_pretty(&report)?;
+    let csv = accuracy::csv(&rows);
+    let png = plot::png(&title, &rows, &summary)?;
+    let svg = plot::svg(&title, &rows, &summary)?;
+    let text = |bytes: &[u8], path: &std::path::Path| -> anyhow::Result<()> {
+        let io = |source| cuberay::Error::Io { path: path.to_owned(), source };
+        write_atomically(path, |w| w.write_all(bytes).map_err(io))?;
+        Ok(())
+    };
+    let out = |f: &str| args.out_dir.join(f);
+    text(json.as_bytes(), &out("accuracy.json"))?;
+    text(csv.as_bytes(), &out("accuracy.csv"))?;
+    text(svg.as_bytes(), &out("accuracy.svg"))?;
+    cuberay::output::write_rgb8(png.width(), png.height(), png.into_raw(), &out("accuracy.png"))?;
+
+    println!(
+        "{title} (GPU: {adapter}; reference: CPU f64, {} spp, depth {})\n",
+        ref_opts.spp, ref_opts.max_depth
+    );
+    print!("{}", accuracy::table(&rows, &summary));
+    println!(
+        "\nwrote accuracy.json, accuracy.csv, accuracy.png and accuracy.svg in {}",
+        args.out_dir.display()
+    );
+    Ok(())
+}
