@@ -3,8 +3,10 @@
 //! (513² eye rays) and the ray trees they spawn (depth 5), in f32 with the table walker.
 //!
 //! `cargo run --release --example tables_bench -- [--trace] [--verify K] [--hit-object]
-//!  [--size W] [--pilot-rays N] [--beam-target T] [--budget-mib M] SCENE...` prints one JSON
-//!  object per scene.
+//!  [--size W] [--pilot-rays N] [--beam-target T] [--budget-mib M] [--fixed-offset K]
+//!  SCENE...` prints one JSON
+//!  object per scene. `--fixed-offset K` builds for a fixed spawn offset of K times the scene's
+//!  bounding diagonal (as `cuberay accuracy`'s offset rows do).
 
 use cuberay::coherence::{self, bench, BuildParams, ShadowMode, TableStats};
 use cuberay::load::{self, LoadOptions};
@@ -33,6 +35,7 @@ fn main() -> anyhow::Result<()> {
     let budget_mib: Option<usize> = value("--budget-mib").map(|v| v.parse()).transpose()?;
     let eye_n: Option<u32> = value("--eye-n").map(|v| v.parse()).transpose()?;
     let light_cells: Option<usize> = value("--light-cells").map(|v| v.parse()).transpose()?;
+    let fixed_offset: Option<f64> = value("--fixed-offset").map(|v| v.parse()).transpose()?;
     for path in &args {
         let loaded = load::load(path.as_ref(), &LoadOptions::default())?;
         let scene = loaded.scene;
@@ -48,6 +51,9 @@ fn main() -> anyhow::Result<()> {
         }
         if let Some(c) = light_cells {
             params.light_cells = c;
+        }
+        if let Some(k) = fixed_offset {
+            params.spawn = cuberay::kernel::spawn::SpawnPolicy::Fixed((k * scene.bounds().diagonal()) as f32);
         }
         if hit_object {
             params.shadow_mode = ShadowMode::HitObject;

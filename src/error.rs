@@ -56,8 +56,9 @@ pub enum Error {
         #[source]
         source: image::ImageError,
     },
-    /// The candidate tables need more than one storage binding holds, even at their coarsest.
-    #[error("the candidate tables need {bytes} bytes in one buffer, over wgpu's {limit}-byte binding limit, even at the coarsest resolution and clustering allowed")]
+    /// The candidate tables need more than one storage binding holds, even at the coarsest
+    /// resolution the build tries.
+    #[error("the candidate tables need {bytes} bytes in one buffer, over wgpu's {limit}-byte binding limit, even at the coarsest resolution the build tries")]
     TablesTooLarge { bytes: usize, limit: usize },
     /// Built tables break an invariant the walkers rely on (a bug in the builder).
     #[error("the candidate tables are inconsistent: {0}")]

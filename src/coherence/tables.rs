@@ -1,6 +1,7 @@
 //! The candidate tables of a scene: [`build`] makes the direction cubes the scene's effects
 //! call for (the eye, the positional lights), in parallel (rayon), then the beams of the
-//! rays leaving surfaces (piloted by the eye's table), and flattens the result;
+//! rays leaving surfaces (piloted by the eye's table), and flattens the result, coarser
+//! where a buffer would outgrow a binding;
 //! [`Tables::rebuild_eye`] replaces only the eye's table after the camera moved.
 
 use std::time::Instant;
@@ -125,6 +126,48 @@ fn spawners(scene: &Scene, params: &BuildParams) -> Vec<u32> {
 
 /// Builds the candidate tables a scene calls for.
 pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables> {
+    let start = Instant::now();
+    let mut params = params.clone();
+    let mut coarser = 0;
+    loop {
+        match build_once(scene, &params) {
+            Err(Error::TablesTooLarge { bytes, .. }) if coarser < MAX_COARSER && coarsen(&mut params) => {
+                coarser += 1;
+                log::info!(
+                    "the tables need {bytes} bytes in one buffer: again with half the cells per face edge"
+                );
+            }
+            Ok(mut tables) => {
+                tables.build_s = start.elapsed().as_secs_f64();
+                return Ok(tables);
+            }
+            Err(e) => return Err(e),
+        }
+    }
+}
+
+/// How many times [`build`] halves the resolutions it chose before giving up on tables that
+/// outgrow a binding (64× fewer cells per face edge).
+const MAX_COARSER: u32 = 6;
+
+/// Halves the cells per face edge of the eye's and the lights' cubes where `params` left
+/// them to the build: their lists grow with the origins' inflation (a large fixed spawn
+/// offset), and fewer cells hold the same candidates in less memory, for the same hits.
+/// `false` when the caller fixed both.
+fn coarsen(params: &mut BuildParams) -> bool {
+    let mut changed = false;
+    if params.eye_n.is_none() {
+        params.eye_pixels_per_cell *= 2.0;
+        changed = true;
+    }
+    if params.light_n.is_none() && params.light_cells > 64 {
+        params.light_cells /= 4;
+        changed = true;
+    }
+    changed
+}
+
+fn build_once(scene: &Scene, params: &BuildParams) -> Result<Tables> {
     let start = Instant::now();
     let eps = params.spawn_offset(scene);
     let (targets, bvh) = targets(scene);
