@@ -199,11 +199,18 @@ pub fn write_atomically(
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
-    let tmp = tempfile::Builder::new().prefix(".cuberay-").suffix(".tmp").tempfile_in(dir).map_err(|e| {
-        Error::Io {
-            path: dir.to_owned(),
-            source: std::io::Error::new(e.kind(), "cannot create a file in this folder"),
-        }
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".cuberay-").suffix(".tmp");
+    // Created as any new file would be (0666 less the umask), not tempfile's private 0600:
+    // the file is renamed into place as the output.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    let tmp = builder.tempfile_in(dir).map_err(|e| Error::Io {
+        path: dir.to_owned(),
+        source: std::io::Error::new(e.kind(), "cannot create a file in this folder"),
     })?;
     {
         let mut w = BufWriter::new(tmp.as_file());
@@ -241,6 +248,23 @@ mod tests {
         }
         assert_eq!(png_value(0.5, Transfer::Srgb), 188);
         assert_eq!(png_value(0.5, Transfer::Display), 128);
+    }
+
+    /// An output gets the permissions any new file gets (the umask's), not a temporary
+    /// file's private ones.
+    #[cfg(unix)]
+    #[test]
+    fn outputs_get_the_permissions_of_a_new_file() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let (ours, plain) = (dir.path().join("ours.txt"), dir.path().join("plain.txt"));
+        write_atomically(&ours, |w| {
+            w.write_all(b"x").map_err(|e| Error::Io { path: ours.clone(), source: e })
+        })
+        .unwrap();
+        std::fs::write(&plain, b"x").unwrap();
+        let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode(&ours), mode(&plain));
     }
 
     #[test]
