@@ -216,3 +216,23 @@ fn build_once(scene: &Scene, params: &BuildParams) -> Result<Tables> {
         beams,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A build that outgrows a binding halves only the resolutions it chose itself, and
+    /// gives up when the caller fixed them all.
+    #[test]
+    fn coarsening_leaves_fixed_resolutions_alone() {
+        let mut p = BuildParams::default();
+        let (eye, light) = (p.eye_pixels_per_cell, p.light_cells);
+        assert!(coarsen(&mut p));
+        assert_eq!((p.eye_pixels_per_cell, p.light_cells), (2.0 * eye, light / 4));
+
+        let mut fixed = BuildParams { eye_n: Some(64), light_n: Some(32), ..BuildParams::default() };
+        assert!(!coarsen(&mut fixed));
+        assert_eq!((fixed.eye_n, fixed.light_n), (Some(64), Some(32)));
+        assert_eq!((fixed.eye_pixels_per_cell, fixed.light_cells), (eye, light));
+    }
+}

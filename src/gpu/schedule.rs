@@ -17,10 +17,10 @@
 //! additions, unlike the ray trees', changes nothing). The statistics counters are saved
 //! before a tile and restored when it runs again.
 //!
-//! [`Pacing::Fixed`] (headless renders) times every pass with timestamp queries and halves the
-//! tile after one whose longest pass took more than [`PASS_LIMIT`] (doubling it back when well
-//! under); [`Pacing::Adaptive`] (the preview) sizes tiles so that one submission (a wave) takes
-//! about a target time, keeping the window responsive.
+//! [`Pacing::Fixed`] (headless renders) times every pass with timestamp queries and sizes each
+//! tile to half of [`PASS_LIMIT`] at the costliest rate per point seen so far;
+//! [`Pacing::Adaptive`] (the preview) sizes tiles so that one submission (a wave) takes about
+//! a target time, keeping the window responsive.
 
 use std::time::{Duration, Instant};
 
@@ -36,7 +36,7 @@ use crate::layout::{
 /// How tiles are sized.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Pacing {
-    /// Tiles as large as the buffers allow, halved while a pass takes over [`PASS_LIMIT`].
+    /// Tiles as large as the buffers allow, while a pass stays under [`PASS_LIMIT`].
     Fixed,
     /// Tiles adapted towards `target` per submission (one wave).
     Adaptive { target: Duration },
@@ -49,11 +49,14 @@ pub const PASS_LIMIT: Duration = Duration::from_millis(100);
 /// The smallest tile (grid points).
 const MIN_TILE: u64 = WORKGROUP as u64;
 
+/// Tiles of fewer points do not set the rate per point the tiles are sized by.
+const MIN_RATE_TILE: u64 = 512;
+
 /// The first tile of a schedule holds at most this many points (it shrinks or grows after).
 /// Small enough that its passes stay under [`PASS_LIMIT`] on lavapipe before any pass has
 /// been timed: at 16384 points the first pass of reflection rays took up to 211 ms
 /// (balls_s4); the tile doubles after passes under a quarter of the limit.
-const FIRST_TILE: u64 = 4096;
+const FIRST_TILE: u64 = 1024;
 
 /// The queue a pass names for rays it must not spawn: a push there raises the second bit of
 /// the overflow word (a walk outlasted its passes).
@@ -191,6 +194,9 @@ pub struct Schedule {
     longest_submit: Duration,
     /// The longest pass so far, seconds (from the timestamps).
     longest_pass: f64,
+    /// The most seconds per point any tile's longest pass took (fixed pacing): tiles never
+    /// hold more points than half of [`PASS_LIMIT`] allows at that rate.
+    pass_cost: f64,
 }
 
 /// Index of a wavefront kernel in [`Schedule::kernel_s`].
@@ -312,6 +318,7 @@ impl Schedule {
             last_submit: Duration::ZERO,
             longest_submit: Duration::ZERO,
             longest_pass: 0.0,
+            pass_cost: 0.0,
         };
         s.make_room(ctx);
         s
@@ -512,7 +519,7 @@ impl Schedule {
             self.redo(ctx, buffers, tile, overflow)?;
             return Ok(Progress::Stepping);
         }
-        self.fit_tile(tile.longest_pass);
+        self.fit_tile(tile.longest_pass, tile.count);
         self.next_point = tile.first + tile.count as u64;
         let pass_done = self.next_point == self.total;
         if pass_done {
@@ -558,19 +565,25 @@ impl Schedule {
         Ok(())
     }
 
-    /// At the end of a tile whose longest pass took `longest` seconds (fixed pacing): the
-    /// next tile is half as large when it passed [`PASS_LIMIT`], twice as large (up to the
-    /// capacity) when it stayed under a quarter of it.
-    fn fit_tile(&mut self, longest: f64) {
+    /// At the end of a tile of `points` whose longest pass took `longest` seconds (fixed
+    /// pacing): the next tile holds as many points as half of [`PASS_LIMIT`] allows at the
+    /// costliest rate per point seen so far, and at most twice as many as this one. The
+    /// costliest rate, not the last: a tile of sky would otherwise let the tiles grow until
+    /// the next one full of mirrors took several times the limit.
+    fn fit_tile(&mut self, longest: f64, points: u32) {
         if self.pacing != Pacing::Fixed || self.timer.is_none() {
             return;
         }
-        let limit = PASS_LIMIT.as_secs_f64();
-        if longest > limit {
-            self.tile_size = whole_groups(self.tile_size / 2);
-        } else if longest < limit / 4.0 {
-            self.tile_size = (self.tile_size * 2).min(self.capacity);
+        // A small tile (the grid's last) is mostly a pass's fixed cost: no measure of a rate.
+        if points as u64 >= MIN_RATE_TILE {
+            self.pass_cost = self.pass_cost.max(longest / points as f64);
         }
+        let fit = if self.pass_cost > 0.0 {
+            (0.5 * PASS_LIMIT.as_secs_f64() / self.pass_cost) as u64
+        } else {
+            u64::MAX
+        };
+        self.tile_size = whole_groups(fit.min(2 * self.tile_size)).min(self.capacity);
     }
 
     /// Adaptive pacing: tiles grow or shrink towards the target per submission.
