@@ -4,9 +4,8 @@
 //!
 //! `cargo run --release --example tables_bench -- [--trace] [--verify K] [--hit-object]
 //!  [--size W] [--pilot-rays N] [--beam-target T] [--budget-mib M] [--fixed-offset K]
-//!  SCENE...` prints one JSON
-//!  object per scene. `--fixed-offset K` builds for a fixed spawn offset of K times the scene's
-//!  bounding diagonal (as `cuberay accuracy`'s offset rows do).
+//!  SCENE...` prints one JSON object per scene. `--fixed-offset K` builds for a fixed spawn
+//!  offset of K times the scene's bounding diagonal (as `cuberay accuracy`'s offset rows do).
 
 use cuberay::coherence::{self, bench, BuildParams, ShadowMode, TableStats};
 use cuberay::load::{self, LoadOptions};

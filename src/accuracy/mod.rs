@@ -8,9 +8,8 @@
 //! time (the tables are built once per row) and the tables' bytes, the image error
 //! ([`metrics::image_error`]), the eye rays' hit error against the reference's at the pixel
 //! centres ([`metrics::hit_error`]), and the self-hits and blocked shadow rays the render
-//! counted (acne and light leaks). The
-//! reference is rendered once per scene, size and settings and kept in a cache file
-//! ([`reference`]).
+//! counted (acne and light leaks). The reference is rendered once per scene, size and
+//! settings and kept in a cache file ([`reference`]).
 
 pub mod metrics;
 pub mod plot;

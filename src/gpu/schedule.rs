@@ -54,8 +54,8 @@ const MIN_RATE_TILE: u64 = 512;
 
 /// The first tile of a schedule holds at most this many points (it shrinks or grows after).
 /// Small enough that its passes stay under [`PASS_LIMIT`] on lavapipe before any pass has
-/// been timed: at 16384 points the first pass of reflection rays took up to 211 ms
-/// (balls_s4); the tile doubles after passes under a quarter of the limit.
+/// been timed (at 16384 points the first pass of reflection rays took up to 211 ms on
+/// balls_s4); later tiles are sized by [`Schedule::fit_tile`].
 const FIRST_TILE: u64 = 1024;
 
 /// The queue a pass names for rays it must not spawn: a push there raises the second bit of
