@@ -108,6 +108,27 @@ fn more_samples_and_depth_lower_the_error() {
     assert!(d1.error.rmse > 3.0 * d5.error.rmse, "depth 1 {} vs 5 {}", d1.error.rmse, d5.error.rmse);
 }
 
+/// The full `spp` series (1 to 64, not the quick sweep's 1 to 8) at 32², one timed run a row:
+/// each doubling of the samples brings the image nearer the reference.
+#[test]
+fn error_falls_from_1_to_64_spp() {
+    let path = shared("spd/nff/balls_s1.nff");
+    let scene = load(&path);
+    let mut settings = Settings::new(32, 32, false, vec![Parameter::Spp]);
+    settings.runs = 1;
+    let dir = tempfile::tempdir().unwrap();
+    let cache = accuracy::reference_cache(dir.path(), &std::fs::read(&path).unwrap(), &settings);
+    let reference = accuracy::reference(&scene, &settings, &cache, &ProgressBar::hidden()).unwrap();
+    let rows = accuracy::sweep(renderer(), &scene, &settings, &reference, &ProgressBar::hidden()).unwrap();
+    let values: Vec<&str> = rows.iter().map(|r| r.value.as_str()).collect();
+    assert_eq!(values, ["1", "2", "4", "8", "16", "32", "64"]);
+    let rmse: Vec<f64> = rows.iter().map(|r| r.error.rmse).collect();
+    eprintln!("accuracy balls_s1 32² RMSE by spp 1…64: {rmse:?}");
+    assert!(rmse.windows(2).all(|w| w[1] < w[0]), "RMSE does not fall with the samples: {rmse:?}");
+    assert!(rmse[6] < 0.25 * rmse[0], "64 spp is not four times as close as 1: {rmse:?}");
+    assert!(rows[6].error.flip_mean < rows[0].error.flip_mean);
+}
+
 #[test]
 fn f64_removes_the_grazing_errors_of_f32() {
     assert!(
