@@ -1,6 +1,7 @@
 //! Measures the candidate tables on scene files: build statistics and, with `--trace`, the
 //! mean number of primitive tests per ray by kind over the SPD corner sampling at 512×512
-//! (513² eye rays) and the ray trees they spawn (depth 5), in f32 with the table walker.
+//! (513² eye rays) and the ray trees they spawn (depth 5), in f32 with the table walker. The
+//! tables are built with their beams, as `--accel beams` builds them.
 //!
 //! `cargo run --release --example tables_bench -- [--trace] [--verify K] [--hit-object]
 //!  [--size W] [--pilot-rays N] [--beam-target T] [--budget-mib M] [--fixed-offset K]
@@ -38,7 +39,10 @@ fn main() -> anyhow::Result<()> {
     for path in &args {
         let loaded = load::load(path.as_ref(), &LoadOptions::default())?;
         let scene = loaded.scene;
-        let mut params = BuildParams { image: Some((size, size)), eye_n, ..BuildParams::default() };
+        // With the beams (`--accel beams`): without them, rays leaving surfaces go to a BVH,
+        // which this walker does not trace.
+        let mut params =
+            BuildParams { image: Some((size, size)), eye_n, beams: true, ..BuildParams::default() };
         if let Some(n) = pilot_rays {
             params.pilot_rays = n;
         }

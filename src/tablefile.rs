@@ -228,7 +228,7 @@ mod tests {
     #[test]
     fn tables_come_back_as_they_were_written() {
         let s = scene();
-        let params = BuildParams { image: Some((32, 24)), ..BuildParams::default() };
+        let params = BuildParams { image: Some((32, 24)), beams: true, ..BuildParams::default() };
         let t = coherence::build(&s, &params).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("t.tables");
@@ -253,6 +253,7 @@ mod tests {
         // sphere's radius; another key, a truncated file and a foreign file are refused.
         let other = key(&s, &BuildParams { image: Some((33, 24)), ..params.clone() });
         assert_ne!(other, k);
+        assert_ne!(key(&s, &BuildParams { beams: false, ..params.clone() }), k);
         let mut moved = s.clone();
         if let crate::scene::Primitive::Sphere(sp) = &mut moved.primitives[3] {
             sp.radius *= 1.001;

@@ -82,6 +82,7 @@ fn small_params() -> BuildParams {
         light_n: Some(16),
         pilot_rays: 1 << 10,
         beam_target: 1.0,
+        beams: true,
         ..BuildParams::default()
     }
 }
@@ -733,7 +734,7 @@ fn memory_budget_is_respected() {
     }
     let s =
         scene(DVec3::new(-4.0, -4.0, 6.0), DVec3::new(6.0, 6.0, 0.0), &[DVec3::new(6.0, 6.0, 10.0)], prims);
-    let base = BuildParams { eye_n: Some(32), light_n: Some(32), ..BuildParams::default() };
+    let base = BuildParams { eye_n: Some(32), light_n: Some(32), beams: true, ..BuildParams::default() };
     let big = coherence::build(&s, &base).unwrap();
     let budget = big.flat.bytes() / 3;
     let small = coherence::build(&s, &BuildParams { budget_bytes: budget, ..base.clone() }).unwrap();
@@ -757,8 +758,13 @@ fn memory_budget_is_respected() {
 fn spd_every_ray_agrees_with_brute_force(name: &str, group_min_list: usize) {
     let path = common::shared(&format!("spd/nff/{name}.nff"));
     let scene = cuberay::load::load(&path, &Default::default()).unwrap().scene;
-    let params =
-        BuildParams { eye_n: Some(64), light_cells: 1 << 12, group_min_list, ..BuildParams::default() };
+    let params = BuildParams {
+        eye_n: Some(64),
+        light_cells: 1 << 12,
+        group_min_list,
+        beams: true,
+        ..BuildParams::default()
+    };
     let tables = coherence::build(&scene, &params).unwrap();
     if group_min_list == 2 {
         let named = tables.flat.entries.iter().filter(|e| e.id & coherence::flat::GROUP_BIT != 0).count();
@@ -817,7 +823,7 @@ fn mirror_floor_beams_match_brute_force() {
         }
     }
     let s = scene(DVec3::new(0.0, -25.0, 12.0), DVec3::ZERO, &[DVec3::new(3.0, 2.0, 15.0)], prims);
-    let w = World::new(&s, &BuildParams { beam_target: 1.0, ..BuildParams::default() });
+    let w = World::new(&s, &BuildParams { beam_target: 1.0, beams: true, ..BuildParams::default() });
     let beams = w.tables.beams.as_ref().unwrap();
     // The origin splits across the floor (x and y), in the walkers' frame.
     let splits: Vec<(usize, f32)> = beams

@@ -369,7 +369,7 @@ fn cylinders_scene() -> Scene {
 fn accels_match_brute_force(name: &str, scene: &Scene, w: u32, h: u32) {
     let r = renderer();
     let opts = |accel| RenderOptions { accel, ..RenderOptions::new(w, h) };
-    let accels = [(AccelKind::Cube, "cube"), (AccelKind::Bvh, "bvh")];
+    let accels = [(AccelKind::Cube, "cube"), (AccelKind::Beams, "beams"), (AccelKind::Bvh, "bvh")];
     for aov in [Aov::Id, Aov::Depth] {
         let render = |accel| {
             r.render_aov(scene, &opts(accel), aov, &hidden()).unwrap_or_else(|e| panic!("{name}: {e}"))
@@ -461,11 +461,13 @@ fn a_mirror_floor_classified_into_beams_agrees_with_the_cpu() {
         }
     }
     let scene = nff(&s);
-    let tables = cuberay::coherence::build(&scene, &Default::default()).unwrap();
+    let params = cuberay::coherence::BuildParams { beams: true, ..Default::default() };
+    let tables = cuberay::coherence::build(&scene, &params).unwrap();
     let beams = tables.beams.as_ref().expect("the mirrors have beams").stats;
     assert!(tables.flat.has_surface(0) && beams.leaves > 6, "the beams are subdivided: {beams:?}");
-    let (g, _) = agree("mirror floor", &scene, &RenderOptions::new(64, 48), 0.01);
-    assert_eq!(g.stats.settings.accel, "cube");
+    let opts = RenderOptions { accel: AccelKind::Beams, ..RenderOptions::new(64, 48) };
+    let (g, _) = agree("mirror floor", &scene, &opts, 0.01);
+    assert_eq!(g.stats.settings.accel, "beams");
     assert!(g.stats.rays.reflect > 1000);
 }
 

@@ -13,7 +13,7 @@ use cuberay::coherence::flat::{
     GROUP_BIT, NO_ORIGIN,
 };
 use cuberay::coherence::groups::GROUP_SLACK;
-use cuberay::coherence::walk::{AnyHit, UNBOUNDED, WALK_CHUNK};
+use cuberay::coherence::walk::{AnyHit, BVH_WALK, UNBOUNDED, WALK_CHUNK};
 use cuberay::gpu::shaders::{compose, Kernel, Queries, Variant};
 use cuberay::kernel::{FAR, NO_ID, SHADOW_END_REL};
 use cuberay::layout::bvh::{BvhNode, BVH_LEAF_SHIFT, BVH_SLACK};
@@ -114,8 +114,8 @@ fn rust_structs() -> BTreeMap<&'static str, Layout> {
             beam_hi,
             ray_queue,
             shadow_queue,
-            pad_q0,
-            pad_q1,
+            surface_bvh,
+            bvh_inline,
             pad_q2,
         }),
         twin!(Prim { a, b, c, kind, material, flags, attr }),
@@ -176,6 +176,7 @@ fn rust_constants() -> BTreeMap<&'static str, Value> {
         ("ACCUM_ONE", F32(ACCUM_ONE)),
         ("WALK_CHUNK", U32(WALK_CHUNK)),
         ("UNBOUNDED", U32(UNBOUNDED)),
+        ("BVH_WALK", U32(BVH_WALK)),
         ("ANY_CLEAR", U32(AnyHit::Clear as u32)),
         ("ANY_BLOCKED", U32(AnyHit::Blocked as u32)),
         ("ANY_UNFINISHED", U32(AnyHit::Unfinished as u32)),

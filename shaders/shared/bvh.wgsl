@@ -1,4 +1,5 @@
-// The BVH walk (`--accel bvh`): the baseline the candidate tables are timed against. The
+// The BVH walk (`--accel bvh`): the baseline the candidate tables are timed against, and the
+// walk of the beams whose lists stay long (walk.wgsl). The
 // tree is flattened on the host into six threaded orders (src/layout/bvh.rs), one per major
 // direction axis and sign, each listing the nodes depth first with the nearer child first
 // and a `skip` index past every subtree. A ray takes the order of its direction and walks it
@@ -117,6 +118,7 @@ fn bvh_nearest(w: ptr<function, BvhWalk>, best: ptr<function, Closest>, ray: Ray
     return true;
 }
 
+#if BVH
 // The nearest hit with 0 < t < t_max, ties to the lower id; `skip` is never tested (NO_ID:
 // none). The BVH needs neither the ray's origin entity nor `from_prim`.
 fn closest(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) -> Closest {
@@ -155,13 +157,15 @@ fn closest_step(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) 
     return Stepped(false, best);
 }
 
+#endif
+
 #if SHADOWS
-// Continues the any-hit walk `w` of shadow ray `sr` for at most `budget` loop iterations (as
-// `bvh_nearest`): ANY_BLOCKED when some primitive other than `skip` is hit at 0 < t < t_max
-// (its distance from the spawn origin noted in `blocked_at`), ANY_CLEAR when the walk ended
-// without one, ANY_UNFINISHED when the budget ran out first.
-fn bvh_any(w: ptr<function, BvhWalk>, sr: ShadowRay, skip: u32, budget: u32) -> u32 {
-    let r = box_ray(sr.ray);
+// Continues the any-hit walk `w` for at most `budget` loop iterations (as `bvh_nearest`):
+// ANY_BLOCKED when some primitive other than `skip` is hit at 0 < t < t_max (its t noted in
+// `blocker_t`), ANY_CLEAR when the walk ended without one, ANY_UNFINISHED when the budget
+// ran out first.
+fn bvh_any(w: ptr<function, BvhWalk>, ray: Ray, t_max: f32, skip: u32, budget: u32) -> u32 {
+    let r = box_ray(ray);
     var left = budget;
     loop {
         if bvh_done(*w) {
@@ -179,24 +183,35 @@ fn bvh_any(w: ptr<function, BvhWalk>, sr: ShadowRay, skip: u32, budget: u32) -> 
             }
             let p = prims[id];
             count_test(RAY_SHADOW, p.kind);
-            let h = intersect_prim(p, sr.ray, sr.t_max);
+            let h = intersect_prim(p, ray, t_max);
             if h.ok {
-                blocked_at = abs(h.t - sr.q_t);
+                blocker_t = h.t;
                 return ANY_BLOCKED;
             }
             continue;
         }
         let n = bvh_nodes[r.base + (*w).at];
         count_bound(RAY_SHADOW);
-        bvh_advance(w, n, box_hit(n, r, sr.t_max));
+        bvh_advance(w, n, box_hit(n, r, t_max));
     }
     return ANY_CLEAR;
 }
 
+#if BVH
+// `bvh_any`'s verdict on shadow ray `sr`, its blocker's distance from the spawn origin noted
+// in `blocked_at`.
+fn bvh_shadow(w: ptr<function, BvhWalk>, sr: ShadowRay, skip: u32, budget: u32) -> u32 {
+    let r = bvh_any(w, sr.ray, sr.t_max, skip, budget);
+    if r == ANY_BLOCKED {
+        blocked_at = abs(blocker_t - sr.q_t);
+    }
+    return r;
+}
+
 // Whether light `light` is blocked from `q`, the spawn origin on primitive `from_prim` (the
 // shadow ray of `shadow_ray`, geometry.wgsl, the one the other queries trace), when its
-// walk ends within `params.shadow_inline` loop iterations (for the BVH a budget of
-// iterations, set by the host: `layout::budget::bvh_shadow_inline`); ANY_UNFINISHED when
+// walk ends within `params.bvh_inline` loop iterations (set by the host:
+// `layout::budget::bvh_shadow_inline`); ANY_UNFINISHED when
 // it does not, and the shadow ray becomes a job whose walk starts over.
 fn occluded_short(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> u32 {
     let sr = shadow_ray(q, to_light, light);
@@ -204,7 +219,7 @@ fn occluded_short(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32,
         return ANY_CLEAR;
     }
     var w = BvhWalk(0u, 0u, 0u);
-    return bvh_any(&w, sr, skip, params.shadow_inline);
+    return bvh_shadow(&w, sr, skip, params.bvh_inline);
 }
 
 // Whether light `light` is blocked from `q`, for a shadow job, in bounded passes (the
@@ -219,9 +234,10 @@ fn occluded_step(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, 
     if walking != 0u {
         w = BvhWalk(walk_state.i, walk_state.j, walk_state.jend);
     }
-    let r = bvh_any(&w, sr, skip, WALK_CHUNK);
+    let r = bvh_shadow(&w, sr, skip, WALK_CHUNK);
     walking = select(0u, 1u, r == ANY_UNFINISHED);
     walk_state = WalkState(w.at, 0u, w.k, w.kend, NO_ID, 0.0, 0.0, 0.0);
     return r;
 }
+#endif
 #endif

@@ -276,6 +276,10 @@ fn max3(v: vec3<f32>) -> f32 {
 }
 
 #if SHADOWS
+// The t of the hit that ended the last any-hit walk with ANY_BLOCKED (the self-hit count;
+// the CPU walkers' `hits` closures keep it on that side).
+var<private> blocker_t: f32;
+
 // The shadow ray towards light `light` from `q`, the spawn origin of a hit (direction
 // `to_light`): one ray for every accelerator, so that the tables and brute force answer
 // alike. A positional light's ray is traced light-buffer style, from the light towards `q`

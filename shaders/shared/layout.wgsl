@@ -57,8 +57,10 @@ struct Params {
     // The wavefront's queues: jobs each ray queue and each shadow queue holds.
     ray_queue: u32,
     shadow_queue: u32,
-    pad_q0: u32,
-    pad_q1: u32,
+    // --accel cube: 1 when rays leaving surfaces walk the BVH (the tables have no beams).
+    surface_bvh: u32,
+    // The BVH's inline shadow walks: a budget of loop iterations (nodes and primitives).
+    bvh_inline: u32,
     pad_q2: u32,
 }
 

@@ -74,6 +74,8 @@ const NO_ORIGIN: u32 = 0xffffffffu;
 const GROUP_BIT: u32 = 0x80000000u;
 const BEAM_LEAF: u32 = 5u;
 const BEAM_FACE: u32 = 6u;
+// `Walk::iend` of a walk of the BVH (walk.wgsl; coherence::walk::BVH_WALK, keep in sync).
+const BVH_WALK: u32 = 0xffffffffu;
 // Cells per face edge of the cube the beams' direction splits name.
 const BEAM_CELLS: u32 = 4096u;
 // The deepest beam node below a root (checked on the host).

@@ -2,10 +2,18 @@
 // finds its list (the cell of its direction in the direction cube of the eye or the light it
 // is traced from; the beam of a ray leaving a surface) and walks it merged with the origin's
 // always-test list by increasing d_min, stopping once d_min passes the nearest hit so far; a
-// long walk is spread over several passes. Then the queries the shading asks: `closest`,
-// and its stepped form, and `occluded_short` and `occluded_step`.
+// long walk is spread over several passes. Rays leaving surfaces walk the BVH instead
+// (bvh.wgsl) when the tables have no beams (`--accel cube`; `--accel beams` builds them).
+// Then the queries the shading asks: `closest`, and its stepped form, and `occluded_short`
+// and `occluded_step`.
 
-// A position in the merged walk of a cell's list (i..iend) and the always list (j..jend).
+#if SURFACE_RAYS
+#include "shared/bvh.wgsl"
+#endif
+
+// A position in the merged walk of a cell's list (i..iend) and the always list (j..jend);
+// with `iend` BVH_WALK, a walk of the BVH (bvh.wgsl: node `i`, the leaf's primitives j..jend
+// left).
 struct Walk {
     i: u32,
     iend: u32,
@@ -20,14 +28,19 @@ fn walk_start(origin: u32, d: vec3<f32>) -> Walk {
 }
 
 // The walk of a ray leaving primitive `from_prim` (NO_ID: the eye) from `at` along `d` (not
-// zero): the eye's cell, the beam of a classified surface ray, or the fallback origin (twin
-// of FlatTables::start_walk).
+// zero): the eye's cell; for a ray leaving a surface, the BVH (`params.surface_bvh`: the
+// tables classify no such rays) or its beam; else the fallback origin (twin of
+// FlatTables::start_walk, where `reference::tables` hands the BVH's rays to the reference's
+// own BVH).
 fn start_walk(from_prim: u32, at: vec3<f32>, d: vec3<f32>) -> Walk {
     if from_prim == NO_ID {
         let o = params.eye_origin;
         return walk_start(select(o, params.fallback_origin, o == NO_ORIGIN), d);
     }
 #if SURFACE_RAYS
+    if params.surface_bvh != 0u {
+        return Walk(0u, BVH_WALK, 0u, 0u);
+    }
     if from_prim < params.prim_count && prim_beams[from_prim] != 0u && in_beams(at) {
         let r = beam_range(at, d);
         return Walk(r.x, r.y, 0u, 0u);
@@ -59,6 +72,14 @@ fn walk_done(w: Walk) -> bool {
 // never tested). True when the walk is over.
 fn walk_nearest(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, t_max: f32, skip: u32, ray_kind: u32,
     budget: u32) -> bool {
+#if SURFACE_RAYS
+    if (*w).iend == BVH_WALK {
+        var bw = BvhWalk((*w).i, (*w).j, (*w).jend);
+        let done = bvh_nearest(&bw, best, ray, box_ray(ray), t_max, skip, ray_kind, budget);
+        *w = Walk(bw.at, BVH_WALK, bw.k, bw.kend);
+        return done;
+    }
+#endif
     var left = budget;
     var best_t = select(t_max, (*best).hit.t, (*best).found);
     loop {
@@ -139,14 +160,18 @@ fn closest_step(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) 
 }
 
 #if SHADOWS
-// The t of the hit that ended the last any-hit walk with ANY_BLOCKED (the self-hit count;
-// the CPU walker's `hits` closure keeps it on that side).
-var<private> blocker_t: f32;
-
 // Continues the any-hit walk `w` for at most about `budget` loop iterations: ANY_BLOCKED
 // when some primitive other than `skip` is hit at 0 < t < t_max, ANY_CLEAR when the walk
 // ended without one, ANY_UNFINISHED when the budget ran out first.
 fn walk_any(w: ptr<function, Walk>, ray: Ray, t_max: f32, skip: u32, budget: u32) -> u32 {
+#if SURFACE_RAYS
+    if (*w).iend == BVH_WALK {
+        var bw = BvhWalk((*w).i, (*w).j, (*w).jend);
+        let r = bvh_any(&bw, ray, t_max, skip, budget);
+        *w = Walk(bw.at, BVH_WALK, bw.k, bw.kend);
+        return r;
+    }
+#endif
     var left = budget;
     loop {
         if walk_done(*w) {
@@ -238,6 +263,13 @@ fn occluded_short(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32,
         return ANY_CLEAR;
     }
     var w = sw.walk;
+#if SURFACE_RAYS
+    if w.iend == BVH_WALK {
+        // A BVH walk that outlasts its inline budget of loop iterations becomes a job, whose
+        // walk starts over.
+        return note_blocker(sw, walk_any(&w, sw.ray, sw.t_max, skip, params.bvh_inline));
+    }
+#endif
     if (w.iend - w.i) + (w.jend - w.j) > params.shadow_inline {
         return ANY_UNFINISHED;
     }

@@ -192,7 +192,7 @@ impl Settings {
                     })
                     .collect()
             }
-            Parameter::Accel => [AccelKind::Cube, AccelKind::Bvh, AccelKind::Brute]
+            Parameter::Accel => [AccelKind::Cube, AccelKind::Beams, AccelKind::Bvh, AccelKind::Brute]
                 .into_iter()
                 .map(|accel| {
                     with(format!("{accel:?}").to_lowercase(), RenderOptions { accel, ..base.clone() })

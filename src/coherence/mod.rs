@@ -33,8 +33,11 @@
 //! `N×N` cells per face (Ohta and Maekawa). A cell lists every primitive a ray from the origin
 //! with a direction in the cell can hit, sorted by a lower bound `d_min` on the hit distance,
 //! so a walker stops as soon as `d_min` exceeds the nearest hit so far. Rays leaving surfaces
-//! have no one origin: they are classified by origin and direction together into beams
-//! (Arvo and Kirk), whose lists are built and walked the same way.
+//! have no one origin: with [`BuildParams::beams`] (`--accel beams`) they are classified by
+//! origin and direction together into beams (Arvo and Kirk), whose lists are built and walked
+//! the same way; without (the default, `--accel cube`) the tables leave them to the BVH
+//! ([`FlatTables::surface_bvh`]), which traces them faster than the beams on every scene
+//! measured (README, *Speed*) and needs no build of seconds.
 //!
 //! # Conservative in f32
 //! Bounds are computed in f64 and widened by an angle `delta` (the GPU's f32 lookup may put a
@@ -86,7 +89,7 @@ pub mod walk;
 pub use flat::{FlatTables, GpuBeamNode, GpuEntry, GpuFace, GpuGroup, GpuOrigin, OriginKind};
 pub use params::{BuildParams, ShadowMode};
 pub use stats::TableStats;
-pub use tables::{build, Tables};
+pub use tables::{build, traces_surface_rays, Tables};
 pub use walk::{OriginKey, WalkCount};
 
 /// Random numbers and directions for the module's own tests.

@@ -60,6 +60,9 @@ pub struct BuildParams {
     /// The effects the tables serve (`None`: the scene's): light tables only with shadows,
     /// beams for reflecting and transmitting surfaces only with reflection.
     pub effects: Option<Effects>,
+    /// Whether rays leaving surfaces are classified into beams (`--accel beams`); without
+    /// them (the default, `--accel cube`) such rays walk the BVH.
+    pub beams: bool,
 }
 
 impl Default for BuildParams {
@@ -80,6 +83,7 @@ impl Default for BuildParams {
             pilot_rays: 1 << 15,
             beam_target: 4.0,
             effects: None,
+            beams: false,
         }
     }
 }

@@ -35,9 +35,9 @@ fn walk_cost(flat: &FlatTables, a: u32, b: u32) -> u64 {
 /// Whether a ray of a render with `effects` can come from an entity without a table: the eye
 /// of a non-empty scene, the secondary rays of a reflecting or transmitting primitive the
 /// beams do not classify, or (for lights without a table) the shadow rays of any primitive
-/// they do not classify.
+/// they do not classify. Without beams, rays leaving surfaces walk the BVH.
 fn fallback_reachable(scene: &Scene, flat: &FlatTables, effects: Effects) -> bool {
-    let missing = |id: usize| !flat.has_surface(id as u32);
+    let missing = |id: usize| !flat.surface_bvh() && !flat.has_surface(id as u32);
     if flat.eye_origin == NO_ORIGIN && !scene.primitives.is_empty() {
         return true;
     }
@@ -54,6 +54,18 @@ fn fallback_reachable(scene: &Scene, flat: &FlatTables, effects: Effects) -> boo
 }
 
 impl WalkBounds {
+    /// The bounds of walks that may take either `self`'s or `other`'s: the tables' for eye
+    /// rays, and for rays leaving surfaces the BVH's.
+    pub fn or(&self, other: &WalkBounds) -> WalkBounds {
+        WalkBounds {
+            worst_closest: self.worst_closest.max(other.worst_closest),
+            worst_eye: self.worst_eye,
+            worst_shadow: self.worst_shadow.max(other.worst_shadow),
+            mean_list: self.mean_list.max(other.mean_list),
+            fallback_reachable: self.fallback_reachable,
+        }
+    }
+
     /// The bounds of `flat`, built for `scene` and a render with `effects`.
     pub fn of(scene: &Scene, flat: &FlatTables, effects: Effects) -> WalkBounds {
         let mut b =

@@ -124,6 +124,12 @@ fn spawners(scene: &Scene, params: &BuildParams) -> Vec<u32> {
         .collect()
 }
 
+/// Whether a render the tables of `params` are for traces rays leaving surfaces: the rays
+/// the beams classify when they are built, and the BVH walks when they are not.
+pub fn traces_surface_rays(scene: &Scene, params: &BuildParams) -> bool {
+    !spawners(scene, params).is_empty()
+}
+
 /// Builds the candidate tables a scene calls for.
 pub fn build(scene: &Scene, params: &BuildParams) -> Result<Tables> {
     let start = Instant::now();
@@ -191,7 +197,7 @@ fn build_once(scene: &Scene, params: &BuildParams) -> Result<Tables> {
     let mut flat = flat_tables(&built, &defs, None, scene, &ctx)?;
 
     // The beams, piloted through the eye's table, in what the budget leaves.
-    let spawners = spawners(scene, params);
+    let spawners = if params.beams { spawners(scene, params) } else { Vec::new() };
     let beams = (!spawners.is_empty()).then(|| {
         // What the groups' buffers take, should a list name them.
         let groups =

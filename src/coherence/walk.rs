@@ -32,6 +32,11 @@ pub const WALK_CHUNK: u32 = 8192;
 /// The budget of a walk that runs to its end in one go (WGSL `UNBOUNDED`).
 pub const UNBOUNDED: u32 = u32::MAX;
 
+/// The kernels mark a walk of the BVH (a ray leaving a surface when the tables have no
+/// beams) with this `Walk::iend`, its node in `i` and its leaf's primitives left in `j..jend`
+/// (WGSL `BVH_WALK`); the CPU reference walks its own BVH instead.
+pub const BVH_WALK: u32 = u32::MAX;
+
 /// A ray's origin entity: what its table is keyed by.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum OriginKey {
@@ -76,6 +81,12 @@ impl FlatTables {
             OriginKey::Surface(..) => NO_ORIGIN,
         };
         (o != NO_ORIGIN).then_some(o)
+    }
+
+    /// Whether rays leaving surfaces walk the BVH rather than these tables: the tables have
+    /// no beams (`--accel cube`; WGSL `params.surface_bvh`).
+    pub fn surface_bvh(&self) -> bool {
+        self.beam_nodes.is_empty()
     }
 
     /// Whether the rays leaving primitive `id` are classified into the beams.

@@ -13,4 +13,4 @@ pub mod shaders;
 
 pub use buffers::SceneBuffers;
 pub use context::GpuContext;
-pub use render::{check, point_at, queue_sizes, uses_tables, GpuRenderer};
+pub use render::{add_surface_bvh, check, point_at, queue_sizes, uses_tables, walk_bounds, GpuRenderer};

@@ -154,7 +154,7 @@ impl GpuRenderer {
         variant.tables().then(|| {
             let p =
                 table_params(scene, opts.width, opts.height, opts.max_depth, variant.effects(), opts.spawn);
-            BuildParams { eye_n: opts.eye_cells, ..p }
+            BuildParams { eye_n: opts.eye_cells, beams: opts.accel == AccelKind::Beams, ..p }
         })
     }
 
@@ -198,6 +198,9 @@ impl GpuRenderer {
                     Self::build_params(scene, opts, aov).and_then(|p| p.effects).unwrap_or(scene.effects());
                 let walks = WalkBounds::of(scene, &t.flat, effects);
                 point_at(&mut packed.params, &t.flat);
+                if let Some(p) = Self::build_params(scene, opts, aov) {
+                    add_surface_bvh(&mut packed, scene, &t.flat, &p);
+                }
                 Some(TableSet::Stored(t, walks))
             }
         };
@@ -218,7 +221,7 @@ impl GpuRenderer {
         }
         let params =
             table_params(scene, opts.width, opts.height, opts.max_depth, variant.effects(), opts.spawn);
-        let params = BuildParams { eye_n: opts.eye_cells, ..params };
+        let params = BuildParams { eye_n: opts.eye_cells, beams: opts.accel == AccelKind::Beams, ..params };
         let t = coherence::build(scene, &params)?;
         log::info!(
             "tables: {} origins, {} entries, longest lists {} (nearest) {} (shadow), fallback reachable: {}",
@@ -229,6 +232,7 @@ impl GpuRenderer {
             t.walks.fallback_reachable
         );
         point_at(&mut packed.params, &t.flat);
+        add_surface_bvh(packed, scene, &t.flat, &params);
         Ok(Some(t))
     }
 
@@ -330,7 +334,7 @@ impl GpuRenderer {
 
         let image = grid_image(opts, scene, &run.values, opts.spp);
         let mut stats = Stats::new(
-            opts.settings(scene, "gpu", accel_name(variant)),
+            opts.settings(scene, "gpu", accel_name(variant, opts.accel)),
             simulated_effects(scene, opts.max_depth),
             &run.counters,
             run.times(preprocess_s, trace_s, false, variant.shadows),
@@ -378,7 +382,7 @@ impl GpuRenderer {
         let mut image = Image::new(w, h, true);
         image.pixels = run.values;
         let mut stats = Stats::new(
-            opts.aov_settings(scene, "gpu", accel_name(variant)),
+            opts.aov_settings(scene, "gpu", accel_name(variant, opts.accel)),
             Vec::new(),
             &run.counters,
             times,
@@ -402,8 +406,7 @@ impl GpuRenderer {
         grid: (u32, u32),
         progress: &ProgressBar,
     ) -> Result<RunOutput> {
-        let walks =
-            tables.map(TableSet::walks).copied().or_else(|| packed.bvh.as_ref().map(|b| b.walk_bounds()));
+        let walks = walk_bounds(tables.map(TableSet::walks), packed);
         self.check_loop_budget(scene, walks.as_ref(), max_depth)?;
         let total = grid.0 as u64 * grid.1 as u64;
         let tile = budget::tile_points(scene, walks.as_ref(), TESTS_PER_DISPATCH);
@@ -483,6 +486,24 @@ pub fn queue_sizes(scene: &Scene, variant: Variant) -> QueueSizes {
     }
 }
 
+/// Adds the BVH that the rays leaving surfaces walk when `flat` has no beams, if the render
+/// the tables were built for (with `params`) traces such rays; else leaves `packed` alone.
+pub fn add_surface_bvh(packed: &mut Packed, scene: &Scene, flat: &FlatTables, params: &BuildParams) {
+    if flat.surface_bvh() && coherence::traces_surface_rays(scene, params) {
+        packed.add_bvh(scene);
+        packed.params.surface_bvh = 1;
+    }
+}
+
+/// How long the walks of a render with `tables` (`None`: none) and `packed`'s BVH (if any)
+/// may be: with both, rays leaving surfaces walk the BVH.
+pub fn walk_bounds(tables: Option<&WalkBounds>, packed: &Packed) -> Option<WalkBounds> {
+    match (tables, packed.bvh.as_ref().map(|b| b.walk_bounds())) {
+        (Some(t), Some(b)) => Some(t.or(&b)),
+        (t, b) => t.copied().or(b),
+    }
+}
+
 /// Points the params at the tables' eye and fallback origins and the beams' box.
 pub fn point_at(params: &mut crate::layout::Params, flat: &FlatTables) {
     params.eye_origin = flat.eye_origin;
@@ -492,10 +513,11 @@ pub fn point_at(params: &mut crate::layout::Params, flat: &FlatTables) {
     params.beam_nodes = flat.beam_nodes.len() as u32;
 }
 
-/// The queries the GPU traces rays with for `accel`: `cube` and `auto` the candidate tables.
+/// The queries the GPU traces rays with for `accel`: `cube`, `beams` and `auto` the candidate
+/// tables.
 pub fn queries(accel: AccelKind) -> Queries {
     match accel {
-        AccelKind::Auto | AccelKind::Cube => Queries::Tables,
+        AccelKind::Auto | AccelKind::Cube | AccelKind::Beams => Queries::Tables,
         AccelKind::Bvh => Queries::Bvh,
         AccelKind::Brute => Queries::Brute,
     }
@@ -512,8 +534,11 @@ fn accel_bytes(packed: &Packed, tables: Option<&TableSet>) -> u64 {
     bvh + tables.map_or(0, |t| t.flat().bytes() as u64)
 }
 
-fn accel_name(variant: Variant) -> &'static str {
-    variant.queries.name()
+fn accel_name(variant: Variant, accel: AccelKind) -> &'static str {
+    match accel {
+        AccelKind::Beams => "beams",
+        _ => variant.queries.name(),
+    }
 }
 
 /// Checks that the GPU backend can render `scene` with `opts`.

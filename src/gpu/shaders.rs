@@ -9,7 +9,9 @@
 //! `REFRACTION`, `TEXTURES` and `EMISSION`, `SURFACE_RAYS` (reflection or shadows: rays
 //! leave surfaces, and the tables' beams classify them), and `TABLES`, `BVH` and `BRUTE`, of which exactly
 //! one is set: the ray queries, the candidate-table walk of `shared/walk.wgsl`, the BVH walk of
-//! `shared/bvh.wgsl` or the brute force of `shared/brute.wgsl`. A scene without mirrors thus gets a module with no reflection code at all,
+//! `shared/bvh.wgsl` or the brute force of `shared/brute.wgsl`. The table walk includes the
+//! BVH walk with `SURFACE_RAYS`: rays leaving surfaces walk the BVH when the tables have no
+//! beams. A scene without mirrors thus gets a module with no reflection code at all,
 //! not a branch that is never taken.
 
 use crate::error::{Error, Result};

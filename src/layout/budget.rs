@@ -59,7 +59,8 @@ pub fn shadow_inline(scene: &Scene) -> u32 {
         as u32
 }
 
-/// The BVH's inline shadow walks (`Params::shadow_inline` with `--accel bvh`): a budget of
+/// The BVH's inline shadow walks (`Params::bvh_inline`, with `--accel bvh` and for the rays
+/// leaving surfaces with `--accel cube`): a budget of
 /// loop iterations (nodes and primitives), a quarter of what [`shadow_inline`] entries may
 /// take, less the primitives of the leaf that ends it. A quarter, because lavapipe ended
 /// these walks early at half of it (measured with eight lights, nine thousand triangles and

@@ -40,11 +40,16 @@ impl Packed {
     /// Adds the BVH of `scene` (packed into `self`) and points the params at it; its shadow
     /// walks get an inline budget of loop iterations ([`super::budget::bvh_shadow_inline`]).
     pub fn with_bvh(mut self, scene: &Scene) -> Packed {
+        self.add_bvh(scene);
+        self
+    }
+
+    /// [`Packed::with_bvh`] in place.
+    pub fn add_bvh(&mut self, scene: &Scene) {
         let bvh = pack_bvh(scene);
         self.params.bvh_stride = bvh.stride;
-        self.params.shadow_inline = super::budget::bvh_shadow_inline(scene);
+        self.params.bvh_inline = super::budget::bvh_shadow_inline(scene);
         self.bvh = Some(bvh);
-        self
     }
 }
 

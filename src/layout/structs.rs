@@ -64,8 +64,12 @@ pub struct Params {
     /// ([`crate::gpu::schedule`]).
     pub ray_queue: u32,
     pub shadow_queue: u32,
-    pub pad_q0: u32,
-    pub pad_q1: u32,
+    /// `--accel cube`: 1 when rays leaving surfaces walk the BVH (the tables have no beams;
+    /// `shaders/shared/walk.wgsl`).
+    pub surface_bvh: u32,
+    /// The BVH's shadow walks traced inline at a hit: a budget of loop iterations (nodes and
+    /// primitives, [`super::budget::bvh_shadow_inline`]).
+    pub bvh_inline: u32,
     pub pad_q2: u32,
 }
 

@@ -149,7 +149,7 @@ impl Session {
             packed = packed.with_bvh(&scene);
         }
         let tables = gpu.tables(&scene, &opts, all, &mut packed)?;
-        let walks = tables.as_ref().map(|t| t.walks).or_else(|| packed.bvh.as_ref().map(|b| b.walk_bounds()));
+        let walks = gpu::walk_bounds(tables.as_ref().map(|t| &t.walks), &packed);
         gpu.check_loop_budget(&scene, walks.as_ref(), Some(MAX_DEPTH))?;
         let first = variant(&scene, toggles, opts.max_depth, all.queries);
         let tile = tile_points(&scene, walks.as_ref(), TESTS_PER_DISPATCH);
@@ -291,7 +291,9 @@ impl Session {
                 }
             };
             gpu::point_at(&mut packed.params, &tables.flat);
-            self.gpu.check_loop_budget(&self.scene, Some(&tables.walks), Some(MAX_DEPTH))?;
+            gpu::add_surface_bvh(&mut packed, &self.scene, &tables.flat, &params);
+            let walks = gpu::walk_bounds(Some(&tables.walks), &packed);
+            self.gpu.check_loop_budget(&self.scene, walks.as_ref(), Some(MAX_DEPTH))?;
             log::debug!("tables for the new eye in {:.3} s (eye table only: {eye_only})", tables.build_s);
             self.buffers = self.upload(&mut packed, Some(&tables.flat))?;
             self.tables = Some(tables);
@@ -329,6 +331,8 @@ impl Session {
             eye_origin: p.eye_origin,
             fallback_origin: p.fallback_origin,
             bvh_stride: p.bvh_stride,
+            bvh_inline: p.bvh_inline,
+            surface_bvh: p.surface_bvh,
             beam_lo: p.beam_lo,
             beam_hi: p.beam_hi,
             beam_nodes: p.beam_nodes,

@@ -58,7 +58,8 @@ pub fn build_accel<'a>(
         }
         AccelKind::Brute => Box::new(Brute::new(&scene.primitives)),
         AccelKind::Auto | AccelKind::Bvh => Box::new(Bvh::new(&scene.primitives)),
-        AccelKind::Cube => Box::new(TableAccel::new(scene, width, height, max_depth)?),
+        AccelKind::Cube => Box::new(TableAccel::new(scene, width, height, max_depth, false)?),
+        AccelKind::Beams => Box::new(TableAccel::new(scene, width, height, max_depth, true)?),
     })
 }
 

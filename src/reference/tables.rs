@@ -1,5 +1,5 @@
-//! `--accel cube` on the CPU: the reference renderer's queries answered through the
-//! candidate tables of [`crate::coherence`] (direction cubes and beams), walked by the one walker
+//! `--accel cube` and `beams` on the CPU: the reference renderer's queries answered through
+//! the candidate tables of [`crate::coherence`] (direction cubes and beams), walked by the one walker
 //! ([`crate::coherence::walk`], the twin of the WGSL walk, in steps of [`WALK_CHUNK`] as the
 //! GPU walks) with the reference's own f64 intersection tests. This is the only file of the
 //! reference that knows the tables.
@@ -10,12 +10,15 @@
 //! table along the direction from the light to the shaded point, but each candidate is tested
 //! with the reference's own shadow ray (from the point towards the light): the segment it
 //! covers lies on the light's ray through the point, so the light's cell lists every
-//! primitive that can block it, and the answer is brute force's. Rays without a table walk
-//! the fallback origin, which lists every primitive: brute force in id order.
+//! primitive that can block it, and the answer is brute force's. Rays leaving surfaces, when
+//! the tables have no beams (`--accel cube`), go to the reference's BVH, as the kernels' go
+//! to theirs. Rays without a table walk the fallback origin, which lists every primitive:
+//! brute force in id order.
 
 use glam::{DVec3, Vec3};
 
 use super::accel::{count, Accel, NearestHit, RayOrigin, ShadowQuery};
+use super::bvh::Bvh;
 use super::geometry::{intersect, Intersection, Ray};
 use crate::coherence::walk::{walk_any, walk_nearest, AnyHit, Walk, WALK_CHUNK};
 use crate::coherence::{self, BuildParams, FlatTables, OriginKey, Tables, WalkCount};
@@ -30,15 +33,24 @@ pub struct TableAccel<'a> {
     tables: Tables,
     /// The camera's eye: table lookups take points relative to it.
     eye: DVec3,
+    /// What rays leaving surfaces walk when the tables have no beams.
+    surface_bvh: Option<Bvh<'a>>,
 }
 
 impl<'a> TableAccel<'a> {
     /// Builds the tables `scene` calls for, with the eye table covering a `width`×`height`
-    /// image.
-    pub fn new(scene: &'a Scene, width: u32, height: u32, max_depth: u32) -> Result<TableAccel<'a>> {
-        let params = BuildParams { image: Some((width, height)), max_depth, ..BuildParams::default() };
+    /// image, and `beams` for the rays leaving surfaces (else the BVH for those).
+    pub fn new(
+        scene: &'a Scene,
+        width: u32,
+        height: u32,
+        max_depth: u32,
+        beams: bool,
+    ) -> Result<TableAccel<'a>> {
+        let params = BuildParams { image: Some((width, height)), max_depth, beams, ..BuildParams::default() };
         let tables = coherence::build(scene, &params)?;
-        Ok(TableAccel { prims: &scene.primitives, tables, eye: scene.camera.eye })
+        let surface_bvh = tables.flat.surface_bvh().then(|| Bvh::new(&scene.primitives));
+        Ok(TableAccel { prims: &scene.primitives, tables, eye: scene.camera.eye, surface_bvh })
     }
 
     /// The tables as built (for statistics).
@@ -96,7 +108,11 @@ impl<'a> TableAccel<'a> {
 
 impl Accel for TableAccel<'_> {
     fn name(&self) -> &'static str {
-        "cube"
+        if self.tables.flat.surface_bvh() {
+            "cube"
+        } else {
+            "beams"
+        }
     }
 
     fn closest(
@@ -107,6 +123,9 @@ impl Accel for TableAccel<'_> {
         tests: &mut TestCounts,
     ) -> Option<NearestHit> {
         let flat = self.flat();
+        if let (RayOrigin::Surface(_), Some(bvh)) = (origin, &self.surface_bvh) {
+            return bvh.closest(ray, origin, t_max, tests);
+        }
         if ray.dir.abs().max_element() == 0.0 {
             return None;
         }
@@ -148,6 +167,9 @@ impl Accel for TableAccel<'_> {
                 let d = (to_point / reach).as_vec3().normalize();
                 return self.any_hit(light, self.at(lp), d, reach, q, tests);
             }
+        }
+        if let Some(bvh) = &self.surface_bvh {
+            return bvh.occluded(q, tests);
         }
         let key = self.key(RayOrigin::Surface(q.object), q.ray.origin);
         let d = q.ray.dir.as_vec3().normalize();

@@ -1,6 +1,9 @@
 //! Ray classification (Arvo and Kirk, "Fast ray tracing by ray classification", 1987) for
 //! the rays that leave surfaces: reflection and refraction rays, and shadow rays towards
-//! lights without a table of their own.
+//! lights without a table of their own. Built only when asked for ([`BuildParams::beams`],
+//! `--accel beams`); by default those rays walk the BVH.
+//!
+//! [`BuildParams::beams`]: crate::coherence::BuildParams::beams
 //!
 //! Such rays have no single origin point, so a direction cube around one entity serves them
 //! badly. A *beam* is a box of origins × a rectangle of directions on one face of the
