@@ -1,10 +1,11 @@
 //! Measures the candidate tables on scene files: build statistics and, with `--trace`, the
 //! mean number of primitive tests per ray by kind over the SPD corner sampling at 512×512
 //! (513² eye rays) and the ray trees they spawn (depth 5), in f32 with the table walker. The
-//! tables are built with their beams, as `--accel beams` builds them.
+//! tables are built with their beams, as `--accel beams` builds them (`--no-beams`: as
+//! `--accel cube` does; then only the build statistics mean something).
 //!
 //! `cargo run --release --example tables_bench -- [--trace] [--verify K] [--hit-object]
-//!  [--size W] [--pilot-rays N] [--beam-target T] [--budget-mib M] [--fixed-offset K]
+//!  [--size W] [--pilot-rays N] [--beam-target T] [--budget-mib M] [--fixed-offset K] [--no-beams]
 //!  SCENE...` prints one JSON object per scene. `--fixed-offset K` builds for a fixed spawn
 //!  offset of K times the scene's bounding diagonal (as `cuberay accuracy`'s offset rows do).
 
@@ -22,6 +23,7 @@ fn main() -> anyhow::Result<()> {
     };
     let trace = flag("--trace");
     let hit_object = flag("--hit-object");
+    let no_beams = flag("--no-beams");
     let mut value = |name: &str| -> Option<String> {
         let i = args.iter().position(|a| a == name)?;
         let v = args.remove(i + 1);
@@ -39,10 +41,11 @@ fn main() -> anyhow::Result<()> {
     for path in &args {
         let loaded = load::load(path.as_ref(), &LoadOptions::default())?;
         let scene = loaded.scene;
-        // With the beams (`--accel beams`): without them, rays leaving surfaces go to a BVH,
-        // which this walker does not trace.
+        // With the beams (`--accel beams`) unless `--no-beams`: without them, rays leaving
+        // surfaces go to a BVH, which this walker does not trace (it walks the fallback
+        // origin for them, every primitive).
         let mut params =
-            BuildParams { image: Some((size, size)), eye_n, beams: true, ..BuildParams::default() };
+            BuildParams { image: Some((size, size)), eye_n, beams: !no_beams, ..BuildParams::default() };
         if let Some(n) = pilot_rays {
             params.pilot_rays = n;
         }

@@ -1,5 +1,5 @@
-// The BVH walk (`--accel bvh`): the baseline the candidate tables are timed against, and the
-// walk of the beams whose lists stay long (walk.wgsl). The
+// The BVH walk (`--accel bvh`): the baseline the candidate tables are timed against, and,
+// with `--accel cube`, the walk of the rays leaving surfaces (walk.wgsl). The
 // tree is flattened on the host into six threaded orders (src/layout/bvh.rs), one per major
 // direction axis and sign, each listing the nodes depth first with the nearer child first
 // and a `skip` index past every subtree. A ray takes the order of its direction and walks it

@@ -110,7 +110,8 @@ fn shade_local(id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>) -> 
 
 #if SHADOWS
 // The shadow rays of a hit on primitive `id` (reached with `weight`) of tile point `point`.
-// A walk of at most `params.shadow_inline` entries is traced at once; a longer one becomes a
+// A walk of at most `params.shadow_inline` entries (of the BVH: one ending within
+// `params.bvh_inline` iterations) is traced at once; a longer one becomes a
 // shadow job (kind RAY_SHADOW, `depth` the light, `weight` what it adds unless blocked) in
 // the pass's shadow queue, traced by the `shadow` kernel, so that no invocation walks more
 // than one long list (a job costs its write and read: on gears_s4, jobs for every walk

@@ -1,4 +1,5 @@
-// The table walk: line-by-line twin of src/coherence/walk.rs (keep them in sync). A ray
+// The table walk: line-by-line twin of src/coherence/walk.rs (keep them in sync), but for the
+// BVH branches, whose CPU counterpart is the reference's own BVH (reference/tables.rs). A ray
 // finds its list (the cell of its direction in the direction cube of the eye or the light it
 // is traced from; the beam of a ray leaving a surface) and walks it merged with the origin's
 // always-test list by increasing d_min, stopping once d_min passes the nearest hit so far; a
@@ -65,6 +66,13 @@ fn walk_next(w: ptr<function, Walk>) -> GpuEntry {
 
 fn walk_done(w: Walk) -> bool {
     return w.i >= w.iend && w.j >= w.jend;
+}
+
+// The loop iterations one pass spends on walk `w`: WALK_CHUNK, and half of it for a walk of
+// the BVH, whose iterations lavapipe's loop limit may count twice (layout::bvh::walk_bounds),
+// so that either kind of chunk counts as at most one (layout::budget::check_loop_budget).
+fn step_budget(w: Walk) -> u32 {
+    return select(WALK_CHUNK, WALK_CHUNK / 2u, w.iend == BVH_WALK);
 }
 
 // Continues the nearest-hit walk `w` for at most about `budget` loop iterations (an entry,
@@ -150,7 +158,7 @@ fn closest_step(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) 
             best = Closest(true, s.prim, PrimHit(true, s.t, s.b1, s.b2));
         }
     }
-    if walk_nearest(&w, &best, ray, t_max, skip, ray_kind, WALK_CHUNK) {
+    if walk_nearest(&w, &best, ray, t_max, skip, ray_kind, step_budget(w)) {
         walking = 0u;
         return Stepped(true, best);
     }
@@ -221,8 +229,9 @@ fn walk_any(w: ptr<function, Walk>, ray: Ray, t_max: f32, skip: u32, budget: u32
 
 // The walk that answers whether light `light` is blocked from `q`, the spawn origin on
 // primitive `from_prim`: the one shadow ray of `shadow_ray` (geometry.wgsl), walked in the
-// light's table when it is traced from the light, else in the beam it lies in (the fallback
-// origin where there is none). `empty`: nothing to walk (and `walk` unset).
+// light's table when it is traced from the light, else as a ray leaving the surface
+// (`start_walk`: the BVH, or the beam it lies in, or the fallback origin where there is
+// none). `empty`: nothing to walk (and `walk` unset).
 struct ShadowWalk {
     walk: Walk,
     ray: Ray,
@@ -255,8 +264,9 @@ fn shadow_walk(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32) ->
 }
 
 // Whether light `light` is blocked from `q` (see `shadow_walk`), when its walk has at most
-// `params.shadow_inline` entries (groups counted once): ANY_CLEAR or ANY_BLOCKED;
-// ANY_UNFINISHED, without walking, when it is longer.
+// `params.shadow_inline` entries (groups counted once), or for a walk of the BVH ends within
+// `params.bvh_inline` loop iterations: ANY_CLEAR or ANY_BLOCKED; ANY_UNFINISHED when it is
+// longer (a list without walking it).
 fn occluded_short(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> u32 {
     let sw = shadow_walk(q, to_light, light, from_prim);
     if sw.empty {
@@ -288,7 +298,7 @@ fn occluded_step(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, 
         let s = walk_state;
         w = Walk(s.i, s.iend, s.j, s.jend);
     }
-    let r = note_blocker(sw, walk_any(&w, sw.ray, sw.t_max, skip, WALK_CHUNK));
+    let r = note_blocker(sw, walk_any(&w, sw.ray, sw.t_max, skip, step_budget(w)));
     walking = select(0u, 1u, r == ANY_UNFINISHED);
     walk_state = WalkState(w.i, w.iend, w.j, w.jend, NO_ID, 0.0, 0.0, 0.0);
     return r;

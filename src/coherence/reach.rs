@@ -18,6 +18,9 @@ pub struct WalkBounds {
     pub mean_list: f64,
     /// Whether some ray of the render walks the fallback origin (every primitive).
     pub fallback_reachable: bool,
+    /// Whether a pass may walk the tables and the BVH (rays leaving surfaces) side by side:
+    /// the shadow jobs of a light with a table and of one without.
+    pub mixed: bool,
 }
 
 /// Loop iterations a walk over `entries[a..b]` may take: one per entry, plus the members of
@@ -63,6 +66,7 @@ impl WalkBounds {
             worst_shadow: self.worst_shadow.max(other.worst_shadow),
             mean_list: self.mean_list.max(other.mean_list),
             fallback_reachable: self.fallback_reachable,
+            mixed: true,
         }
     }
 
@@ -96,7 +100,8 @@ impl WalkBounds {
             b.worst_closest = b.worst_closest.max(walk_cost(flat, n.a, n.b));
             leaves += 1;
         }
-        // Shadow rays from a light without a table use the beams.
+        // Shadow rays from a light without a table use the beams (without beams, the BVH:
+        // `WalkBounds::or`).
         if flat.light_origin.contains(&NO_ORIGIN) {
             b.worst_shadow = b.worst_shadow.max(b.worst_closest);
         }

@@ -1,5 +1,6 @@
-//! The scene's buffers on the GPU: the packed scene and, with `--accel cube`, the flattened
-//! tables, or with `--accel bvh` the flattened BVH (uploaded once), and the kernels' outputs
+//! The scene's buffers on the GPU: the packed scene and, with `--accel cube` or `beams`, the
+//! flattened tables (with `cube` and rays leaving surfaces, the flattened BVH too), or with
+//! `--accel bvh` the flattened BVH (uploaded once), and the kernels' outputs
 //! and the wavefront's queues (sized for a tile), with their one bind group.
 
 use super::GpuContext;

@@ -188,7 +188,7 @@ impl GpuRenderer {
             None => self.tables(scene, opts, variant, &mut packed)?.map(TableSet::Built),
             Some(_) if !variant.tables() => {
                 return Err(Error::Options(format!(
-                    "stored tables are for --accel cube (or auto); this render traces none (--accel {})",
+                    "stored tables are for --accel cube, beams or auto; this render traces none (--accel {})",
                     variant.queries.name()
                 )))
             }

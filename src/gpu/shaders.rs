@@ -7,7 +7,7 @@
 //! [`Variant`]: `#include "shared/file.wgsl"` pastes a file (once), and `#if NAME` / `#else` /
 //! `#endif` (nestable) keep or drop lines by the variant's flags `SHADOWS`, `REFLECTION`,
 //! `REFRACTION`, `TEXTURES` and `EMISSION`, `SURFACE_RAYS` (reflection or shadows: rays
-//! leave surfaces, and the tables' beams classify them), and `TABLES`, `BVH` and `BRUTE`, of which exactly
+//! leave surfaces, and the BVH or the tables' beams take them), and `TABLES`, `BVH` and `BRUTE`, of which exactly
 //! one is set: the ray queries, the candidate-table walk of `shared/walk.wgsl`, the BVH walk of
 //! `shared/bvh.wgsl` or the brute force of `shared/brute.wgsl`. The table walk includes the
 //! BVH walk with `SURFACE_RAYS`: rays leaving surfaces walk the BVH when the tables have no

@@ -96,7 +96,14 @@ pub fn check_loop_budget(scene: &Scene, walks: Option<&WalkBounds>, max_depth: O
             let group = GROUP_SIZE as u64;
             let chunk = chunk_iterations(scene);
             let inline = lights * shadow.min(per_test * shadow_inline(scene) as u64 * (1 + group));
-            closest.max(shadow).min(chunk) + inline
+            let pass = closest.max(shadow).min(chunk) + inline;
+            // A shadow pass may run a chunk of a table walk and one of a BVH walk (half as
+            // many iterations, which lavapipe may count twice) in one SIMD vector.
+            if walks.is_some_and(|t| t.mixed) {
+                pass.max(2 * chunk)
+            } else {
+                pass
+            }
         }
         None => eye,
     };

@@ -69,6 +69,7 @@ impl GpuBvh {
             worst_shadow: worst,
             mean_list: 4.0 * depth + 2.0 * bvh::MAX_LEAF as f64,
             fallback_reachable: false,
+            mixed: false,
         }
     }
 }

@@ -32,7 +32,8 @@ pub struct Packed {
     pub texels: Vec<u32>,
     /// The camera part of [`Params`], with background, ambient and counts.
     pub params: Params,
-    /// `--accel bvh`: the BVH over these primitives ([`Packed::with_bvh`]).
+    /// `--accel bvh`, or `cube` when rays leave surfaces: the BVH over these primitives
+    /// ([`Packed::with_bvh`]).
     pub bvh: Option<GpuBvh>,
 }
 

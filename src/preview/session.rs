@@ -16,15 +16,15 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use crate::coherence::FlatTables;
-use crate::coherence::Tables;
+use crate::coherence::reach::WalkBounds;
+use crate::coherence::{BuildParams, FlatTables, Tables};
 use crate::error::{Error, Result};
 use crate::gpu::buffers::check_limits;
 use crate::gpu::kernels::compute_pipeline;
 use crate::gpu::schedule::{Pacing, Pipelines, Progress, Schedule, WavePlan};
 use crate::gpu::shaders::{Kernel, Queries, Variant};
 use crate::gpu::{self, GpuRenderer, SceneBuffers};
-use crate::job::{grid_image, RenderOptions};
+use crate::job::{grid_image, AccelKind, RenderOptions};
 use crate::layout::budget::{retry_passes, table_params, tile_points, MAX_DEPTH, TESTS_PER_DISPATCH};
 use crate::layout::{job_params, pack, Packed, Params};
 use crate::output::Image;
@@ -110,6 +110,8 @@ pub struct Session {
     queries: Queries,
     /// The direction-cube tables (`--accel cube`, the default), or `None`.
     tables: Option<Tables>,
+    /// How long the kernels' walks may be (`None`: brute force), for the passes a depth takes.
+    walks: Option<WalkBounds>,
     buffers: SceneBuffers,
     /// Params of the whole image (camera, sizes, sampling); tiles fill in the rest.
     base: Params,
@@ -198,6 +200,7 @@ impl Session {
             pipelines,
             queries: all.queries,
             tables,
+            walks,
             buffers,
             grid,
             accum,
@@ -277,13 +280,18 @@ impl Session {
             // and uploaded with the re-centred scene.
             packed = pack(&self.scene, w, h, self.opts.spawn);
             let all = Variant::for_effects(self.scene.effects(), MAX_DEPTH).with_queries(Queries::Tables);
-            let params = table_params(&self.scene, w, h, self.opts.max_depth, all.effects(), self.opts.spawn);
+            let params = BuildParams {
+                eye_n: self.opts.eye_cells,
+                beams: self.opts.accel == AccelKind::Beams,
+                ..table_params(&self.scene, w, h, self.opts.max_depth, all.effects(), self.opts.spawn)
+            };
             let eye_only = match tables.rebuild_eye(&self.scene, &params) {
                 Ok(eye_only) => eye_only,
                 Err(e) => {
                     // Without tables the session falls back to brute force.
                     let brute = variant(&self.scene, self.toggles, self.opts.max_depth, Queries::Brute);
                     self.queries = Queries::Brute;
+                    self.walks = None;
                     self.buffers = self.upload(&mut packed, None)?;
                     self.use_kernel(brute)?;
                     self.rebind();
@@ -292,8 +300,8 @@ impl Session {
             };
             gpu::point_at(&mut packed.params, &tables.flat);
             gpu::add_surface_bvh(&mut packed, &self.scene, &tables.flat, &params);
-            let walks = gpu::walk_bounds(Some(&tables.walks), &packed);
-            self.gpu.check_loop_budget(&self.scene, walks.as_ref(), Some(MAX_DEPTH))?;
+            self.walks = gpu::walk_bounds(Some(&tables.walks), &packed);
+            self.gpu.check_loop_budget(&self.scene, self.walks.as_ref(), Some(MAX_DEPTH))?;
             log::debug!("tables for the new eye in {:.3} s (eye table only: {eye_only})", tables.build_s);
             self.buffers = self.upload(&mut packed, Some(&tables.flat))?;
             self.tables = Some(tables);
@@ -301,9 +309,8 @@ impl Session {
         } else if self.queries == Queries::Bvh {
             // The BVH is rebuilt over the re-centred scene (in milliseconds) and uploaded with it.
             packed = pack(&self.scene, w, h, self.opts.spawn).with_bvh(&self.scene);
-            if let Some(b) = &packed.bvh {
-                self.gpu.check_loop_budget(&self.scene, Some(&b.walk_bounds()), Some(MAX_DEPTH))?;
-            }
+            self.walks = gpu::walk_bounds(None, &packed);
+            self.gpu.check_loop_budget(&self.scene, self.walks.as_ref(), Some(MAX_DEPTH))?;
             self.buffers = self.upload(&mut packed, None)?;
             self.rebind();
         } else {
@@ -370,9 +377,8 @@ impl Session {
         self.toggles = toggles;
         self.opts = opts;
         self.base.max_depth = max_depth;
-        let walks = self.tables.as_ref().map(|t| t.walks);
-        let plan =
-            WavePlan { max_depth, shadows: v.shadows, retries: retry_passes(&self.scene, walks.as_ref()) };
+        let retries = retry_passes(&self.scene, self.walks.as_ref());
+        let plan = WavePlan { max_depth, shadows: v.shadows, retries };
         self.schedule.set_plan(&self.gpu.ctx, plan);
         self.restart();
         Ok(())

@@ -35,6 +35,8 @@ pub struct TableAccel<'a> {
     eye: DVec3,
     /// What rays leaving surfaces walk when the tables have no beams.
     surface_bvh: Option<Bvh<'a>>,
+    /// Whether the beams were asked for (`--accel beams`).
+    beams: bool,
 }
 
 impl<'a> TableAccel<'a> {
@@ -50,7 +52,7 @@ impl<'a> TableAccel<'a> {
         let params = BuildParams { image: Some((width, height)), max_depth, beams, ..BuildParams::default() };
         let tables = coherence::build(scene, &params)?;
         let surface_bvh = tables.flat.surface_bvh().then(|| Bvh::new(&scene.primitives));
-        Ok(TableAccel { prims: &scene.primitives, tables, eye: scene.camera.eye, surface_bvh })
+        Ok(TableAccel { prims: &scene.primitives, tables, eye: scene.camera.eye, surface_bvh, beams })
     }
 
     /// The tables as built (for statistics).
@@ -108,10 +110,10 @@ impl<'a> TableAccel<'a> {
 
 impl Accel for TableAccel<'_> {
     fn name(&self) -> &'static str {
-        if self.tables.flat.surface_bvh() {
-            "cube"
-        } else {
+        if self.beams {
             "beams"
+        } else {
+            "cube"
         }
     }
 
