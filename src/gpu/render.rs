@@ -151,11 +151,14 @@ impl GpuRenderer {
     /// stored table file must have been built with.
     pub fn build_params(scene: &Scene, opts: &RenderOptions, aov: bool) -> Option<BuildParams> {
         let variant = Self::job_variant(scene, opts, aov);
-        variant.tables().then(|| {
-            let p =
-                table_params(scene, opts.width, opts.height, opts.max_depth, variant.effects(), opts.spawn);
-            BuildParams { eye_n: opts.eye_cells, beams: opts.accel == AccelKind::Beams, ..p }
-        })
+        variant.tables().then(|| Self::variant_build_params(scene, opts, variant))
+    }
+
+    /// The parameters of the tables for the kernels of `variant` (all its effects) with
+    /// `opts`: the one place that turns render options into a table build.
+    pub fn variant_build_params(scene: &Scene, opts: &RenderOptions, variant: Variant) -> BuildParams {
+        let p = table_params(scene, opts.width, opts.height, opts.max_depth, variant.effects(), opts.spawn);
+        BuildParams { eye_n: opts.eye_cells, beams: opts.accel == AccelKind::Beams, ..p }
     }
 
     /// What both renders do first: check the options, pick and compile the kernel, then
@@ -194,13 +197,10 @@ impl GpuRenderer {
             }
             Some(t) => {
                 t.flat.check_scene(scene.primitives.len(), scene.lights.len())?;
-                let effects =
-                    Self::build_params(scene, opts, aov).and_then(|p| p.effects).unwrap_or(scene.effects());
-                let walks = WalkBounds::of(scene, &t.flat, effects);
+                let params = Self::variant_build_params(scene, opts, variant);
+                let walks = WalkBounds::of(scene, &t.flat, params.effects.unwrap_or(scene.effects()));
                 point_at(&mut packed.params, &t.flat);
-                if let Some(p) = Self::build_params(scene, opts, aov) {
-                    add_surface_bvh(&mut packed, scene, &t.flat, &p);
-                }
+                add_surface_bvh(&mut packed, scene, &t.flat, &params);
                 Some(TableSet::Stored(t, walks))
             }
         };
@@ -219,9 +219,7 @@ impl GpuRenderer {
         if !variant.tables() {
             return Ok(None);
         }
-        let params =
-            table_params(scene, opts.width, opts.height, opts.max_depth, variant.effects(), opts.spawn);
-        let params = BuildParams { eye_n: opts.eye_cells, beams: opts.accel == AccelKind::Beams, ..params };
+        let params = Self::variant_build_params(scene, opts, variant);
         let t = coherence::build(scene, &params)?;
         log::info!(
             "tables: {} origins, {} entries, longest lists {} (nearest) {} (shadow), fallback reachable: {}",

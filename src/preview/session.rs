@@ -17,15 +17,15 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use crate::coherence::reach::WalkBounds;
-use crate::coherence::{BuildParams, FlatTables, Tables};
+use crate::coherence::{FlatTables, Tables};
 use crate::error::{Error, Result};
 use crate::gpu::buffers::check_limits;
 use crate::gpu::kernels::compute_pipeline;
 use crate::gpu::schedule::{Pacing, Pipelines, Progress, Schedule, WavePlan};
 use crate::gpu::shaders::{Kernel, Queries, Variant};
 use crate::gpu::{self, GpuRenderer, SceneBuffers};
-use crate::job::{grid_image, AccelKind, RenderOptions};
-use crate::layout::budget::{retry_passes, table_params, tile_points, MAX_DEPTH, TESTS_PER_DISPATCH};
+use crate::job::{grid_image, RenderOptions};
+use crate::layout::budget::{retry_passes, tile_points, MAX_DEPTH, TESTS_PER_DISPATCH};
 use crate::layout::{job_params, pack, Packed, Params};
 use crate::output::Image;
 use crate::scene::{Camera, Effects, Scene, Transfer};
@@ -280,11 +280,7 @@ impl Session {
             // and uploaded with the re-centred scene.
             packed = pack(&self.scene, w, h, self.opts.spawn);
             let all = Variant::for_effects(self.scene.effects(), MAX_DEPTH).with_queries(Queries::Tables);
-            let params = BuildParams {
-                eye_n: self.opts.eye_cells,
-                beams: self.opts.accel == AccelKind::Beams,
-                ..table_params(&self.scene, w, h, self.opts.max_depth, all.effects(), self.opts.spawn)
-            };
+            let params = GpuRenderer::variant_build_params(&self.scene, &self.opts, all);
             let eye_only = match tables.rebuild_eye(&self.scene, &params) {
                 Ok(eye_only) => eye_only,
                 Err(e) => {
