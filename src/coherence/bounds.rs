@@ -103,11 +103,15 @@ pub struct TriEdges {
     /// Distance from the origin sphere's centre to the plane.
     h: f64,
     r: f64,
+    /// sin and cos of the angular widening δ the tests allow for.
+    sin_d: f64,
+    cos_d: f64,
 }
 
 impl TriEdges {
-    /// `None` when the sphere `(c, r)` touches or straddles the plane (within `margin`).
-    pub fn new(c: DVec3, r: f64, v: &[DVec3; 3], margin: f64) -> Option<TriEdges> {
+    /// `None` when the sphere `(c, r)` touches or straddles the plane (within `margin`). The
+    /// tests widen every cell by `delta` radians.
+    pub fn new(c: DVec3, r: f64, v: &[DVec3; 3], margin: f64, delta: f64) -> Option<TriEdges> {
         let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize();
         let h = n.dot(c - v[0]);
         if !(h.abs() > r + margin) {
@@ -130,31 +134,38 @@ impl TriEdges {
             toward: -sigma * n,
             h: h.abs(),
             r,
+            sin_d: delta.sin(),
+            cos_d: delta.cos(),
         })
     }
 
-    /// True when some ray from the sphere with a direction within `delta` of the cell may hit
+    /// True when some ray from the sphere with a direction within δ of the cell may hit
     /// the triangle (each edge and the plane side separately: conservative).
-    pub fn meets(&self, cell: &CellCone, delta: f64) -> bool {
-        let sd = delta.sin();
-        let toward = cell.corners.iter().any(|w| self.toward.dot(*w) >= -sd * w.length());
+    pub fn meets(&self, cell: &CellCone) -> bool {
+        let sd = self.sin_d;
+        let toward = (0..4).any(|k| self.toward.dot(cell.corners[k]) >= -sd * cell.corner_len[k]);
         if !toward {
             return false;
         }
         (0..3).all(|e| {
-            cell.corners.iter().any(|w| {
-                let wl = w.length();
+            cell.corners.iter().zip(cell.corner_len).any(|(w, wl)| {
                 self.g[e].dot(*w) + self.r * self.k[e].cross(*w).length()
                     >= -sd * wl * (self.g_len[e] + self.r * self.k_len[e])
             })
         })
     }
 
-    /// Lower bound on the distance to the triangle's plane along directions within `delta`
+    /// Lower bound on the distance to the triangle's plane along directions within δ
     /// of the cell: `(h − r) / max(w·n)` over the cell.
-    pub fn plane_dmin(&self, cell: &CellCone, delta: f64) -> f64 {
-        let ang = self.toward.dot(cell.m).clamp(-1.0, 1.0).acos();
-        let cos_max = (ang - cell.beta - delta).max(0.0).cos();
+    pub fn plane_dmin(&self, cell: &CellCone) -> f64 {
+        // cos(max(0, ang − b)) with ang = angle(toward, m), b = β + δ, without an acos:
+        // cos(ang − b) = cos ang·cos b + sin ang·sin b where ang > b, else 1. Raised by
+        // 1e-12 against rounding: a larger cosine only lowers the bound.
+        let ca = self.toward.dot(cell.m).clamp(-1.0, 1.0);
+        let sa = (1.0 - ca * ca).max(0.0).sqrt();
+        let cb = cell.cos_b * self.cos_d - cell.sin_b * self.sin_d;
+        let sb = cell.sin_b * self.cos_d + cell.cos_b * self.sin_d;
+        let cos_max = if sb >= 0.0 && ca < cb { ((ca * cb + sa * sb) * (1.0 + 1e-12)).min(1.0) } else { 1.0 };
         if cos_max > 1e-9 {
             (self.h - self.r) / cos_max
         } else {
@@ -164,11 +175,10 @@ impl TriEdges {
 
     /// When every ray from the sphere with a direction within `delta` of the cell hits the
     /// triangle, an upper bound on the hit distance.
-    pub fn covers(&self, cell: &CellCone, delta: f64) -> Option<f64> {
-        let sd = delta.sin();
+    pub fn covers(&self, cell: &CellCone) -> Option<f64> {
+        let sd = self.sin_d;
         for e in 0..3 {
-            for w in &cell.corners {
-                let wl = w.length();
+            for (w, wl) in cell.corners.iter().zip(cell.corner_len) {
                 let lo = self.g[e].dot(*w)
                     - self.r * self.k[e].cross(*w).length()
                     - sd * wl * (self.g_len[e] + self.r * self.k_len[e]);
@@ -196,7 +206,6 @@ pub struct ArcBound {
     n: DVec3,
     cos_t: f64,
     sin_t: f64,
-    theta: f64,
 }
 
 impl ArcBound {
@@ -215,7 +224,7 @@ impl ArcBound {
         let e1 = (p1 - c).normalize();
         let x = e0.cross(e1);
         let n = if x.length() > 1e-9 { x.normalize() } else { DVec3::ZERO };
-        Some(ArcBound { e0, e1, n, cos_t: theta.cos(), sin_t: theta.sin(), theta })
+        Some(ArcBound { e0, e1, n, cos_t: theta.cos(), sin_t: theta.sin() })
     }
 
     /// Cosine of the angular distance from unit `m` to the arc.
@@ -239,7 +248,8 @@ impl ArcBound {
 
     /// True when every direction of the cell is within θ of the arc.
     pub fn contains(&self, cell: &CellCone) -> bool {
-        if cell.beta > self.theta {
+        // β > θ
+        if cell.cos_b < self.cos_t {
             return false;
         }
         // cos(θ − β) = cosθ·cosβ + sinθ·sinβ
@@ -248,7 +258,8 @@ impl ArcBound {
 
     /// True when the widened bound meets the cell (angle(m, arc) ≤ θ + β).
     pub fn meets(&self, cell: &CellCone) -> bool {
-        if self.theta + cell.beta >= std::f64::consts::PI {
+        // θ + β ≥ π, as cosines: cos β ≤ cos(π − θ).
+        if cell.cos_b <= -self.cos_t {
             return true;
         }
         self.cos_dist(cell.m) >= self.cos_t * cell.cos_b - self.sin_t * cell.sin_b
@@ -290,7 +301,7 @@ mod tests {
             let r = rng(&mut s) * 0.3;
             let base = unit(&mut s) * (1.0 + rng(&mut s) * 3.0);
             let v = [base + unit(&mut s) * 1.5, base + unit(&mut s) * 1.5, base + unit(&mut s) * 1.5];
-            let Some(te) = TriEdges::new(c, r, &v, 0.0) else { continue };
+            let Some(te) = TriEdges::new(c, r, &v, 0.0, 1e-6) else { continue };
             for _ in 0..50 {
                 let p = c + unit(&mut s) * r * rng(&mut s).sqrt();
                 let (a, b) = (rng(&mut s), rng(&mut s));
@@ -299,14 +310,14 @@ mod tests {
                 let w = (q - p).normalize();
                 let [face, iu, iv] = cube_face_cell(w.as_vec3(), n);
                 let cell = cell_cone(face as usize, iu, iv, n);
-                assert!(te.meets(&cell, 1e-6), "edge bound missed a hitting direction");
+                assert!(te.meets(&cell), "edge bound missed a hitting direction");
             }
             // Covered cells: rays from sampled origin points through sampled cell directions hit.
             for face in 0..6 {
                 for iv in 0..n {
                     for iu in 0..n {
                         let cell = cell_cone(face, iu, iv, n);
-                        if let Some(t_far) = te.covers(&cell, 1e-6) {
+                        if let Some(t_far) = te.covers(&cell) {
                             for _ in 0..8 {
                                 let p = c + unit(&mut s) * r * rng(&mut s).sqrt();
                                 let u = edge_coord(iu, n) + rng(&mut s) * 2.0 / n as f64;

@@ -34,16 +34,23 @@ pub fn edge_coord(k: u32, n: u32) -> f64 {
     -1.0 + 2.0 * k as f64 / n as f64
 }
 
-/// A cell's bounding cone: unit centre direction and the cosine/sine of the largest angle to
-/// its corners. Also the four corners, unnormalised (on the face plane).
+/// A cell's bounding cone: unit centre direction and the cosine/sine of the largest angle β
+/// to its corners. Also the four corners, unnormalised (on the face plane), and their lengths.
 #[derive(Clone, Copy, Debug)]
 pub struct CellCone {
     pub m: DVec3,
-    /// Half-angle β of the bounding cone.
-    pub beta: f64,
     pub cos_b: f64,
     pub sin_b: f64,
     pub corners: [DVec3; 4],
+    pub corner_len: [f64; 4],
+}
+
+impl CellCone {
+    /// Half-angle β of the bounding cone. Computed when asked (an `acos`): the cell tests
+    /// compare cosines instead.
+    pub fn beta(&self) -> f64 {
+        self.cos_b.acos()
+    }
 }
 
 /// Computes the geometry of cell `(iu, iv)` on `face` of an `n`-cube.
@@ -60,8 +67,9 @@ pub fn region_cone(face: usize, r: [u32; 4], n: u32) -> CellCone {
     let m = face_dir(face, 0.5 * (u0 + u1), 0.5 * (v0 + v1)).normalize();
     let corners =
         [face_dir(face, u0, v0), face_dir(face, u1, v0), face_dir(face, u1, v1), face_dir(face, u0, v1)];
-    let cos_b = corners.iter().map(|c| m.dot(c.normalize())).fold(1.0, f64::min).clamp(-1.0, 1.0);
-    CellCone { m, beta: cos_b.acos(), cos_b, sin_b: (1.0 - cos_b * cos_b).max(0.0).sqrt(), corners }
+    let corner_len = corners.map(|c| c.length());
+    let cos_b = (0..4).map(|k| m.dot(corners[k]) / corner_len[k]).fold(1.0, f64::min).clamp(-1.0, 1.0);
+    CellCone { m, cos_b, sin_b: (1.0 - cos_b * cos_b).max(0.0).sqrt(), corners, corner_len }
 }
 
 /// A cone of directions: unit axis and half-angle `theta` in [0, π].
@@ -95,7 +103,8 @@ impl Cone {
     /// which holds whenever the cap meets the cell (conservative).
     #[inline]
     pub fn meets(&self, cell: &CellCone) -> bool {
-        if self.theta + cell.beta >= std::f64::consts::PI {
+        // θ + β ≥ π, as cosines: cos β ≤ cos(π − θ).
+        if cell.cos_b <= -self.cos_t {
             return true;
         }
         // cos(θ + β) = cosθ·cosβ − sinθ·sinβ

@@ -98,11 +98,11 @@ pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
             }
             cells.raster(
                 p.cone.as_ref(),
-                |cell| p.meets(cell, delta),
-                |cell| p.inside(cell, delta),
+                |cell| p.meets(cell),
+                |cell| p.inside(cell),
                 |it, cell| {
-                    let dm = p.cell_dmin(cell, delta);
-                    let cover = p.covers(cell, delta).map(|t| t * (1.0 + 1e-6) + 2.0 * eps);
+                    let dm = p.cell_dmin(cell);
+                    let cover = p.covers(cell).map(|t| t * (1.0 + 1e-6) + 2.0 * eps);
                     for i in it {
                         if dm <= cut[i] {
                             recs.push(Rec { cell: i as u32, id: tid, dmin: dm });

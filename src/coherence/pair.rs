@@ -34,7 +34,7 @@ impl Pair {
             }
             Shape::Triangle { v } => {
                 p.cone = sphere_cone(c, r, t.center, t.radius + eps, delta);
-                p.edges = TriEdges::new(c, r + eps, &v, 0.0);
+                p.edges = TriEdges::new(c, r + eps, &v, 0.0, delta);
                 p.dmin = (point_triangle_distance(c, &v) - r - eps).max(0.0);
                 p.tri_cover = t.occluder;
             }
@@ -70,17 +70,17 @@ impl Pair {
     }
 
     #[inline]
-    pub fn meets(&self, cell: &CellCone, delta: f64) -> bool {
+    pub fn meets(&self, cell: &CellCone) -> bool {
         self.cone.is_none_or(|k| k.meets(cell))
-            && self.edges.as_ref().is_none_or(|e| e.meets(cell, delta))
+            && self.edges.as_ref().is_none_or(|e| e.meets(cell))
             && self.arc.as_ref().is_none_or(|a| a.meets(cell))
     }
 
     /// True when every cell of the block meets the bound (sufficient test).
     #[inline]
-    pub fn inside(&self, cell: &CellCone, delta: f64) -> bool {
+    pub fn inside(&self, cell: &CellCone) -> bool {
         if let Some(e) = &self.edges {
-            return e.covers(cell, delta).is_some();
+            return e.covers(cell).is_some();
         }
         if let Some(a) = &self.arc {
             return a.contains(cell);
@@ -90,16 +90,16 @@ impl Pair {
 
     /// Lower bound on the hit distance for directions of this cell.
     #[inline]
-    pub fn cell_dmin(&self, cell: &CellCone, delta: f64) -> f64 {
+    pub fn cell_dmin(&self, cell: &CellCone) -> f64 {
         match &self.edges {
-            Some(e) => self.dmin.max(e.plane_dmin(cell, delta)),
+            Some(e) => self.dmin.max(e.plane_dmin(cell)),
             None => self.dmin,
         }
     }
 
     /// Upper bound on the hit distance when every ray of the cell hits the target.
     #[inline]
-    pub fn covers(&self, cell: &CellCone, delta: f64) -> Option<f64> {
+    pub fn covers(&self, cell: &CellCone) -> Option<f64> {
         if let Some((k, t_far)) = &self.inner {
             if k.contains(cell) {
                 return Some(*t_far);
@@ -107,7 +107,7 @@ impl Pair {
         }
         if self.tri_cover {
             if let Some(e) = &self.edges {
-                return e.covers(cell, delta);
+                return e.covers(cell);
             }
         }
         None

@@ -163,7 +163,7 @@ fn may_meet(c: DVec3, r: f64, cb: DVec3, rb: f64, cell: &CellCone, delta: f64) -
     if !(d > 0.0 && s < 1.0 - 1e-9) {
         return true;
     }
-    let reach = s.asin() + delta + cell.beta;
+    let reach = s.asin() + delta + cell.beta();
     reach >= std::f64::consts::PI || v.dot(cell.m) >= d * reach.cos()
 }
 
@@ -467,13 +467,13 @@ impl<'a> Builder<'a> {
                 continue;
             }
             let pair = Pair::new_coarse(c, r, t, eps, delta, min_cover, NARROW);
-            if !pair.meets(&cell, delta) {
+            if !pair.meets(&cell) {
                 continue;
             }
-            if let Some(t) = pair.covers(&cell, delta) {
+            if let Some(t) = pair.covers(&cell) {
                 cut = cut.min(t * (1.0 + 1e-6) + 2.0 * eps);
             }
-            list.push(Cand { id: p.id, dmin: pair.cell_dmin(&cell, delta).max(p.dmin) });
+            list.push(Cand { id: p.id, dmin: pair.cell_dmin(&cell).max(p.dmin) });
         }
         list.retain(|c| c.dmin <= cut);
         list.sort_by(|a, b| a.dmin.total_cmp(&b.dmin).then(a.id.cmp(&b.id)));
@@ -517,14 +517,14 @@ impl<'a> Builder<'a> {
                     continue;
                 }
                 let pair = Pair::new_coarse(c, r, t, eps, delta, min_cover, NARROW);
-                if !pair.meets(&cell, delta) {
+                if !pair.meets(&cell) {
                     continue;
                 }
-                let dmin = pair.cell_dmin(&cell, delta);
+                let dmin = pair.cell_dmin(&cell);
                 if dmin > cut {
                     continue;
                 }
-                if let Some(t) = pair.covers(&cell, delta) {
+                if let Some(t) = pair.covers(&cell) {
                     cut = cut.min(t * (1.0 + 1e-6) + 2.0 * eps);
                 }
                 list.push(Cand { id, dmin });
@@ -617,7 +617,7 @@ impl<'a> Builder<'a> {
         let mut ts: Vec<f64> =
             rays.iter().map(|&r| (all[r as usize].ray.t as f64).min(self.scene_size)).collect();
         let t = *ts.select_nth_unstable_by(rays.len() / 2, f64::total_cmp).1;
-        let across = 2.0 * region_cone(node.face as usize, node.rect, BEAM_CELLS).beta * t;
+        let across = 2.0 * region_cone(node.face as usize, node.rect, BEAM_CELLS).beta() * t;
         let origin =
             self.occupied(node.lo, node.hi, &node.spawners).map_or(0.0, |(a, b)| (b - a).max_element());
         if across > origin {
