@@ -436,7 +436,6 @@ fn add_times(a: Times, b: &Times) -> Times {
         trace_s: a.trace_s + b.trace_s,
         gpu_s: sum(a.gpu_s, b.gpu_s),
         gpu_kernel_s: crate::stats::KernelTimes {
-            generate: sum(a.gpu_kernel_s.generate, b.gpu_kernel_s.generate),
             nearest: sum(a.gpu_kernel_s.nearest, b.gpu_kernel_s.nearest),
             shadow: sum(a.gpu_kernel_s.shadow, b.gpu_kernel_s.shadow),
             resolve: sum(a.gpu_kernel_s.resolve, b.gpu_kernel_s.resolve),

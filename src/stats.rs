@@ -170,12 +170,11 @@ pub struct Times {
     pub longest_dispatch_s: Option<f64>,
 }
 
-/// GPU time per kernel, seconds: the wavefront's (`generate` the eye rays, `nearest` the
-/// nearest-hit passes with the shading, `shadow` the shadow passes, `resolve` the colours)
-/// and the AOV pass's.
+/// GPU time per kernel, seconds: the wavefront's (`nearest` the nearest-hit passes with the
+/// shading, the first of them making the eye rays; `shadow` the shadow passes; `resolve` the
+/// colours) and the AOV pass's.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct KernelTimes {
-    pub generate: Option<f64>,
     pub nearest: Option<f64>,
     pub shadow: Option<f64>,
     pub resolve: Option<f64>,
@@ -328,13 +327,8 @@ impl Stats {
         if let Some(g) = self.time.gpu_s {
             o += &format!(", GPU kernels {g:.3} s");
             let k = &self.time.gpu_kernel_s;
-            let named = [
-                ("generate", k.generate),
-                ("nearest", k.nearest),
-                ("shadow", k.shadow),
-                ("resolve", k.resolve),
-                ("aov", k.aov),
-            ];
+            let named =
+                [("nearest", k.nearest), ("shadow", k.shadow), ("resolve", k.resolve), ("aov", k.aov)];
             for (name, t) in named {
                 if let Some(t) = t {
                     o += &format!(" ({name} {t:.3} s)");

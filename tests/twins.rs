@@ -169,6 +169,7 @@ fn rust_constants() -> BTreeMap<&'static str, Value> {
         ("QUEUE_SRETRY0", U32(QUEUE_SRETRY0)),
         ("QUEUE_SRETRY1", U32(QUEUE_SRETRY1)),
         ("QUEUE_COUNT", U32(QUEUE_COUNT)),
+        ("SRC_EYE", U32(SRC_EYE)),
         ("QUEUE_ARGS", U32(QUEUE_ARGS)),
         ("QUEUE_OVERFLOW", U32(QUEUE_OVERFLOW)),
         ("QUEUE_WORDS", U32(QUEUE_WORDS)),

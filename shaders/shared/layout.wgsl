@@ -188,7 +188,8 @@ struct Job {
 // What one pass of the wavefront kernels does, copied into `pass_desc` before its dispatch:
 // the queue it works through (`src`), where the rays it spawns go (`next`: secondary rays;
 // `shadow`: shadow rays whose walks are too long to trace inline; `retry`: rays whose walk
-// goes on in a later pass), and for `generate` the sample it starts.
+// goes on in a later pass), and the sample the wave traces. A `src` of SRC_EYE names the
+// tile's eye rays of that sample, made by the pass itself (the first pass of a wave).
 struct PassDesc {
     src: u32,
     next: u32,
@@ -211,6 +212,7 @@ const QUEUE_SHADOW: u32 = 4u;
 const QUEUE_SRETRY0: u32 = 5u;
 const QUEUE_SRETRY1: u32 = 6u;
 const QUEUE_COUNT: u32 = 7u;
+const SRC_EYE: u32 = 0xffffffffu;
 // `queues` holds the queues' lengths (words 0..QUEUE_COUNT), then each queue's indirect
 // dispatch arguments (x, y, z) from word QUEUE_ARGS + 3q, then a word set when a push found
 // its queue full (QUEUE_OVERFLOW): the host then runs the tile again with smaller waves.

@@ -36,13 +36,12 @@ pub struct GpuRenderer {
 }
 
 /// What a run over the grid returns: one `vec4<f32>` per grid point, the counters, the
-/// kernel time (in all and by kernel: generate, nearest, shadow, resolve or the single
-/// kernel), the warm-up (compilation) time and the longest submission.
+/// kernel time (in all and by kernel: nearest, shadow, resolve or the single kernel), the warm-up (compilation) time and the longest submission.
 struct RunOutput {
     values: Vec<[f32; 4]>,
     counters: Counters,
     gpu_s: Option<f64>,
-    kernel_s: Option<[f64; 4]>,
+    kernel_s: Option<[f64; 3]>,
     compile_s: f64,
     longest_submit_s: f64,
     longest_dispatch_s: Option<f64>,
@@ -54,13 +53,12 @@ impl RunOutput {
     fn times(&self, preprocess_s: f64, trace_s: f64, aov: bool, shadows: bool) -> stats::Times {
         let k = self.kernel_s;
         let kernel = if aov {
-            stats::KernelTimes { aov: k.map(|k| k[3]), ..Default::default() }
+            stats::KernelTimes { aov: k.map(|k| k[2]), ..Default::default() }
         } else {
             stats::KernelTimes {
-                generate: k.map(|k| k[0]),
-                nearest: k.map(|k| k[1]),
-                shadow: k.filter(|_| shadows).map(|k| k[2]),
-                resolve: k.map(|k| k[3]),
+                nearest: k.map(|k| k[0]),
+                shadow: k.filter(|_| shadows).map(|k| k[1]),
+                resolve: k.map(|k| k[2]),
                 aov: None,
             }
         };
@@ -422,7 +420,6 @@ impl GpuRenderer {
         let kernels = match get(Kernel::Aov) {
             Some(aov) => Pipelines::Single(aov),
             None => Pipelines::Wavefront {
-                generate: get(Kernel::Generate).expect("generate"),
                 nearest: get(Kernel::Nearest).expect("nearest"),
                 shadow: get(Kernel::Shadow),
                 resolve: get(Kernel::Resolve).expect("resolve"),

@@ -1,10 +1,11 @@
 //! The one dispatch schedule, shared by `render` and the preview: the wavefront kernels
 //! worked through a grid of points (pixels, or pixel corners with SPD sampling) tile by tile.
 //!
-//! A tile is a run of grid points. For each of its samples (a *wave*), `generate` puts the
-//! eye ray of every point into a queue; then, depth by depth, passes of `nearest` trace a
-//! queue of rays, add what their hits send to their points and push the rays the hits spawn
-//! into the next depth's queue, and passes of `shadow` trace the shadow rays too long to
+//! A tile is a run of grid points. For each of its samples (a *wave*), the first pass of
+//! `nearest` makes and traces the eye ray of every point (one invocation a point; a separate
+//! kernel writing them to a queue for it to read took 9 % of tetra_s6's kernel time); then,
+//! depth by depth, passes of `nearest` trace a queue of rays, add what their hits send to
+//! their points and push the rays the hits spawn into the next depth's queue, and passes of `shadow` trace the shadow rays too long to
 //! trace inline. A walk longer than a pass allows ([`crate::coherence::walk::WALK_CHUNK`]
 //! iterations: lavapipe ends an invocation's loops after 65535 iterations in all, and real
 //! GPUs kill long dispatches) goes into a retry queue, which the next pass of the same depth
@@ -30,7 +31,7 @@ use super::GpuContext;
 use crate::error::{Error, Result};
 use crate::layout::{
     Params, PassDesc, QUEUE_ARGS, QUEUE_COUNT, QUEUE_OVERFLOW, QUEUE_RAY0, QUEUE_RAY1, QUEUE_RETRY0,
-    QUEUE_RETRY1, QUEUE_SHADOW, QUEUE_SRETRY0, QUEUE_SRETRY1, QUEUE_WORDS, WORKGROUP,
+    QUEUE_RETRY1, QUEUE_SHADOW, QUEUE_SRETRY0, QUEUE_SRETRY1, QUEUE_WORDS, SRC_EYE, WORKGROUP,
 };
 
 /// How tiles are sized.
@@ -101,12 +102,7 @@ impl WavePlan {
     pub fn passes(&self, sample: u32) -> Vec<Pass> {
         let desc =
             |src, next, shadow, retry| PassDesc { src, next, shadow, retry, sample, ..PassDesc::default() };
-        let mut v = vec![Pass {
-            kernel: Kernel::Generate,
-            desc: desc(NO_QUEUE, QUEUE_RAY0, NO_QUEUE, NO_QUEUE),
-            resets: vec![QUEUE_RAY0],
-            over: None,
-        }];
+        let mut v = Vec::new();
         // Retry queues in turn; the last pass of a depth has none left.
         let retry =
             |r: u32, pair: [u32; 2]| if r == self.retries { NO_QUEUE } else { pair[(r % 2) as usize] };
@@ -115,7 +111,12 @@ impl WavePlan {
                 if depth % 2 == 1 { (QUEUE_RAY0, QUEUE_RAY1) } else { (QUEUE_RAY1, QUEUE_RAY0) };
             let pair = [QUEUE_RETRY0, QUEUE_RETRY1];
             for r in 0..=self.retries {
-                let from = if r == 0 { src } else { pair[((r - 1) % 2) as usize] };
+                // The first pass makes the eye rays itself, one per point of the tile.
+                let from = match r {
+                    0 if depth == 1 => SRC_EYE,
+                    0 => src,
+                    _ => pair[((r - 1) % 2) as usize],
+                };
                 let into = retry(r, pair);
                 let mut resets = if r == 0 { vec![next, QUEUE_SHADOW] } else { Vec::new() };
                 resets.extend((into != NO_QUEUE).then_some(into));
@@ -123,7 +124,7 @@ impl WavePlan {
                     kernel: Kernel::Nearest,
                     desc: desc(from, next, QUEUE_SHADOW, into),
                     resets,
-                    over: Some(from),
+                    over: (from != SRC_EYE).then_some(from),
                 });
             }
             if self.shadows {
@@ -194,8 +195,8 @@ pub struct Schedule {
     timed: bool,
     timer: Option<Timer>,
     gpu_s: f64,
-    /// Kernel time by kernel: generate, nearest, shadow, resolve.
-    kernel_s: [f64; 4],
+    /// Kernel time by kernel: nearest, shadow, resolve (or the single kernel).
+    kernel_s: [f64; 3],
     last_submit: Duration,
     longest_submit: Duration,
     /// The longest pass so far, seconds (from the timestamps).
@@ -208,10 +209,9 @@ pub struct Schedule {
 /// Index of a wavefront kernel in [`Schedule::kernel_s`].
 fn kernel_slot(k: Kernel) -> usize {
     match k {
-        Kernel::Generate => 0,
-        Kernel::Nearest => 1,
-        Kernel::Shadow => 2,
-        _ => 3,
+        Kernel::Nearest => 0,
+        Kernel::Shadow => 1,
+        _ => 2,
     }
 }
 
@@ -219,7 +219,6 @@ fn kernel_slot(k: Kernel) -> usize {
 /// run once over each tile (the `aov` kernel).
 pub enum Pipelines<'a> {
     Wavefront {
-        generate: &'a wgpu::ComputePipeline,
         nearest: &'a wgpu::ComputePipeline,
         /// `None` without shadows.
         shadow: Option<&'a wgpu::ComputePipeline>,
@@ -232,7 +231,6 @@ impl Pipelines<'_> {
     fn of(&self, k: Kernel) -> &wgpu::ComputePipeline {
         match (self, k) {
             (Pipelines::Single(p), _) => p,
-            (Pipelines::Wavefront { generate, .. }, Kernel::Generate) => generate,
             (Pipelines::Wavefront { nearest, .. }, Kernel::Nearest) => nearest,
             (Pipelines::Wavefront { shadow, .. }, Kernel::Shadow) => {
                 shadow.expect("a shadow pass runs only with shadows")
@@ -320,7 +318,7 @@ impl Schedule {
             timed,
             timer: None,
             gpu_s: 0.0,
-            kernel_s: [0.0; 4],
+            kernel_s: [0.0; 3],
             last_submit: Duration::ZERO,
             longest_submit: Duration::ZERO,
             longest_pass: 0.0,
@@ -386,9 +384,9 @@ impl Schedule {
         self.timer.as_ref().map(|_| self.gpu_s)
     }
 
-    /// Kernel time by kernel (generate, nearest, shadow, resolve; a single kernel counts as
-    /// resolve), when timed.
-    pub fn kernel_s(&self) -> Option<[f64; 4]> {
+    /// Kernel time by kernel (nearest, shadow, resolve; a single kernel counts as resolve),
+    /// when timed.
+    pub fn kernel_s(&self) -> Option<[f64; 3]> {
         self.timer.as_ref().map(|_| self.kernel_s)
     }
 
@@ -620,8 +618,11 @@ mod tests {
             WavePlan { max_depth: 16, shadows: false, retries: 1 },
         ] {
             let passes = plan.passes(7);
-            assert_eq!(passes[0].kernel, Kernel::Generate);
-            assert_eq!(passes[0].desc.sample, 7);
+            // The first pass makes the eye rays: one invocation per point, no queue read.
+            assert_eq!(passes[0].kernel, Kernel::Nearest);
+            assert_eq!((passes[0].desc.src, passes[0].over), (SRC_EYE, None));
+            assert!(passes.iter().all(|p| p.desc.sample == 7));
+            assert_eq!(passes.iter().filter(|p| p.desc.src == SRC_EYE).count(), 1);
             let nearest = passes.iter().filter(|p| p.kernel == Kernel::Nearest).count() as u32;
             let shadow = passes.iter().filter(|p| p.kernel == Kernel::Shadow).count() as u32;
             assert_eq!(nearest, plan.max_depth * (plan.retries + 1), "{plan:?}");

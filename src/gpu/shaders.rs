@@ -19,7 +19,6 @@ use crate::scene::Effects;
 
 /// The shader sources, by their path under `shaders/`.
 const SOURCES: &[(&str, &str)] = &[
-    ("generate.wgsl", include_str!("../../shaders/generate.wgsl")),
     ("nearest.wgsl", include_str!("../../shaders/nearest.wgsl")),
     ("shadow.wgsl", include_str!("../../shaders/shadow.wgsl")),
     ("resolve.wgsl", include_str!("../../shaders/resolve.wgsl")),
@@ -40,10 +39,8 @@ const SOURCES: &[(&str, &str)] = &[
 /// A kernel: its file `shaders/NAME.wgsl`, its entry point(s) and its pipeline share the name.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Kernel {
-    /// The wavefront's first pass: the eye rays of one sample of every point of a tile (see
-    /// `gpu::schedule`).
-    Generate,
-    /// Traces a queue of rays for their nearest hits and shades the hits.
+    /// Traces a queue of rays (or a tile's eye rays, which it makes: see `gpu::schedule`) for
+    /// their nearest hits and shades the hits.
     Nearest,
     /// Traces a queue of shadow rays (variants with shadows).
     Shadow,
@@ -58,20 +55,13 @@ pub enum Kernel {
 }
 
 impl Kernel {
-    pub const ALL: [Kernel; 7] = [
-        Kernel::Generate,
-        Kernel::Nearest,
-        Kernel::Shadow,
-        Kernel::Resolve,
-        Kernel::Aov,
-        Kernel::Accumulate,
-        Kernel::Display,
-    ];
+    pub const ALL: [Kernel; 6] =
+        [Kernel::Nearest, Kernel::Shadow, Kernel::Resolve, Kernel::Aov, Kernel::Accumulate, Kernel::Display];
 
     /// The wavefront kernels a render with `variant` runs (the shadow kernel only with
     /// shadows).
     pub fn wavefront(variant: Variant) -> Vec<Kernel> {
-        let mut k = vec![Kernel::Generate, Kernel::Nearest];
+        let mut k = vec![Kernel::Nearest];
         if variant.shadows {
             k.push(Kernel::Shadow);
         }
@@ -82,7 +72,6 @@ impl Kernel {
     /// The kernel's name: its file stem, entry point (compute kernels) and pipeline label.
     pub fn name(self) -> &'static str {
         match self {
-            Kernel::Generate => "generate",
             Kernel::Nearest => "nearest",
             Kernel::Shadow => "shadow",
             Kernel::Resolve => "resolve",
@@ -92,11 +81,11 @@ impl Kernel {
         }
     }
 
-    /// The variant `kernel` is compiled in for a render of `variant`: `generate` and
-    /// `resolve` trace nothing, so one module of each serves every variant.
+    /// The variant `kernel` is compiled in for a render of `variant`: `resolve` traces
+    /// nothing, so one module of it serves every variant.
     pub fn variant_of(self, variant: Variant) -> Variant {
         match self {
-            Kernel::Generate | Kernel::Resolve => Variant::default(),
+            Kernel::Resolve => Variant::default(),
             _ => variant,
         }
     }

@@ -199,8 +199,9 @@ pub struct Job {
 }
 
 /// One pass of the wavefront kernels (WGSL `PassDesc`, keep in sync with
-/// `shaders/shared/layout.wgsl`): the queue it works through, the queues the rays it spawns
-/// go to, and for `generate` the sample it starts.
+/// `shaders/shared/layout.wgsl`): the queue it works through ([`SRC_EYE`]: the tile's eye
+/// rays, made by the pass itself), the queues the rays it spawns go to, and the sample the
+/// wave traces.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
 pub struct PassDesc {
@@ -224,6 +225,9 @@ pub const QUEUE_SHADOW: u32 = 4;
 pub const QUEUE_SRETRY0: u32 = 5;
 pub const QUEUE_SRETRY1: u32 = 6;
 pub const QUEUE_COUNT: u32 = 7;
+/// [`PassDesc::src`] of the first pass of a wave: it traces the tile's eye rays, which it
+/// makes itself, instead of a queue's jobs (WGSL `SRC_EYE`).
+pub const SRC_EYE: u32 = u32::MAX;
 /// Words of the `queues` buffer: the lengths, from [`QUEUE_ARGS`] each queue's indirect
 /// dispatch arguments (x, y, z), and the overflow flag at [`QUEUE_OVERFLOW`].
 pub const QUEUE_ARGS: u32 = 8;

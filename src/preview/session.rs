@@ -426,7 +426,6 @@ impl Session {
         let base = Params { sample_first: sample, sample_end: sample + 1, ..self.base };
         let get = |k: Kernel| self.pipelines.iter().find(|p| p.0 == k).map(|p| p.1.as_ref());
         let kernels = Pipelines::Wavefront {
-            generate: get(Kernel::Generate).expect("generate"),
             nearest: get(Kernel::Nearest).expect("nearest"),
             shadow: get(Kernel::Shadow),
             resolve: get(Kernel::Resolve).expect("resolve"),
