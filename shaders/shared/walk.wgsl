@@ -90,36 +90,43 @@ fn walk_nearest(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, 
 #endif
     var left = budget;
     var best_t = select(t_max, (*best).hit.t, (*best).found);
+    // The members k..kend of the group entry being tested: they go through the same loop
+    // as the entries, so that the kernel holds one copy of `consider` (lavapipe runs a
+    // kernel with its code inlined twice markedly slower).
+    var k = 0u;
+    var kend = 0u;
     loop {
-        if walk_done(*w) {
-            break;
-        }
-        if left == 0u {
-            return false;
-        }
-        left -= 1u;
-        let e = walk_next(w);
-        if e.d_min > best_t {
-            break;
-        }
-        if (e.id & GROUP_BIT) != 0u {
-            let g = groups[e.id & ~GROUP_BIT];
-            count_bound(ray_kind);
-            if group_hit(g, ray, best_t) {
-                left -= min(left, g.count);
-                for (var k = g.first; k < g.first + g.count; k++) {
-                    let m = group_prims[k];
-                    if m != skip {
-                        best_t = consider(m, best, ray, t_max, ray_kind, best_t);
-                    }
-                }
+        var id: u32;
+        if k < kend {
+            id = group_prims[k];
+            k += 1u;
+        } else {
+            if walk_done(*w) {
+                break;
             }
-            continue;
+            if left == 0u {
+                return false;
+            }
+            left -= 1u;
+            let e = walk_next(w);
+            if e.d_min > best_t {
+                break;
+            }
+            if (e.id & GROUP_BIT) != 0u {
+                let g = groups[e.id & ~GROUP_BIT];
+                count_bound(ray_kind);
+                if group_hit(g, ray, best_t) {
+                    left -= min(left, g.count);
+                    k = g.first;
+                    kend = g.first + g.count;
+                }
+                continue;
+            }
+            id = e.id;
         }
-        if e.id == skip {
-            continue;
+        if id != skip {
+            best_t = consider(id, best, ray, t_max, ray_kind, best_t);
         }
-        best_t = consider(e.id, best, ray, t_max, ray_kind, best_t);
     }
     return true;
 }
@@ -181,42 +188,42 @@ fn walk_any(w: ptr<function, Walk>, ray: Ray, t_max: f32, skip: u32, budget: u32
     }
 #endif
     var left = budget;
+    // A group entry's members k..kend go through the same loop (see `walk_nearest`).
+    var k = 0u;
+    var kend = 0u;
     loop {
-        if walk_done(*w) {
-            break;
-        }
-        if left == 0u {
-            return ANY_UNFINISHED;
-        }
-        left -= 1u;
-        let e = walk_next(w);
-        if e.d_min >= t_max {
-            break;
-        }
-        if (e.id & GROUP_BIT) != 0u {
-            let g = groups[e.id & ~GROUP_BIT];
-            count_bound(RAY_SHADOW);
-            if group_hit(g, ray, t_max) {
-                left -= min(left, g.count);
-                for (var k = g.first; k < g.first + g.count; k++) {
-                    let m = group_prims[k];
-                    if m != skip {
-                        let p = prims[m];
-                        count_test(RAY_SHADOW, p.kind);
-                        let h = intersect_prim(p, ray, t_max);
-                        if h.ok {
-                            blocker_t = h.t;
-                            return ANY_BLOCKED;
-                        }
-                    }
-                }
+        var id: u32;
+        if k < kend {
+            id = group_prims[k];
+            k += 1u;
+        } else {
+            if walk_done(*w) {
+                break;
             }
+            if left == 0u {
+                return ANY_UNFINISHED;
+            }
+            left -= 1u;
+            let e = walk_next(w);
+            if e.d_min >= t_max {
+                break;
+            }
+            if (e.id & GROUP_BIT) != 0u {
+                let g = groups[e.id & ~GROUP_BIT];
+                count_bound(RAY_SHADOW);
+                if group_hit(g, ray, t_max) {
+                    left -= min(left, g.count);
+                    k = g.first;
+                    kend = g.first + g.count;
+                }
+                continue;
+            }
+            id = e.id;
+        }
+        if id == skip {
             continue;
         }
-        if e.id == skip {
-            continue;
-        }
-        let p = prims[e.id];
+        let p = prims[id];
         count_test(RAY_SHADOW, p.kind);
         let h = intersect_prim(p, ray, t_max);
         if h.ok {
