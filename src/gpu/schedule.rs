@@ -5,9 +5,9 @@
 //! `nearest` makes and traces the eye ray of every point (one invocation a point; a separate
 //! kernel writing them to a queue for it to read took 9 % of tetra_s6's kernel time); then,
 //! depth by depth, passes of `nearest` trace a queue of rays, add what their hits send to
-//! their points and push the rays the hits spawn into the next depth's queue, and passes of `shadow` trace the shadow rays too long to
-//! trace inline. A walk longer than a pass allows ([`crate::coherence::walk::WALK_CHUNK`]
-//! iterations: lavapipe ends an invocation's loops after 65535 iterations in all, and real
+//! their points and push the rays the hits spawn into the next depth's queue, and passes of
+//! `shadow` trace the shadow rays too long to trace inline. A walk longer than a pass allows
+//! ([`crate::coherence::walk::WALK_CHUNK`] iterations: lavapipe ends an invocation's loops after 65535 iterations in all, and real
 //! GPUs kill long dispatches) goes into a retry queue, which the next pass of the same depth
 //! works through. The queues' lengths stay on the GPU and drive indirect dispatches; the host
 //! encodes each wave's passes ahead ([`WavePlan::passes`]) and reads back once per tile: the
