@@ -5,6 +5,25 @@ use super::defs::OriginDef;
 use super::flat::{GpuEntry, OriginKind};
 use super::raster::Cells;
 
+/// A distance as a heap key (`BinaryHeap<Reverse<DistKey>>` pops the nearest first), ordered
+/// by `f64::total_cmp`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DistKey(pub f64);
+
+impl Eq for DistKey {}
+
+impl PartialOrd for DistKey {
+    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(o))
+    }
+}
+
+impl Ord for DistKey {
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        self.0.total_cmp(&o.0)
+    }
+}
+
 /// One origin's built table, before flattening.
 #[derive(Clone, Debug, Default)]
 pub struct OriginTable {

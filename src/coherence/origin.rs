@@ -12,23 +12,9 @@ use super::bounds::sphere_cone;
 use super::context::Ctx;
 use super::defs::{OriginDef, WIDE_THETA};
 use super::flat::{GpuEntry, OriginKind};
-use super::lists::{finish, store_dmin, OriginTable, Rec};
+use super::lists::{finish, store_dmin, DistKey, OriginTable, Rec};
 use super::pair::Pair;
 use super::raster::Cells;
-
-#[derive(PartialEq)]
-struct Key(f64);
-impl Eq for Key {}
-impl PartialOrd for Key {
-    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(o))
-    }
-}
-impl Ord for Key {
-    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
-        self.0.total_cmp(&o.0)
-    }
-}
 
 fn is_wide(p: &Pair) -> bool {
     p.cone.is_none_or(|k| k.theta > WIDE_THETA)
@@ -48,11 +34,11 @@ pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
     let mut wide: Vec<GpuEntry> = Vec::new();
     let (c, r) = (def.center, def.radius);
 
-    let mut heap: BinaryHeap<(Reverse<Key>, u32)> = BinaryHeap::new();
+    let mut heap: BinaryHeap<(Reverse<DistKey>, u32)> = BinaryHeap::new();
     if !ctx.bvh.nodes.is_empty() {
-        heap.push((Reverse(Key(0.0)), 0));
+        heap.push((Reverse(DistKey(0.0)), 0));
     }
-    while let Some((Reverse(Key(node_dmin)), ni)) = heap.pop() {
+    while let Some((Reverse(DistKey(node_dmin)), ni)) = heap.pop() {
         // A stop asked for: the build returns `Error::Interrupted` before using this table.
         if crate::interrupt::requested().is_some() {
             break;
@@ -83,7 +69,7 @@ pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
             for ch in [node.first, node.first + 1] {
                 let n = ctx.bvh.nodes[ch as usize];
                 let d = ((n.center - c).length() - r - n.radius - eps).max(0.0);
-                heap.push((Reverse(Key(d)), ch));
+                heap.push((Reverse(DistKey(d)), ch));
             }
             continue;
         }

@@ -42,7 +42,7 @@ use crate::coherence::cells::{region_cone, CellCone};
 use crate::coherence::context::Ctx;
 use crate::coherence::cube::cube_face_cell;
 use crate::coherence::flat::{GpuBeamNode, GpuEntry, BEAM_CELLS, BEAM_DEPTH};
-use crate::coherence::lists::store_dmin;
+use crate::coherence::lists::{store_dmin, DistKey};
 use crate::coherence::pair::Pair;
 
 /// A split gains when it leaves the rays at most this fraction of the candidates they tested.
@@ -136,21 +136,6 @@ struct Classified {
 /// The number of candidates of `list` (sorted by `dmin`) a walk to `t` tests at most.
 fn cost(list: &[Cand], t: f32) -> usize {
     list.partition_point(|c| c.dmin <= t as f64)
-}
-
-/// A distance as a heap key.
-#[derive(PartialEq)]
-struct Key(f64);
-impl Eq for Key {}
-impl PartialOrd for Key {
-    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(o))
-    }
-}
-impl Ord for Key {
-    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
-        self.0.total_cmp(&o.0)
-    }
 }
 
 /// Whether the bounding sphere `(cb, rb)` of a target may be seen from the origin sphere
@@ -494,9 +479,9 @@ impl<'a> Builder<'a> {
         let min_cover = 0.5 * cell.sin_b;
         let mut cut = f64::INFINITY;
         let mut list = Vec::new();
-        let mut heap: BinaryHeap<(Reverse<Key>, u32)> = BinaryHeap::new();
-        heap.push((Reverse(Key(0.0)), 0));
-        while let Some((Reverse(Key(d)), ni)) = heap.pop() {
+        let mut heap: BinaryHeap<(Reverse<DistKey>, u32)> = BinaryHeap::new();
+        heap.push((Reverse(DistKey(0.0)), 0));
+        while let Some((Reverse(DistKey(d)), ni)) = heap.pop() {
             if d > cut {
                 break;
             }
@@ -507,7 +492,10 @@ impl<'a> Builder<'a> {
             if node.count == 0 {
                 for ch in [node.first, node.first + 1] {
                     let n = bvh.nodes[ch as usize];
-                    heap.push((Reverse(Key(((n.center - c).length() - r - n.radius - eps).max(0.0))), ch));
+                    heap.push((
+                        Reverse(DistKey(((n.center - c).length() - r - n.radius - eps).max(0.0))),
+                        ch,
+                    ));
                 }
                 continue;
             }
