@@ -54,14 +54,8 @@ fn closest_step(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) 
 // `blocked_at` as its distance from the shadow ray's spawn origin (`q_t` along the ray).
 fn brute_any_range(ray: Ray, t_max: f32, q_t: f32, skip: u32, first: u32, end: u32) -> bool {
     for (var id = first; id < end; id++) {
-        if id == skip {
-            continue;
-        }
-        let p = prims[id];
-        count_test(RAY_SHADOW, p.kind);
-        let h = intersect_prim(p, ray, t_max);
-        if h.ok {
-            blocked_at = abs(h.t - q_t);
+        if id != skip && blocks(id, ray, t_max) {
+            blocked_at = abs(blocker_t - q_t);
             return true;
         }
     }

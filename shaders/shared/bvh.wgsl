@@ -178,14 +178,7 @@ fn bvh_any(w: ptr<function, BvhWalk>, ray: Ray, t_max: f32, skip: u32, budget: u
         if (*w).k < (*w).kend {
             let id = bvh_prims[(*w).k];
             (*w).k += 1u;
-            if id == skip {
-                continue;
-            }
-            let p = prims[id];
-            count_test(RAY_SHADOW, p.kind);
-            let h = intersect_prim(p, ray, t_max);
-            if h.ok {
-                blocker_t = h.t;
+            if id != skip && blocks(id, ray, t_max) {
                 return ANY_BLOCKED;
             }
             continue;

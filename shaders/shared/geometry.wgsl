@@ -280,6 +280,18 @@ fn max3(v: vec3<f32>) -> f32 {
 // the CPU walkers' `hits` closures keep it on that side).
 var<private> blocker_t: f32;
 
+// Tests primitive `id` for an any-hit query (a shadow ray): true when it is hit at
+// 0 < t < t_max, that t noted in `blocker_t`. The any-hit twin of `consider`.
+fn blocks(id: u32, ray: Ray, t_max: f32) -> bool {
+    let p = prims[id];
+    count_test(RAY_SHADOW, p.kind);
+    let h = intersect_prim(p, ray, t_max);
+    if h.ok {
+        blocker_t = h.t;
+    }
+    return h.ok;
+}
+
 // The shadow ray towards light `light` from `q`, the spawn origin of a hit (direction
 // `to_light`): one ray for every accelerator, so that the tables and brute force answer
 // alike. A positional light's ray is traced light-buffer style, from the light towards `q`

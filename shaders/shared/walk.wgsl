@@ -225,14 +225,7 @@ fn walk_any(w: ptr<function, Walk>, ray: Ray, t_max: f32, skip: u32, budget: u32
             }
             id = e.id;
         }
-        if id == skip {
-            continue;
-        }
-        let p = prims[id];
-        count_test(RAY_SHADOW, p.kind);
-        let h = intersect_prim(p, ray, t_max);
-        if h.ok {
-            blocker_t = h.t;
+        if id != skip && blocks(id, ray, t_max) {
             return ANY_BLOCKED;
         }
     }
