@@ -186,7 +186,8 @@ pub fn upload(
     let counters = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("counters"),
         size: COUNTER_BYTES,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        // COPY_DST: a tile that runs again restores the counts saved before it.
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
     let jobs = device.create_buffer(&wgpu::BufferDescriptor {
