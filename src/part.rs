@@ -450,5 +450,9 @@ fn add_times(a: Times, b: &Times) -> Times {
             (Some(x), Some(y)) => Some(x.max(y)),
             (x, y) => x.or(y),
         },
+        tiles_run_again: match (a.tiles_run_again, b.tiles_run_again) {
+            (Some(x), Some(y)) => Some(x + y),
+            (x, y) => x.or(y),
+        },
     }
 }

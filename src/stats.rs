@@ -168,6 +168,10 @@ pub struct Times {
     /// The longest single pass (one dispatch) from timestamp queries; `null` on the CPU or
     /// without timestamp queries.
     pub longest_dispatch_s: Option<f64>,
+    /// Tiles the GPU ran again: a ray queue overflowed (then in smaller tiles), or a walk
+    /// outlasted the passes planned for it (then with another pass per depth); `null` on the
+    /// CPU.
+    pub tiles_run_again: Option<u32>,
 }
 
 /// GPU time per kernel, seconds: the wavefront's (`nearest` the nearest-hit passes with the
@@ -343,6 +347,9 @@ impl Stats {
         }
         if let Some(l) = self.time.longest_submit_s {
             o += &format!(", longest submission {:.1} ms", l * 1e3);
+        }
+        if let Some(n) = self.time.tiles_run_again.filter(|&n| n > 0) {
+            o += &format!(", {n} tiles run again");
         }
         o += "\n";
         o

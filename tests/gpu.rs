@@ -519,6 +519,9 @@ fn bvh_walks_longer_than_a_step_resume() {
     );
     // The misses of eye and shadow rays walk far past one step.
     assert!(nodes.eye > WALK_CHUNK as f64 / 4.0 && nodes.shadow > WALK_CHUNK as f64 / 4.0, "{nodes:?}");
+    // The waves are planned for typical BVH walks (WalkBounds::planned): these outlast them,
+    // and a tile runs again with more passes, its counts restored (the ray counts above).
+    assert!(b.stats.time.tiles_run_again.unwrap() > 0, "{:?}", b.stats.time);
     for aov in [Aov::Id, Aov::Depth] {
         let a = r.render_aov(&scene, &opts(AccelKind::Bvh), aov, &hidden()).unwrap();
         let b = r.render_aov(&scene, &opts(AccelKind::Brute), aov, &hidden()).unwrap();

@@ -16,6 +16,12 @@ pub struct WalkBounds {
     pub worst_shadow: u64,
     /// Mean entries per stored cell (a rough cost of one walk, for the tile size).
     pub mean_list: f64,
+    /// Loop iterations a wave's passes are planned for
+    /// ([`crate::layout::budget::retry_passes`]): the longest walk where it is known (the
+    /// tables' longest list), a typical one where the worst is far out of reach (a BVH's,
+    /// every node). A walk that outlasts the plan makes its tile run again with another
+    /// pass per depth; every planned pass costs a dispatch even when its queue is empty.
+    pub planned: u64,
     /// Whether some ray of the render walks the fallback origin (every primitive).
     pub fallback_reachable: bool,
     /// Whether a pass may walk the tables and the BVH (rays leaving surfaces) side by side:
@@ -65,6 +71,7 @@ impl WalkBounds {
             worst_eye: self.worst_eye,
             worst_shadow: self.worst_shadow.max(other.worst_shadow),
             mean_list: self.mean_list.max(other.mean_list),
+            planned: self.planned.max(other.planned),
             fallback_reachable: self.fallback_reachable,
             mixed: true,
         }
@@ -113,6 +120,7 @@ impl WalkBounds {
         }
         let fallback = flat.origins.get(flat.fallback_origin as usize).map_or(0, |o| o.always_count as usize);
         b.mean_list = (flat.entries.len() - fallback) as f64 / (flat.cells() + leaves).max(1) as f64;
+        b.planned = b.worst_closest.max(b.worst_shadow);
         b
     }
 }

@@ -45,6 +45,7 @@ struct RunOutput {
     compile_s: f64,
     longest_submit_s: f64,
     longest_dispatch_s: Option<f64>,
+    tiles_run_again: u32,
 }
 
 impl RunOutput {
@@ -70,6 +71,7 @@ impl RunOutput {
             compile_s: Some(self.compile_s),
             longest_submit_s: Some(self.longest_submit_s),
             longest_dispatch_s: self.longest_dispatch_s,
+            tiles_run_again: Some(self.tiles_run_again),
         }
     }
 }
@@ -458,6 +460,7 @@ impl GpuRenderer {
             compile_s,
             longest_submit_s: schedule.longest_submit().as_secs_f64(),
             longest_dispatch_s: schedule.longest_pass(),
+            tiles_run_again: schedule.tiles_run_again(),
         })
     }
 

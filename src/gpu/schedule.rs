@@ -204,6 +204,8 @@ pub struct Schedule {
     /// The most seconds per point any tile's longest pass took (fixed pacing): tiles never
     /// hold more points than [`TILE_SHARE`] of [`PASS_LIMIT`] allows at that rate.
     pass_cost: f64,
+    /// Tiles run again (a queue overflowed, or a walk outlasted its passes).
+    redone: u32,
 }
 
 /// Index of a wavefront kernel in [`Schedule::kernel_s`].
@@ -323,6 +325,7 @@ impl Schedule {
             longest_submit: Duration::ZERO,
             longest_pass: 0.0,
             pass_cost: 0.0,
+            redone: 0,
         };
         s.make_room(ctx);
         s
@@ -401,6 +404,10 @@ impl Schedule {
     }
 
     /// The longest pass (one dispatch) so far, seconds, when timed.
+    pub fn tiles_run_again(&self) -> u32 {
+        self.redone
+    }
+
     pub fn longest_pass(&self) -> Option<f64> {
         self.timer.as_ref().map(|_| self.longest_pass)
     }
@@ -565,6 +572,7 @@ impl Schedule {
             self.make_room(ctx);
         }
         log::debug!("tile of {} points runs again ({overflow:#b})", tile.count);
+        self.redone += 1;
         self.next_point = tile.first;
         Ok(())
     }

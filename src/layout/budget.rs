@@ -118,12 +118,13 @@ pub fn check_loop_budget(scene: &Scene, walks: Option<&WalkBounds>, max_depth: O
     Ok(())
 }
 
-/// Passes more than one that a walk of a render with these bounds (`None`: brute force) may
-/// need at [`WALK_CHUNK`] loop iterations a pass ([`crate::gpu::schedule::WavePlan`]); a tile
+/// Passes more than one that a walk of a render with these bounds (`None`: brute force,
+/// whose every walk tests every primitive) is planned to need at [`WALK_CHUNK`] loop
+/// iterations a pass ([`crate::gpu::schedule::WavePlan`], [`WalkBounds::planned`]); a tile
 /// whose walk outlasts them runs again with one more.
 pub fn retry_passes(scene: &Scene, walks: Option<&WalkBounds>) -> u32 {
     let worst = match walks {
-        Some(t) => t.worst_closest.max(t.worst_shadow),
+        Some(t) => t.planned,
         None => scene.primitives.len() as u64,
     };
     worst.div_ceil(WALK_CHUNK as u64).saturating_sub(1) as u32

@@ -59,15 +59,20 @@ impl GpuBvh {
     /// Bounds on the kernels' walks, for the loop budget and the tile size: a walk visits each
     /// node and tests each primitive at most once, which lavapipe's loop limit counts as up to
     /// twice as many iterations (see [`super::budget::bvh_shadow_inline`]); a typical walk
-    /// takes about the depth of the tree twice over and a few leaves.
+    /// takes about the depth of the tree twice over and a few leaves. The waves are planned
+    /// for a walk of sixteen typical ones, not for the worst, which no ray of a real scene
+    /// comes near (gears_s4: 13 retry passes a depth for walks of about 60 iterations, and
+    /// those empty passes took a third of its kernel time on lavapipe).
     pub fn walk_bounds(&self) -> WalkBounds {
         let worst = 2 * (self.stride as u64 + self.prims.len() as u64);
         let depth = (self.prims.len().max(2) as f64).log2();
+        let mean_list = 4.0 * depth + 2.0 * bvh::MAX_LEAF as f64;
         WalkBounds {
             worst_closest: worst,
             worst_eye: worst,
             worst_shadow: worst,
-            mean_list: 4.0 * depth + 2.0 * bvh::MAX_LEAF as f64,
+            mean_list,
+            planned: worst.min(16 * mean_list as u64),
             fallback_reachable: false,
             mixed: false,
         }
