@@ -7,9 +7,10 @@
 //! depth by depth, passes of `nearest` trace a queue of rays, add what their hits send to
 //! their points and push the rays the hits spawn into the next depth's queue, and passes of
 //! `shadow` trace the shadow rays too long to trace inline. A walk longer than a pass allows
-//! ([`crate::coherence::walk::WALK_CHUNK`] iterations: lavapipe ends an invocation's loops after 65535 iterations in all, and real
-//! GPUs kill long dispatches) goes into a retry queue, which the next pass of the same depth
-//! works through. The queues' lengths stay on the GPU and drive indirect dispatches; the host
+//! ([`crate::coherence::walk::WALK_CHUNK`] iterations: lavapipe ends an invocation's loops
+//! after 65535 iterations in all, and real GPUs kill long dispatches) goes into a retry
+//! queue, which the next pass of the same depth works through; a wave holds as many retry
+//! passes as [`crate::coherence::reach::WalkBounds::planned`] asks for. The queues' lengths stay on the GPU and drive indirect dispatches; the host
 //! encodes each wave's passes ahead ([`WavePlan::passes`]) and reads back once per tile: the
 //! `resolve` kernel's colours, and whether a queue overflowed (the tile is then run again in
 //! smaller tiles) or a walk outlasted its passes (again, with more passes).
@@ -403,11 +404,12 @@ impl Schedule {
         self.longest_submit
     }
 
-    /// The longest pass (one dispatch) so far, seconds, when timed.
+    /// Tiles run again so far (a queue overflowed, or a walk outlasted its passes).
     pub fn tiles_run_again(&self) -> u32 {
         self.redone
     }
 
+    /// The longest pass (one dispatch) so far, seconds, when timed.
     pub fn longest_pass(&self) -> Option<f64> {
         self.timer.as_ref().map(|_| self.longest_pass)
     }
