@@ -147,11 +147,25 @@ impl TriEdges {
         if !toward {
             return false;
         }
+        // |k × w| ≤ |k|·|w| bounds the origin-radius term, so most corners are decided
+        // without its square root: yes when the plane part alone passes, no when even the
+        // largest radius term cannot make it pass.
         (0..3).all(|e| {
-            cell.corners.iter().zip(cell.corner_len).any(|(w, wl)| {
-                self.g[e].dot(*w) + self.r * self.k[e].cross(*w).length()
-                    >= -sd * wl * (self.g_len[e] + self.r * self.k_len[e])
-            })
+            let (g, k) = (self.g[e], self.k[e]);
+            let mut unsure = false;
+            for (w, wl) in cell.corners.iter().zip(cell.corner_len) {
+                let lhs = g.dot(*w);
+                let rhs = -sd * wl * (self.g_len[e] + self.r * self.k_len[e]);
+                if lhs >= rhs {
+                    return true;
+                }
+                unsure |= lhs + self.r * self.k_len[e] * wl * (1.0 + 1e-12) >= rhs;
+            }
+            unsure
+                && cell.corners.iter().zip(cell.corner_len).any(|(w, wl)| {
+                    g.dot(*w) + self.r * k.cross(*w).length()
+                        >= -sd * wl * (self.g_len[e] + self.r * self.k_len[e])
+                })
         })
     }
 
@@ -179,10 +193,15 @@ impl TriEdges {
         let sd = self.sin_d;
         for e in 0..3 {
             for (w, wl) in cell.corners.iter().zip(cell.corner_len) {
-                let lo = self.g[e].dot(*w)
-                    - self.r * self.k[e].cross(*w).length()
-                    - sd * wl * (self.g_len[e] + self.r * self.k_len[e]);
-                if !(lo > 0.0) {
+                let plane = self.g[e].dot(*w) - sd * wl * (self.g_len[e] + self.r * self.k_len[e]);
+                if !(plane > 0.0) {
+                    return None;
+                }
+                // The radius term's square root only when its bound |k|·|w| is not enough.
+                if plane > self.r * self.k_len[e] * wl * (1.0 + 1e-12) {
+                    continue;
+                }
+                if !(plane - self.r * self.k[e].cross(*w).length() > 0.0) {
                     return None;
                 }
             }

@@ -19,13 +19,14 @@ use glam::DVec3;
 /// `dir(u, v) = s·e[ax] + u·e[i1] + v·e[i2]`.
 #[inline]
 pub fn face_dir(face: usize, u: f64, v: f64) -> DVec3 {
-    let ax = face / 2;
     let s = if face % 2 == 1 { -1.0 } else { 1.0 };
-    let mut w = [0.0; 3];
-    w[ax] = s;
-    w[(ax + 1) % 3] = u;
-    w[(ax + 2) % 3] = v;
-    DVec3::from_array(w)
+    // A match rather than indexing an array by `ax`: this runs for every block a bound is
+    // rasterised into.
+    match face / 2 {
+        0 => DVec3::new(s, u, v),
+        1 => DVec3::new(v, s, u),
+        _ => DVec3::new(u, v, s),
+    }
 }
 
 /// The `u` (or `v`) coordinate of cell boundary `k` on an `n`-cell face.

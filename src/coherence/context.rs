@@ -1,9 +1,6 @@
 //! The shared, read-only inputs of the per-origin builds: the targets and their hierarchy,
-//! the spawn offset and angular widening, the primitive groups, and a cache of cell cones.
+//! the spawn offset and angular widening, the primitive groups.
 
-use std::sync::Arc;
-
-use super::cells::{cell_cone, CellCone};
 use super::groups::{Groups, GROUP_SIZE};
 use super::hierarchy::Bvh;
 use super::params::BuildParams;
@@ -18,7 +15,6 @@ pub struct Ctx<'a> {
     /// The primitive groups, and the list length from which lists name them.
     pub groups: Groups,
     pub group_min_list: usize,
-    cells: std::sync::Mutex<std::collections::HashMap<u32, Arc<Vec<CellCone>>>>,
 }
 
 impl<'a> Ctx<'a> {
@@ -30,30 +26,6 @@ impl<'a> Ctx<'a> {
             delta: params.delta,
             groups: Groups::of_bvh(bvh, targets.len(), GROUP_SIZE),
             group_min_list: params.group_min_list,
-            cells: Default::default(),
         }
-    }
-
-    /// All cells of an `n`-cube, cached when the cube is small.
-    pub fn cube(&self, n: u32) -> Option<Arc<Vec<CellCone>>> {
-        if n > 64 {
-            return None;
-        }
-        let mut map = self.cells.lock().unwrap();
-        Some(
-            map.entry(n)
-                .or_insert_with(|| {
-                    let mut v = Vec::with_capacity(6 * (n * n) as usize);
-                    for f in 0..6 {
-                        for iv in 0..n {
-                            for iu in 0..n {
-                                v.push(cell_cone(f, iu, iv, n));
-                            }
-                        }
-                    }
-                    Arc::new(v)
-                })
-                .clone(),
-        )
     }
 }

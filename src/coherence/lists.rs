@@ -59,54 +59,54 @@ pub fn store_dmin(x: f64, eps: f64) -> f32 {
 
 /// Sorts the records into lists and crops each face's window to its non-empty cells.
 pub fn finish(def: &OriginDef, cells: &Cells, recs: Vec<Rec>, eps: f64) -> OriginTable {
-    let mut stored: Vec<(u32, GpuEntry)> =
-        recs.iter().map(|x| (x.cell, GpuEntry { id: x.id, d_min: store_dmin(x.dmin, eps) })).collect();
-    stored.sort_unstable_by(|a, b| {
-        a.0.cmp(&b.0).then(a.1.d_min.total_cmp(&b.1.d_min)).then(a.1.id.cmp(&b.1.id))
-    });
-
-    // Crop windows to the bounding box of non-empty cells.
-    let mut faces = [[0u32; 4]; 6];
-    let mut bbox = [[u32::MAX, u32::MAX, 0, 0]; 6]; // min u, min v, max u, max v
-    let mut locs = Vec::with_capacity(stored.len());
-    for (cell, _) in &stored {
-        let (f, iu, iv) = cells.locate(*cell as usize);
-        let b = &mut bbox[f];
-        b[0] = b[0].min(iu);
-        b[1] = b[1].min(iv);
-        b[2] = b[2].max(iu);
-        b[3] = b[3].max(iv);
-        locs.push((f, iu, iv));
+    // Bucket the records by cell (a counting sort), then order each short list.
+    let mut starts = vec![0u32; cells.total + 1];
+    for x in &recs {
+        starts[x.cell as usize + 1] += 1;
     }
-    let mut base = [0usize; 6];
-    let mut total = 0usize;
-    for f in 0..6 {
-        base[f] = total;
-        let b = bbox[f];
-        if b[0] != u32::MAX {
-            faces[f] = [b[0], b[1], b[2] - b[0] + 1, b[3] - b[1] + 1];
-            total += (faces[f][2] * faces[f][3]) as usize;
+    for i in 0..cells.total {
+        starts[i + 1] += starts[i];
+    }
+    let mut sorted = vec![GpuEntry::default(); recs.len()];
+    let mut fill = starts.clone();
+    for x in &recs {
+        let slot = &mut fill[x.cell as usize];
+        sorted[*slot as usize] = GpuEntry { id: x.id, d_min: store_dmin(x.dmin, eps) };
+        *slot += 1;
+    }
+    for c in 0..cells.total {
+        sorted[starts[c] as usize..starts[c + 1] as usize]
+            .sort_unstable_by(|a, b| a.d_min.total_cmp(&b.d_min).then(a.id.cmp(&b.id)));
+    }
+
+    // Crop each face's window to the bounding box of its non-empty cells, keeping the
+    // row-major cell order.
+    let mut faces = [[0u32; 4]; 6];
+    let mut out_starts = vec![0u32];
+    let mut entries = Vec::with_capacity(sorted.len());
+    for (f, face) in faces.iter_mut().enumerate() {
+        let Some(w) = cells.win[f] else { continue };
+        let local = |iu: u32, iv: u32| cells.base[f] + (iv * w[2] + iu) as usize;
+        let mut b = [u32::MAX, u32::MAX, 0, 0]; // min u, min v, max u, max v (window-local)
+        for iv in 0..w[3] {
+            for iu in 0..w[2] {
+                let c = local(iu, iv);
+                if starts[c + 1] > starts[c] {
+                    b = [b[0].min(iu), b[1].min(iv), b[2].max(iu), b[3].max(iv)];
+                }
+            }
+        }
+        if b[0] == u32::MAX {
+            continue;
+        }
+        *face = [w[0] + b[0], w[1] + b[1], b[2] - b[0] + 1, b[3] - b[1] + 1];
+        for iv in b[1]..=b[3] {
+            for iu in b[0]..=b[2] {
+                let c = local(iu, iv);
+                entries.extend_from_slice(&sorted[starts[c] as usize..starts[c + 1] as usize]);
+                out_starts.push(entries.len() as u32);
+            }
         }
     }
-    let mut counts = vec![0u32; total + 1];
-    let mut new_cell = Vec::with_capacity(stored.len());
-    for &(f, iu, iv) in &locs {
-        let w = faces[f];
-        let c = base[f] + ((iv - w[1]) * w[2] + (iu - w[0])) as usize;
-        counts[c + 1] += 1;
-        new_cell.push(c);
-    }
-    for i in 0..total {
-        counts[i + 1] += counts[i];
-    }
-    // The cell order of `stored` maps monotonically to the new order within a face, and faces
-    // keep their order, so a stable placement by the new index keeps each list sorted.
-    let mut entries = vec![GpuEntry::default(); stored.len()];
-    let mut fill = counts.clone();
-    for (k, (_, e)) in stored.iter().enumerate() {
-        let c = new_cell[k];
-        entries[fill[c] as usize] = *e;
-        fill[c] += 1;
-    }
-    OriginTable { kind: Some(def.kind), n: def.n, faces, starts: counts, entries, always: Vec::new() }
+    OriginTable { kind: Some(def.kind), n: def.n, faces, starts: out_starts, entries, always: Vec::new() }
 }

@@ -25,7 +25,7 @@ const CULL_THETA: f64 = 0.5;
 
 /// Builds one origin's table.
 pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
-    let cells = Cells::new(def, ctx);
+    let cells = Cells::new(def);
     let (eps, delta) = (ctx.eps, ctx.delta);
     // The smallest cells (at face corners) subtend about 1/n radian.
     let min_cover = 0.4 / def.n as f64;

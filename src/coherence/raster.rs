@@ -1,23 +1,66 @@
 //! The cell rasteriser: an origin's work windows (the cells searched per face), and the
 //! hierarchical rasterisation of a direction bound into them.
+//!
+//! Each face window carries a pyramid of blocks aligned to the window's corner: level `k`
+//! holds the bounding cones of its `2^k × 2^k` blocks (clipped to the window), computed once
+//! per origin so that rasterising a target reads cones instead of computing them. A block's
+//! cone bounds every cell of the block, so testing a bound against a block that reaches past
+//! the target's rectangle stays conservative: "meets" on the larger block can only say yes
+//! more often, and "inside" for the larger block holds for every part of it.
 
-use std::sync::Arc;
+use glam::DVec3;
 
-use super::cells::{cell_cone, cell_span, region_cone, CellCone, Cone};
-use super::context::Ctx;
+use super::cells::{cell_span, edge_coord, face_dir, region_cone, CellCone, Cone};
 use super::defs::OriginDef;
 
-/// Cells of an origin's work windows, with cached or computed cell cones.
+/// Cells of an origin's work windows, with the block pyramids of their cones.
 pub struct Cells {
     pub n: u32,
     pub win: [Option<[u32; 4]>; 6],
     pub base: [usize; 6],
     pub total: usize,
-    cube: Option<Arc<Vec<CellCone>>>,
+    pyramids: [Pyramid; 6],
 }
 
+/// The block cones of one face window, level by level from single cells up. Levels below
+/// `first` are not stored (their cones are computed when asked), so huge windows keep the
+/// build's memory bounded. A block's corners are grid vertices of the window, so their
+/// lengths are stored once per vertex and the corners themselves recomputed (no root).
+#[derive(Default)]
+struct Pyramid {
+    /// Blocks per row and column at each level.
+    dims: Vec<[u32; 2]>,
+    /// The lowest stored level.
+    first: usize,
+    levels: Vec<Vec<Axis>>,
+    /// `|face_dir(u, v)|` at the window's `(width + 1) × (height + 1)` cell corners.
+    corner_len: Vec<f64>,
+}
+
+/// The part of a block's cone the cone tests read first: its axis and half-angle.
+#[derive(Clone, Copy)]
+struct Axis {
+    m: DVec3,
+    cos_b: f64,
+    sin_b: f64,
+}
+
+/// The block cones kept per origin while building, in bytes.
+const CACHE_BYTES: usize = 96 << 20;
+
+/// Largest block emitted whole: `2^BULK_LEVEL` cells a side.
+const BULK_LEVEL: usize = 2;
+
+/// Rectangles of at most this many cells are tested cell by cell.
+const SMALL_RECT: u32 = 16;
+
 impl Cells {
-    pub fn new(def: &OriginDef, ctx: &Ctx) -> Cells {
+    pub fn new(def: &OriginDef) -> Cells {
+        Cells::with_budget(def, CACHE_BYTES)
+    }
+
+    /// [`Cells::new`] keeping at most `cache_bytes` of block cones.
+    fn with_budget(def: &OriginDef, cache_bytes: usize) -> Cells {
         let mut base = [0; 6];
         let mut total = 0;
         for (b, w) in base.iter_mut().zip(&def.window) {
@@ -26,15 +69,52 @@ impl Cells {
                 total += (w[2] * w[3]) as usize;
             }
         }
-        Cells { n: def.n, win: def.window, base, total, cube: ctx.cube(def.n) }
+        // A pyramid holds about 4/3 of its window's cells; drop whole low levels (a quarter of
+        // what remains each) until the kept ones fit the budget.
+        let per_cell = std::mem::size_of::<Axis>() as f64 * 4.0 / 3.0;
+        let mut first = 0;
+        while total as f64 * per_cell / 4f64.powi(first as i32) > cache_bytes as f64 {
+            first += 1;
+        }
+        let pyramids = std::array::from_fn(|f| match def.window[f] {
+            Some(w) => Pyramid::new(f, w, def.n, first),
+            None => Pyramid::default(),
+        });
+        Cells { n: def.n, win: def.window, base, total, pyramids }
+    }
+
+    /// The cone of window cell `(iu, iv)` of face `f`.
+    #[inline]
+    pub fn cone(&self, f: usize, iu: u32, iv: u32) -> CellCone {
+        let w = self.win[f].unwrap();
+        self.block(f, 0, iu - w[0], iv - w[1])
+    }
+
+    /// The cone of block `(bx, by)` at `level` of face `f`'s window.
+    #[inline]
+    fn block(&self, f: usize, level: usize, bx: u32, by: u32) -> CellCone {
+        let p = &self.pyramids[f];
+        let r = self.block_rect(f, level, bx, by);
+        if level < p.first {
+            return region_cone(f, r, self.n);
+        }
+        let Axis { m, cos_b, sin_b } = p.levels[level - p.first][(by * p.dims[level][0] + bx) as usize];
+        let w = self.win[f].unwrap();
+        let (u0, u1) = (edge_coord(r[0], self.n), edge_coord(r[2] + 1, self.n));
+        let (v0, v1) = (edge_coord(r[1], self.n), edge_coord(r[3] + 1, self.n));
+        let len = |iu: u32, iv: u32| p.corner_len[((iv - w[1]) * (w[2] + 1) + iu - w[0]) as usize];
+        CellCone {
+            m,
+            cos_b,
+            sin_b,
+            corners: [face_dir(f, u0, v0), face_dir(f, u1, v0), face_dir(f, u1, v1), face_dir(f, u0, v1)],
+            corner_len: [len(r[0], r[1]), len(r[2] + 1, r[1]), len(r[2] + 1, r[3] + 1), len(r[0], r[3] + 1)],
+        }
     }
 
     #[inline]
-    pub fn cone(&self, f: usize, iu: u32, iv: u32) -> CellCone {
-        match &self.cube {
-            Some(c) => c[(f * self.n as usize + iv as usize) * self.n as usize + iu as usize],
-            None => cell_cone(f, iu, iv, self.n),
-        }
+    fn block_rect(&self, f: usize, level: usize, bx: u32, by: u32) -> [u32; 4] {
+        block_rect(self.win[f].unwrap(), level, bx, by)
     }
 
     /// The window rectangle `[iu0, iv0, iu1, iv1]` of face `f` inside `cone`'s rectangle (the
@@ -60,11 +140,12 @@ impl Cells {
         self.base[f] + ((iv - w[1]) * w[2] + (iu - w[0])) as usize
     }
 
-    /// Hierarchical rasterisation of a bound into the windows: blocks the bound misses are
-    /// dropped, blocks of at most `BULK` cells wholly inside it are emitted at once (one
-    /// `d_min` and cover test for the block), others are split down to single cells.
-    /// `emit(cells, block)` receives the local cell indices of the block; it returns false to
-    /// stop the rasterisation (then `raster` returns false).
+    /// Hierarchical rasterisation of a bound into the windows: pyramid blocks the bound
+    /// misses are dropped, blocks of at most `2^BULK_LEVEL` cells a side wholly inside it are
+    /// emitted at once (one `d_min` and cover test for the block), others are split into their
+    /// four children down to single cells. Only cells inside the bound's rectangle are emitted.
+    /// `emit(cells, block)` receives the local cell indices and the cone of the block; it
+    /// returns false to stop the rasterisation (then `raster` returns false).
     pub fn raster(
         &self,
         cone: Option<&Cone>,
@@ -72,11 +153,13 @@ impl Cells {
         inside: impl Fn(&CellCone) -> bool,
         mut emit: impl FnMut(&mut dyn Iterator<Item = usize>, &CellCone) -> bool,
     ) -> bool {
-        let mut stack: Vec<[u32; 4]> = Vec::new();
+        let mut stack: Vec<(usize, u32, u32)> = Vec::new();
         for f in 0..6 {
             let Some(r) = self.face_rect(f, cone) else { continue };
-            if self.cube.is_some() && (r[2] - r[0] + 1) * (r[3] - r[1] + 1) <= 16 {
-                // Small rectangles: test the cached cells one by one.
+            let w = self.win[f].unwrap();
+            let (rw, rh) = (r[2] - r[0] + 1, r[3] - r[1] + 1);
+            if rw * rh <= SMALL_RECT {
+                // Small rectangles: test the cells one by one.
                 for iv in r[1]..=r[3] {
                     for iu in r[0]..=r[2] {
                         let cell = self.cone(f, iu, iv);
@@ -87,42 +170,44 @@ impl Cells {
                 }
                 continue;
             }
-            stack.push(r);
-            while let Some(r) = stack.pop() {
-                let (w, h) = (r[2] - r[0] + 1, r[3] - r[1] + 1);
-                let single = w == 1 && h == 1;
-                let region = if single { self.cone(f, r[0], r[1]) } else { region_cone(f, r, self.n) };
+            // The level whose blocks are at least as large as the rectangle: it meets at most
+            // 2×2 of them.
+            let top = (32 - (rw.max(rh) - 1).leading_zeros()) as usize;
+            let top = top.min(self.pyramids[f].dims.len() - 1);
+            let (lu, lv) = (r[0] - w[0], r[1] - w[1]);
+            let (hu, hv) = (r[2] - w[0], r[3] - w[1]);
+            for by in (lv >> top)..=(hv >> top) {
+                for bx in (lu >> top)..=(hu >> top) {
+                    stack.push((top, bx, by));
+                }
+            }
+            while let Some((level, bx, by)) = stack.pop() {
+                let b = self.block_rect(f, level, bx, by);
+                let c = [b[0].max(r[0]), b[1].max(r[1]), b[2].min(r[2]), b[3].min(r[3])];
+                if c[0] > c[2] || c[1] > c[3] {
+                    continue;
+                }
+                let region = self.block(f, level, bx, by);
                 if !meets(&region) {
                     continue;
                 }
-                if single || (w * h <= BULK && inside(&region)) {
-                    let mut it = (r[1]..=r[3])
-                        .flat_map(|iv| (r[0]..=r[2]).map(move |iu| (iu, iv)))
+                if level == 0 || (level <= BULK_LEVEL && inside(&region)) {
+                    let mut it = (c[1]..=c[3])
+                        .flat_map(|iv| (c[0]..=c[2]).map(move |iu| (iu, iv)))
                         .map(|(iu, iv)| self.index(f, iu, iv));
                     if !emit(&mut it, &region) {
                         return false;
                     }
                     continue;
                 }
-                if w >= h {
-                    let m = r[0] + w / 2;
-                    stack.push([m, r[1], r[2], r[3]]);
-                    stack.push([r[0], r[1], m - 1, r[3]]);
-                } else {
-                    let m = r[1] + h / 2;
-                    stack.push([r[0], m, r[2], r[3]]);
-                    stack.push([r[0], r[1], r[2], m - 1]);
+                for (dx, dy) in [(1, 1), (0, 1), (1, 0), (0, 0)] {
+                    stack.push((level - 1, 2 * bx + dx, 2 * by + dy));
                 }
             }
         }
         true
     }
-}
 
-/// Largest block emitted without splitting.
-const BULK: u32 = 16;
-
-impl Cells {
     /// The face and cell `(f, iu, iv)` of local cell index `i`.
     pub fn locate(&self, i: usize) -> (usize, u32, u32) {
         let f = (0..6).rev().find(|&f| self.win[f].is_some() && self.base[f] <= i).unwrap();
@@ -135,5 +220,133 @@ impl Cells {
     pub fn cone_at(&self, i: usize) -> CellCone {
         let (f, iu, iv) = self.locate(i);
         self.cone(f, iu, iv)
+    }
+}
+
+/// The cells `[iu0, iv0, iu1, iv1]` of block `(bx, by)` at `level` of window `w`, clipped to it.
+#[inline]
+fn block_rect(w: [u32; 4], level: usize, bx: u32, by: u32) -> [u32; 4] {
+    let (u0, v0) = (w[0] + (bx << level), w[1] + (by << level));
+    let side = 1u32 << level;
+    [u0, v0, (u0 + side).min(w[0] + w[2]) - 1, (v0 + side).min(w[1] + w[3]) - 1]
+}
+
+impl Pyramid {
+    /// The pyramid of window `w = [iu0, iv0, width, height]` on face `f`, storing levels from
+    /// `first` up to the one whose single block covers the window.
+    fn new(f: usize, w: [u32; 4], n: u32, first: usize) -> Pyramid {
+        let mut dims = vec![[w[2], w[3]]];
+        while dims.last().is_some_and(|d| d[0] > 1 || d[1] > 1) {
+            let d = dims.last().unwrap();
+            dims.push([d[0].div_ceil(2), d[1].div_ceil(2)]);
+        }
+        let first = first.min(dims.len() - 1);
+        let levels = (first..dims.len())
+            .map(|k| {
+                let [bw, bh] = dims[k];
+                let mut v = Vec::with_capacity((bw * bh) as usize);
+                for by in 0..bh {
+                    for bx in 0..bw {
+                        let c = region_cone(f, block_rect(w, k, bx, by), n);
+                        v.push(Axis { m: c.m, cos_b: c.cos_b, sin_b: c.sin_b });
+                    }
+                }
+                v
+            })
+            .collect();
+        let mut corner_len = Vec::with_capacity(((w[2] + 1) * (w[3] + 1)) as usize);
+        for iv in w[1]..=w[1] + w[3] {
+            for iu in w[0]..=w[0] + w[2] {
+                corner_len.push(face_dir(f, edge_coord(iu, n), edge_coord(iv, n)).length());
+            }
+        }
+        Pyramid { dims, first, levels, corner_len }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::coherence::cells::cell_cone;
+    use crate::coherence::flat::OriginKind;
+    use crate::coherence::testutil::{rng, unit};
+
+    fn def(n: u32, window: [Option<[u32; 4]>; 6]) -> OriginDef {
+        OriginDef { kind: OriginKind::Light, center: DVec3::ZERO, radius: 0.0, light: None, n, window }
+    }
+
+    /// Stored cones equal computed ones, and each block's cone bounds its cells' corners.
+    #[test]
+    fn block_cones_are_the_cells_cones_and_bound_their_cells() {
+        let d = def(13, [Some([2, 1, 11, 9]), None, Some([0, 0, 13, 13]), None, None, Some([5, 7, 1, 3])]);
+        let cells = Cells::new(&d);
+        for i in 0..cells.total {
+            let (f, iu, iv) = cells.locate(i);
+            let (a, b) = (cells.cone(f, iu, iv), cell_cone(f, iu, iv, d.n));
+            assert_eq!(
+                (a.m, a.cos_b, a.sin_b, a.corners, a.corner_len),
+                (b.m, b.cos_b, b.sin_b, b.corners, b.corner_len)
+            );
+        }
+        for (f, w) in d.window.iter().enumerate() {
+            let Some(_) = w else { continue };
+            let p = &cells.pyramids[f];
+            for level in 1..p.dims.len() {
+                for by in 0..p.dims[level][1] {
+                    for bx in 0..p.dims[level][0] {
+                        let block = cells.block(f, level, bx, by);
+                        let r = cells.block_rect(f, level, bx, by);
+                        for iv in r[1]..=r[3] {
+                            for iu in r[0]..=r[2] {
+                                for c in cell_cone(f, iu, iv, d.n).corners {
+                                    assert!(block.m.dot(c.normalize()) >= block.cos_b - 1e-12);
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Every window cell a cap really meets (the exact test) is emitted, once, with and
+    /// without stored block cones; cells emitted in bulk lie inside the cap.
+    #[test]
+    fn raster_emits_every_cell_a_cap_meets() {
+        let mut s = 0x51ed2701u64;
+        let d = def(
+            24,
+            [
+                Some([0, 0, 24, 24]),
+                Some([3, 2, 17, 20]),
+                Some([0, 5, 24, 9]),
+                None,
+                Some([0, 0, 24, 24]),
+                Some([10, 10, 4, 4]),
+            ],
+        );
+        for budget in [CACHE_BYTES, 0] {
+            let cells = Cells::with_budget(&d, budget);
+            for _ in 0..200 {
+                let k = Cone::new(unit(&mut s), rng(&mut s) * 0.8);
+                let mut hits = vec![0u32; cells.total];
+                cells.raster(
+                    Some(&k),
+                    |c| k.meets(c),
+                    |c| k.contains(c),
+                    |it, _| {
+                        it.for_each(|i| hits[i] += 1);
+                        true
+                    },
+                );
+                for (i, &h) in hits.iter().enumerate() {
+                    let cell = cells.cone_at(i);
+                    assert!(h <= 1, "cell {i} emitted {h} times");
+                    if k.meets_exact(&cell) {
+                        assert_eq!(h, 1, "cell {i} meets the cap but was not emitted");
+                    }
+                }
+            }
+        }
     }
 }
