@@ -3,7 +3,8 @@
 //! origin's cells ([`Cells`]) with a per-cell lower bound `d_min`. A target that certainly
 //! covers a cell (every ray of the cell hits it before `t_far`) lowers the cell's cut-off;
 //! entries whose `d_min` exceeds the final cut-off are dropped, since the walker's distance
-//! interval test would never reach them, and whole hidden subtrees are skipped.
+//! interval test would never reach them; whole hidden subtrees, and the blocks of cells
+//! where a target lies beyond every cut-off, are skipped.
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -29,7 +30,6 @@ pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
     let (eps, delta) = (ctx.eps, ctx.delta);
     // The smallest cells (at face corners) subtend about 1/n radian.
     let min_cover = 0.4 / def.n as f64;
-    let mut cut = vec![f64::INFINITY; cells.total];
     let mut recs: Vec<Rec> = Vec::new();
     let mut wide: Vec<GpuEntry> = Vec::new();
     let (c, r) = (def.center, def.radius);
@@ -49,11 +49,12 @@ pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
             if k.theta < CULL_THETA {
                 let hidden = cells.raster(
                     Some(&k),
+                    node_dmin,
                     |cell| k.meets(cell),
                     |cell| k.contains(cell),
                     |it, _| {
                         for i in it {
-                            if cut[i] >= node_dmin {
+                            if cells.cut(i) >= node_dmin {
                                 return false;
                             }
                         }
@@ -84,16 +85,17 @@ pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
             }
             cells.raster(
                 p.cone.as_ref(),
+                p.dmin,
                 |cell| p.meets(cell),
                 |cell| p.inside(cell),
                 |it, cell| {
                     let dm = p.cell_dmin(cell);
                     let cover = p.covers(cell).map(|t| t * (1.0 + 1e-6) + 2.0 * eps);
                     for i in it {
-                        if dm <= cut[i] {
+                        if dm <= cells.cut(i) {
                             recs.push(Rec { cell: i as u32, id: tid, dmin: dm });
                             if let Some(t_far) = cover {
-                                cut[i] = cut[i].min(t_far);
+                                cells.lower_cut(i, t_far);
                             }
                         }
                     }
@@ -103,7 +105,7 @@ pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
         }
     }
 
-    recs.retain(|x| x.dmin <= cut[x.cell as usize]);
+    recs.retain(|x| x.dmin <= cells.cut(x.cell as usize));
     let mut table = finish(def, &cells, recs, eps);
     table.always.extend(wide);
     table.always.sort_by(|a, b| a.d_min.total_cmp(&b.d_min).then(a.id.cmp(&b.id)));

@@ -1,5 +1,5 @@
-//! The cell rasteriser: an origin's work windows (the cells searched per face), and the
-//! hierarchical rasterisation of a direction bound into them.
+//! The cell rasteriser: an origin's work windows (the cells searched per face), their
+//! cut-offs, and the hierarchical rasterisation of a direction bound into them.
 //!
 //! Each face window carries a pyramid of blocks aligned to the window's corner: level `k`
 //! holds the bounding cones of its `2^k × 2^k` blocks (clipped to the window), computed once
@@ -7,6 +7,11 @@
 //! cone bounds every cell of the block, so testing a bound against a block that reaches past
 //! the target's rectangle stays conservative: "meets" on the larger block can only say yes
 //! more often, and "inside" for the larger block holds for every part of it.
+//!
+//! The cells also carry the builder's cut-offs, with the largest cut of every pyramid block,
+//! so that a bound lying beyond every cut of a block skips the block without testing it.
+
+use std::cell::Cell;
 
 use glam::DVec3;
 
@@ -20,6 +25,12 @@ pub struct Cells {
     pub base: [usize; 6],
     pub total: usize,
     pyramids: [Pyramid; 6],
+    /// Per local cell, the distance beyond which its list is cut off (the builder lowers it
+    /// when a target covers the cell).
+    cut: Vec<Cell<f64>>,
+    /// Per face and level `k ≥ 1` of the pyramid, the largest cut of each block's cells:
+    /// a bound rasterised no nearer than that is hidden in the whole block.
+    max_cut: [Vec<Vec<Cell<f64>>>; 6],
 }
 
 /// The block cones of one face window, level by level from single cells up. Levels below
@@ -80,7 +91,14 @@ impl Cells {
             Some(w) => Pyramid::new(f, w, def.n, first),
             None => Pyramid::default(),
         });
-        Cells { n: def.n, win: def.window, base, total, pyramids }
+        let max_cut = std::array::from_fn(|f| {
+            let dims = &pyramids[f].dims;
+            (1..dims.len())
+                .map(|k| vec![Cell::new(f64::INFINITY); (dims[k][0] * dims[k][1]) as usize])
+                .collect()
+        });
+        let cut = vec![Cell::new(f64::INFINITY); total];
+        Cells { n: def.n, win: def.window, base, total, pyramids, cut, max_cut }
     }
 
     /// The cone of window cell `(iu, iv)` of face `f`.
@@ -117,6 +135,54 @@ impl Cells {
         block_rect(self.win[f].unwrap(), level, bx, by)
     }
 
+    /// The cut-off distance of local cell `i`.
+    #[inline]
+    pub fn cut(&self, i: usize) -> f64 {
+        self.cut[i].get()
+    }
+
+    /// Lowers the cut-off of local cell `i` to `t` (when nearer), keeping the block maxima.
+    pub fn lower_cut(&self, i: usize, t: f64) {
+        let old = self.cut[i].get();
+        if t.is_nan() || t >= old {
+            return;
+        }
+        self.cut[i].set(t);
+        let (f, iu, iv) = self.locate(i);
+        let w = self.win[f].unwrap();
+        let (x, y) = (iu - w[0], iv - w[1]);
+        let dims = &self.pyramids[f].dims;
+        for k in 1..dims.len() {
+            let slot = &self.max_cut[f][k - 1][((y >> k) * dims[k][0] + (x >> k)) as usize];
+            // Cuts only fall: the block's maximum changes only if the old cut was it.
+            if old < slot.get() {
+                break;
+            }
+            let (cx, cy) = ((x >> k) << 1, (y >> k) << 1);
+            let mut m = f64::NEG_INFINITY;
+            for yy in cy..(cy + 2).min(dims[k - 1][1]) {
+                for xx in cx..(cx + 2).min(dims[k - 1][0]) {
+                    m = m.max(self.max_cut_at(f, k - 1, xx, yy));
+                }
+            }
+            if m == slot.get() {
+                break;
+            }
+            slot.set(m);
+        }
+    }
+
+    /// The largest cut of block `(bx, by)` at `level` of face `f`'s window.
+    #[inline]
+    fn max_cut_at(&self, f: usize, level: usize, bx: u32, by: u32) -> f64 {
+        if level == 0 {
+            let w = self.win[f].unwrap();
+            self.cut[self.base[f] + (by * w[2] + bx) as usize].get()
+        } else {
+            self.max_cut[f][level - 1][(by * self.pyramids[f].dims[level][0] + bx) as usize].get()
+        }
+    }
+
     /// The window rectangle `[iu0, iv0, iu1, iv1]` of face `f` inside `cone`'s rectangle (the
     /// whole window for `None`), or `None` when empty.
     fn face_rect(&self, f: usize, cone: Option<&Cone>) -> Option<[u32; 4]> {
@@ -145,10 +211,13 @@ impl Cells {
     /// emitted at once (one `d_min` and cover test for the block), others are split into their
     /// four children down to single cells. Only cells inside the bound's rectangle are emitted.
     /// `emit(cells, block)` receives the local cell indices and the cone of the block; it
-    /// returns false to stop the rasterisation (then `raster` returns false).
+    /// returns false to stop the rasterisation (then `raster` returns false). Cells and blocks
+    /// whose every cut lies nearer than `beyond` are skipped: a bound no nearer than `beyond`
+    /// is hidden there.
     pub fn raster(
         &self,
         cone: Option<&Cone>,
+        beyond: f64,
         meets: impl Fn(&CellCone) -> bool,
         inside: impl Fn(&CellCone) -> bool,
         mut emit: impl FnMut(&mut dyn Iterator<Item = usize>, &CellCone) -> bool,
@@ -162,8 +231,12 @@ impl Cells {
                 // Small rectangles: test the cells one by one.
                 for iv in r[1]..=r[3] {
                     for iu in r[0]..=r[2] {
+                        let i = self.index(f, iu, iv);
+                        if self.cut[i].get() < beyond {
+                            continue;
+                        }
                         let cell = self.cone(f, iu, iv);
-                        if meets(&cell) && !emit(&mut std::iter::once(self.index(f, iu, iv)), &cell) {
+                        if meets(&cell) && !emit(&mut std::iter::once(i), &cell) {
                             return false;
                         }
                     }
@@ -185,6 +258,9 @@ impl Cells {
                 let b = self.block_rect(f, level, bx, by);
                 let c = [b[0].max(r[0]), b[1].max(r[1]), b[2].min(r[2]), b[3].min(r[3])];
                 if c[0] > c[2] || c[1] > c[3] {
+                    continue;
+                }
+                if self.max_cut_at(f, level, bx, by) < beyond {
                     continue;
                 }
                 let region = self.block(f, level, bx, by);
@@ -332,6 +408,7 @@ mod tests {
                 let mut hits = vec![0u32; cells.total];
                 cells.raster(
                     Some(&k),
+                    f64::NEG_INFINITY,
                     |c| k.meets(c),
                     |c| k.contains(c),
                     |it, _| {
@@ -348,5 +425,57 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// After any sequence of lowered cuts, every block's maximum is its cells' largest cut,
+    /// and a raster skips only cells cut off before `beyond`.
+    #[test]
+    fn block_maxima_follow_lowered_cuts() {
+        let mut s = 0x2545f491u64;
+        let d = def(20, [Some([1, 2, 19, 13]), None, None, Some([0, 0, 20, 20]), None, Some([4, 4, 3, 1])]);
+        let cells = Cells::new(&d);
+        for round in 0..4000 {
+            let i = (rng(&mut s) * cells.total as f64) as usize % cells.total;
+            cells.lower_cut(i, rng(&mut s) * 10.0);
+            if round % 500 != 499 {
+                continue;
+            }
+            for (f, w) in d.window.iter().enumerate() {
+                let Some(_) = w else { continue };
+                let dims = &cells.pyramids[f].dims;
+                for (level, d) in dims.iter().enumerate() {
+                    for by in 0..d[1] {
+                        for bx in 0..d[0] {
+                            let r = cells.block_rect(f, level, bx, by);
+                            let mut m = f64::NEG_INFINITY;
+                            for iv in r[1]..=r[3] {
+                                for iu in r[0]..=r[2] {
+                                    m = m.max(cells.cut(cells.index(f, iu, iv)));
+                                }
+                            }
+                            assert_eq!(cells.max_cut_at(f, level, bx, by), m, "face {f} level {level}");
+                        }
+                    }
+                }
+            }
+        }
+        let beyond = 5.0;
+        let mut seen = vec![false; cells.total];
+        cells.raster(
+            None,
+            beyond,
+            |_| true,
+            |_| true,
+            |it, _| {
+                it.for_each(|i| seen[i] = true);
+                true
+            },
+        );
+        // Blocks emitted whole may hold hidden cells; every cell not hidden is emitted, and
+        // some hidden ones are skipped.
+        for (i, &v) in seen.iter().enumerate() {
+            assert!(v || cells.cut(i) < beyond, "cell {i} is not cut off but was skipped");
+        }
+        assert!(seen.iter().any(|&v| !v));
     }
 }
