@@ -15,7 +15,7 @@ use std::cell::Cell;
 
 use glam::DVec3;
 
-use super::cells::{cell_span, edge_coord, face_dir, region_cone, CellCone, Cone};
+use super::cells::{cell_span, edge_coord, face_dir, region_cone, region_cone_with, CellCone, Cone};
 use super::defs::OriginDef;
 
 /// Cells of an origin's work windows, with the block pyramids of their cones.
@@ -317,25 +317,33 @@ impl Pyramid {
             dims.push([d[0].div_ceil(2), d[1].div_ceil(2)]);
         }
         let first = first.min(dims.len() - 1);
-        let levels = (first..dims.len())
-            .map(|k| {
-                let [bw, bh] = dims[k];
-                let mut v = Vec::with_capacity((bw * bh) as usize);
-                for by in 0..bh {
-                    for bx in 0..bw {
-                        let c = region_cone(f, block_rect(w, k, bx, by), n);
-                        v.push(Axis { m: c.m, cos_b: c.cos_b, sin_b: c.sin_b });
-                    }
-                }
-                v
-            })
-            .collect();
         let mut corner_len = Vec::with_capacity(((w[2] + 1) * (w[3] + 1)) as usize);
         for iv in w[1]..=w[1] + w[3] {
             for iu in w[0]..=w[0] + w[2] {
                 corner_len.push(face_dir(f, edge_coord(iu, n), edge_coord(iv, n)).length());
             }
         }
+        let len = |iu: u32, iv: u32| corner_len[((iv - w[1]) * (w[2] + 1) + iu - w[0]) as usize];
+        let levels = (first..dims.len())
+            .map(|k| {
+                let [bw, bh] = dims[k];
+                let mut v = Vec::with_capacity((bw * bh) as usize);
+                for by in 0..bh {
+                    for bx in 0..bw {
+                        let r = block_rect(w, k, bx, by);
+                        let lens = [
+                            len(r[0], r[1]),
+                            len(r[2] + 1, r[1]),
+                            len(r[2] + 1, r[3] + 1),
+                            len(r[0], r[3] + 1),
+                        ];
+                        let c = region_cone_with(f, r, n, Some(lens));
+                        v.push(Axis { m: c.m, cos_b: c.cos_b, sin_b: c.sin_b });
+                    }
+                }
+                v
+            })
+            .collect();
         Pyramid { dims, first, levels, corner_len }
     }
 }
