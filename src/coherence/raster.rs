@@ -3,10 +3,13 @@
 //!
 //! Each face window carries a pyramid of blocks aligned to the window's corner: level `k`
 //! holds the bounding cones of its `2^k × 2^k` blocks (clipped to the window), computed once
-//! per origin so that rasterising a target reads cones instead of computing them. A block's
-//! cone bounds every cell of the block, so testing a bound against a block that reaches past
-//! the target's rectangle stays conservative: "meets" on the larger block can only say yes
-//! more often, and "inside" for the larger block holds for every part of it.
+//! per origin (levels below a memory budget: when asked) so that rasterising a target reads
+//! cones instead of computing them. A block's cone and corners contain every direction of
+//! its cells, so testing a bound against a block that reaches past the target's rectangle
+//! stays conservative: a conservative "meets" on the block never wrongly says no for a cell
+//! of it, and "inside" for the block holds for every part of it. The `d_min` and cover of a
+//! block emitted whole are those of the whole aligned block, which may reach past the cells
+//! emitted: lower, or less often covering, never wrong.
 //!
 //! The cells also carry the builder's cut-offs, with the largest cut of every pyramid block,
 //! so that a bound lying beyond every cut of a block skips the block without testing it.
@@ -29,13 +32,14 @@ pub struct Cells {
     /// when a target covers the cell).
     cut: Vec<Cell<f64>>,
     /// Per face and level `k ≥ 1` of the pyramid, the largest cut of each block's cells:
-    /// a bound rasterised no nearer than that is hidden in the whole block.
+    /// a bound farther than that is hidden in the whole block.
     max_cut: [Vec<Vec<Cell<f64>>>; 6],
 }
 
 /// The block cones of one face window, level by level from single cells up. Levels below
 /// `first` are not stored (their cones are computed when asked), so huge windows keep the
-/// build's memory bounded. A block's corners are grid vertices of the window, so their
+/// cones' memory bounded (the per-cell cuts and the corner lengths, 16 bytes a cell, are
+/// always kept). A block's corners are grid vertices of the window, so their
 /// lengths are stored once per vertex and the corners themselves recomputed (no root).
 #[derive(Default)]
 struct Pyramid {
@@ -56,7 +60,8 @@ struct Axis {
     sin_b: f64,
 }
 
-/// The block cones kept per origin while building, in bytes.
+/// The block cones kept per origin while building, in bytes (origins build in parallel,
+/// each with its own).
 const CACHE_BYTES: usize = 96 << 20;
 
 /// Largest block emitted whole: `2^BULK_LEVEL` cells a side.
@@ -84,7 +89,7 @@ impl Cells {
         // what remains each) until the kept ones fit the budget.
         let per_cell = std::mem::size_of::<Axis>() as f64 * 4.0 / 3.0;
         let mut first = 0;
-        while total as f64 * per_cell / 4f64.powi(first as i32) > cache_bytes as f64 {
+        while first < 32 && total as f64 * per_cell / 4f64.powi(first as i32) > cache_bytes as f64 {
             first += 1;
         }
         let pyramids = std::array::from_fn(|f| match def.window[f] {
@@ -210,7 +215,8 @@ impl Cells {
     /// misses are dropped, blocks of at most `2^BULK_LEVEL` cells a side wholly inside it are
     /// emitted at once (one `d_min` and cover test for the block), others are split into their
     /// four children down to single cells. Only cells inside the bound's rectangle are emitted.
-    /// `emit(cells, block)` receives the local cell indices and the cone of the block; it
+    /// `emit(cells, block)` receives the local cell indices and the cone of the block they
+    /// were emitted from (which may reach past them, and past the rectangle); it
     /// returns false to stop the rasterisation (then `raster` returns false). Cells and blocks
     /// whose every cut lies nearer than `beyond` are skipped: a bound no nearer than `beyond`
     /// is hidden there.
@@ -393,8 +399,36 @@ mod tests {
         }
     }
 
+    /// At every level, stored or not, a block's whole cone (axis, angle, corners and their
+    /// lengths) is the one `region_cone` computes for the block's cells.
+    #[test]
+    fn blocks_at_every_level_are_region_cones() {
+        let d = def(11, [Some([1, 0, 10, 7]), None, None, Some([0, 3, 1, 8]), Some([0, 0, 11, 11]), None]);
+        for budget in [CACHE_BYTES, 0] {
+            let cells = Cells::with_budget(&d, budget);
+            for (f, w) in d.window.iter().enumerate() {
+                let Some(_) = w else { continue };
+                for (level, dims) in cells.pyramids[f].dims.iter().enumerate() {
+                    for by in 0..dims[1] {
+                        for bx in 0..dims[0] {
+                            let (a, b) = (
+                                cells.block(f, level, bx, by),
+                                region_cone(f, cells.block_rect(f, level, bx, by), d.n),
+                            );
+                            assert_eq!(
+                                (a.m, a.cos_b, a.sin_b, a.corners, a.corner_len),
+                                (b.m, b.cos_b, b.sin_b, b.corners, b.corner_len),
+                                "face {f} level {level} block ({bx}, {by})"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+
     /// Every window cell a cap really meets (the exact test) is emitted, once, with and
-    /// without stored block cones; cells emitted in bulk lie inside the cap.
+    /// without stored block cones.
     #[test]
     fn raster_emits_every_cell_a_cap_meets() {
         let mut s = 0x51ed2701u64;
