@@ -352,6 +352,56 @@ mod tests {
         }
     }
 
+    /// The square-root shortcuts of `meets` and `covers` decide as the full edge formula
+    /// does (the bound |k × w| ≤ |k|·|w| only skips work), for origins with a radius.
+    #[test]
+    fn edge_shortcuts_agree_with_the_full_formula() {
+        let mut s = 4242u64;
+        let n = 12;
+        let (mut met, mut covered) = (0, 0);
+        for _ in 0..400 {
+            let c = unit(&mut s) * 0.3;
+            let r = rng(&mut s) * 0.2;
+            let base = unit(&mut s) * (1.0 + rng(&mut s));
+            let v = [base, base + unit(&mut s) * 3.0, base + unit(&mut s) * 3.0];
+            let Some(te) = TriEdges::new(c, r, &v, 0.0, 1e-3) else { continue };
+            let sd = te.sin_d;
+            for face in 0..6 {
+                for iv in 0..n {
+                    for iu in 0..n {
+                        let cell = cell_cone(face, iu, iv, n);
+                        let corners = cell.corners.iter().zip(cell.corner_len);
+                        let toward = corners.clone().any(|(w, wl)| te.toward.dot(*w) >= -sd * wl);
+                        let full_meets = toward
+                            && (0..3).all(|e| {
+                                corners.clone().any(|(w, wl)| {
+                                    te.g[e].dot(*w) + te.r * te.k[e].cross(*w).length()
+                                        >= -sd * wl * (te.g_len[e] + te.r * te.k_len[e])
+                                })
+                            });
+                        let full_inside = (0..3).all(|e| {
+                            corners.clone().all(|(w, wl)| {
+                                te.g[e].dot(*w)
+                                    - te.r * te.k[e].cross(*w).length()
+                                    - sd * wl * (te.g_len[e] + te.r * te.k_len[e])
+                                    > 0.0
+                            })
+                        });
+                        let min_cos =
+                            cell.corners.iter().map(|w| te.toward.dot(w.normalize())).fold(1.0, f64::min)
+                                - sd;
+                        let full_covers = full_inside && min_cos > 1e-6;
+                        assert_eq!(te.meets(&cell), full_meets);
+                        assert_eq!(te.covers(&cell).is_some(), full_covers);
+                        met += full_meets as u32;
+                        covered += te.covers(&cell).is_some() as u32;
+                    }
+                }
+            }
+        }
+        assert!(met > 1000 && covered > 50, "too few cases: {met} met, {covered} covered");
+    }
+
     fn ray_tri_f64(o: DVec3, d: DVec3, v: &[DVec3; 3]) -> Option<f64> {
         let e1 = v[1] - v[0];
         let e2 = v[2] - v[0];
