@@ -73,11 +73,19 @@ pub fn region_cone_with(face: usize, r: [u32; 4], n: u32, lens: Option<[f64; 4]>
     let (u0, u1) = (edge_coord(r[0], n), edge_coord(r[2] + 1, n));
     let (v0, v1) = (edge_coord(r[1], n), edge_coord(r[3] + 1, n));
     let m = face_dir(face, 0.5 * (u0 + u1), 0.5 * (v0 + v1)).normalize();
-    let corners =
-        [face_dir(face, u0, v0), face_dir(face, u1, v0), face_dir(face, u1, v1), face_dir(face, u0, v1)];
+    let corners = region_corners(face, r, n);
     let corner_len = lens.unwrap_or_else(|| corners.map(|c| c.length()));
     let cos_b = (0..4).map(|k| m.dot(corners[k]) / corner_len[k]).fold(1.0, f64::min).clamp(-1.0, 1.0);
     CellCone { m, cos_b, sin_b: (1.0 - cos_b * cos_b).max(0.0).sqrt(), corners, corner_len }
+}
+
+/// The corners `(u0, v0)`, `(u1, v0)`, `(u1, v1)`, `(u0, v1)` of the block of cells
+/// `r = [iu0, iv0, iu1, iv1]`, unnormalised (on the face plane).
+#[inline]
+pub fn region_corners(face: usize, r: [u32; 4], n: u32) -> [DVec3; 4] {
+    let (u0, u1) = (edge_coord(r[0], n), edge_coord(r[2] + 1, n));
+    let (v0, v1) = (edge_coord(r[1], n), edge_coord(r[3] + 1, n));
+    [face_dir(face, u0, v0), face_dir(face, u1, v0), face_dir(face, u1, v1), face_dir(face, u0, v1)]
 }
 
 /// A cone of directions: unit axis and half-angle `theta` in [0, π].

@@ -18,7 +18,9 @@ use std::cell::Cell;
 
 use glam::DVec3;
 
-use super::cells::{cell_span, edge_coord, face_dir, region_cone, region_cone_with, CellCone, Cone};
+use super::cells::{
+    cell_span, edge_coord, face_dir, region_cone, region_cone_with, region_corners, CellCone, Cone,
+};
 use super::defs::OriginDef;
 
 /// Cells of an origin's work windows, with the block pyramids of their cones.
@@ -110,28 +112,24 @@ impl Cells {
     #[inline]
     pub fn cone(&self, f: usize, iu: u32, iv: u32) -> CellCone {
         let w = self.win[f].unwrap();
-        self.block(f, 0, iu - w[0], iv - w[1])
+        self.block(f, 0, iu - w[0], iv - w[1], [iu, iv, iu, iv])
     }
 
-    /// The cone of block `(bx, by)` at `level` of face `f`'s window.
+    /// The cone of block `(bx, by)` at `level` of face `f`'s window, whose cells are `r`
+    /// ([`Cells::block_rect`], which the caller has at hand).
     #[inline]
-    fn block(&self, f: usize, level: usize, bx: u32, by: u32) -> CellCone {
+    fn block(&self, f: usize, level: usize, bx: u32, by: u32, r: [u32; 4]) -> CellCone {
         let p = &self.pyramids[f];
-        let r = self.block_rect(f, level, bx, by);
         if level < p.first {
             return region_cone(f, r, self.n);
         }
         let Axis { m, cos_b, sin_b } = p.levels[level - p.first][(by * p.dims[level][0] + bx) as usize];
-        let w = self.win[f].unwrap();
-        let (u0, u1) = (edge_coord(r[0], self.n), edge_coord(r[2] + 1, self.n));
-        let (v0, v1) = (edge_coord(r[1], self.n), edge_coord(r[3] + 1, self.n));
-        let len = |iu: u32, iv: u32| p.corner_len[((iv - w[1]) * (w[2] + 1) + iu - w[0]) as usize];
         CellCone {
             m,
             cos_b,
             sin_b,
-            corners: [face_dir(f, u0, v0), face_dir(f, u1, v0), face_dir(f, u1, v1), face_dir(f, u0, v1)],
-            corner_len: [len(r[0], r[1]), len(r[2] + 1, r[1]), len(r[2] + 1, r[3] + 1), len(r[0], r[3] + 1)],
+            corners: region_corners(f, r, self.n),
+            corner_len: p.lens(self.win[f].unwrap(), r),
         }
     }
 
@@ -269,7 +267,7 @@ impl Cells {
                 if self.max_cut_at(f, level, bx, by) < beyond {
                     continue;
                 }
-                let region = self.block(f, level, bx, by);
+                let region = self.block(f, level, bx, by, b);
                 if !meets(&region) {
                     continue;
                 }
@@ -314,6 +312,14 @@ fn block_rect(w: [u32; 4], level: usize, bx: u32, by: u32) -> [u32; 4] {
 }
 
 impl Pyramid {
+    /// The stored lengths of the corners of block `r` (as [`region_corners`] orders them) of
+    /// window `w`.
+    #[inline]
+    fn lens(&self, w: [u32; 4], r: [u32; 4]) -> [f64; 4] {
+        let len = |iu: u32, iv: u32| self.corner_len[((iv - w[1]) * (w[2] + 1) + iu - w[0]) as usize];
+        [len(r[0], r[1]), len(r[2] + 1, r[1]), len(r[2] + 1, r[3] + 1), len(r[0], r[3] + 1)]
+    }
+
     /// The pyramid of window `w = [iu0, iv0, width, height]` on face `f`, storing levels from
     /// `first` up to the one whose single block covers the window.
     fn new(f: usize, w: [u32; 4], n: u32, first: usize) -> Pyramid {
@@ -329,28 +335,22 @@ impl Pyramid {
                 corner_len.push(face_dir(f, edge_coord(iu, n), edge_coord(iv, n)).length());
             }
         }
-        let len = |iu: u32, iv: u32| corner_len[((iv - w[1]) * (w[2] + 1) + iu - w[0]) as usize];
-        let levels = (first..dims.len())
+        let mut p = Pyramid { dims, first, levels: Vec::new(), corner_len };
+        p.levels = (first..p.dims.len())
             .map(|k| {
-                let [bw, bh] = dims[k];
+                let [bw, bh] = p.dims[k];
                 let mut v = Vec::with_capacity((bw * bh) as usize);
                 for by in 0..bh {
                     for bx in 0..bw {
                         let r = block_rect(w, k, bx, by);
-                        let lens = [
-                            len(r[0], r[1]),
-                            len(r[2] + 1, r[1]),
-                            len(r[2] + 1, r[3] + 1),
-                            len(r[0], r[3] + 1),
-                        ];
-                        let c = region_cone_with(f, r, n, Some(lens));
+                        let c = region_cone_with(f, r, n, Some(p.lens(w, r)));
                         v.push(Axis { m: c.m, cos_b: c.cos_b, sin_b: c.sin_b });
                     }
                 }
                 v
             })
             .collect();
-        Pyramid { dims, first, levels, corner_len }
+        p
     }
 }
 
@@ -384,7 +384,7 @@ mod tests {
             for level in 1..p.dims.len() {
                 for by in 0..p.dims[level][1] {
                     for bx in 0..p.dims[level][0] {
-                        let block = cells.block(f, level, bx, by);
+                        let block = cells.block(f, level, bx, by, cells.block_rect(f, level, bx, by));
                         let r = cells.block_rect(f, level, bx, by);
                         for iv in r[1]..=r[3] {
                             for iu in r[0]..=r[2] {
@@ -411,10 +411,8 @@ mod tests {
                 for (level, dims) in cells.pyramids[f].dims.iter().enumerate() {
                     for by in 0..dims[1] {
                         for bx in 0..dims[0] {
-                            let (a, b) = (
-                                cells.block(f, level, bx, by),
-                                region_cone(f, cells.block_rect(f, level, bx, by), d.n),
-                            );
+                            let r = cells.block_rect(f, level, bx, by);
+                            let (a, b) = (cells.block(f, level, bx, by, r), region_cone(f, r, d.n));
                             assert_eq!(
                                 (a.m, a.cos_b, a.sin_b, a.corners, a.corner_len),
                                 (b.m, b.cos_b, b.sin_b, b.corners, b.corner_len),
