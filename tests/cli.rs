@@ -181,3 +181,53 @@ fn a_first_compile_is_announced_once_and_a_headless_render_is_otherwise_quiet() 
     );
     assert_eq!(render("second.png"), "", "stderr of a later render");
 }
+
+/// `cuberay bench` (on the CPU, small): a row per accelerator over the same rays, the BVH's
+/// own ratio exactly 1 in every round, the tables' median ratio inside its rounds' range, the
+/// rays leaving surfaces tested alike (both trace them with the BVH), and a clear error for
+/// no timed runs.
+#[test]
+fn bench_prints_a_row_per_accelerator_with_ratios_taken_round_by_round() {
+    let scene = shared("spd/nff/balls_s1.nff");
+    let small = ["--backend", "cpu", "--accel", "cube,bvh", "--width", "24", "--height", "24"];
+    let out =
+        cuberay().arg("bench").args(small).args(["--runs", "3", "--json"]).arg(&scene).output().unwrap();
+    assert!(out.status.success(), "bench failed: {}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value =
+        serde_json::from_slice(&out.stdout).expect("bench --json prints one JSON object");
+    assert_eq!(v["runs"], 3);
+    assert_eq!(v["max_depth"], 5);
+    let rows = v["rows"].as_array().unwrap();
+    let accels: Vec<&str> = rows.iter().map(|r| r["accel"].as_str().unwrap()).collect();
+    assert_eq!(accels, ["cube", "bvh"]);
+    let (cube, bvh) = (&rows[0], &rows[1]);
+    for r in rows {
+        assert_eq!(r["scene"], "balls_s1");
+        assert_eq!(r["backend"], "cpu");
+        assert!(r["kernel_s"].as_f64().unwrap() > 0.0, "{r}");
+        // 25² corner rays at least, and the same ray trees under both.
+        assert!(r["rays"].as_u64().unwrap() >= 25 * 25, "{r}");
+        assert!(r["longest_dispatch_s"].is_null(), "no dispatches on the CPU: {r}");
+    }
+    assert_eq!(cube["rays"], bvh["rays"]);
+    assert_eq!(cube["tests_per_ray"]["reflect"], bvh["tests_per_ray"]["reflect"]);
+    assert_eq!(bvh["ratio_to_bvh"].as_f64(), Some(1.0));
+    assert_eq!(bvh["ratio_range"], serde_json::json!([1.0, 1.0]));
+    let ratio = cube["ratio_to_bvh"].as_f64().unwrap();
+    let range = cube["ratio_range"].as_array().unwrap();
+    let (lo, hi) = (range[0].as_f64().unwrap(), range[1].as_f64().unwrap());
+    assert!(0.0 < lo && lo <= ratio && ratio <= hi, "{cube}");
+
+    let out = cuberay().arg("bench").args(small).args(["--runs", "1"]).arg(&scene).output().unwrap();
+    assert!(out.status.success(), "bench failed: {}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains("median of 1 rounds") && text.contains("| × BVH"), "{text}");
+    assert!(
+        text.contains("| balls_s1 | cube | cpu |") && text.contains("| balls_s1 | bvh | cpu |"),
+        "{text}"
+    );
+
+    let out = cuberay().arg("bench").args(small).args(["--runs", "0"]).arg(&scene).output().unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--runs must be at least 1"));
+}

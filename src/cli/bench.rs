@@ -1,8 +1,10 @@
 //! `cuberay bench`: renders a set of scenes with each chosen accelerator and backend, a
-//! warm-up run and then the median of `--runs`, and prints what each costs: preprocessing,
-//! bytes of the acceleration structure, kernel time, rays per second, tests and bound tests
-//! per ray by kind, the kernel time's ratio to the BVH's on the same backend in the same
-//! run, and the longest single dispatch. Speed targets are checked with this command, never with timed tests.
+//! warm-up run of each and then `--runs` rounds in which every accelerator renders once, in
+//! turn, and prints what each costs (medians over the rounds): preprocessing, bytes of the
+//! acceleration structure, kernel time, rays per second, tests and bound tests per ray by
+//! kind, the kernel time's ratio to the BVH's (taken within each round, so that a drift of
+//! the machine's speed between rounds cancels out; with the rounds' range), and the longest
+//! single dispatch. Speed targets are checked with this command, never with timed tests.
 
 use std::path::PathBuf;
 
@@ -14,7 +16,7 @@ use cuberay::gpu::GpuRenderer;
 use cuberay::job::{AccelKind, RenderOptions, Rendered};
 use cuberay::reference;
 use cuberay::sampling::Sampling;
-use cuberay::stats::TestsPerRay;
+use cuberay::stats::{Stats, TestsPerRay};
 
 use super::render::progress_bar;
 
@@ -41,7 +43,8 @@ pub struct BenchArgs {
     /// Backends, comma-separated.
     #[arg(long, value_enum, value_delimiter = ',', default_value = "gpu")]
     pub backend: Vec<BenchBackend>,
-    /// Timed runs after the warm-up; the median is reported.
+    /// Timed rounds after the warm-up (each accelerator renders once a round); the medians
+    /// are reported.
     #[arg(long, default_value_t = 3)]
     pub runs: u32,
     /// Image width and height (the SPD procedure: 512, traced at 513×513 pixel corners).
@@ -74,8 +77,11 @@ struct Row {
     mrays_per_s: f64,
     tests_per_ray: TestsPerRay,
     bound_tests_per_ray: TestsPerRay,
-    /// `kernel_s` over the BVH's on the same scene and backend; `null` without a BVH row.
+    /// The median over the rounds of `kernel_s` over the BVH's in the same round (same
+    /// scene and backend); `null` without a BVH row.
     ratio_to_bvh: Option<f64>,
+    /// The smallest and largest of those ratios: how far one round's ratio may be trusted.
+    ratio_range: Option<(f64, f64)>,
     /// GPU: the longest single dispatch over the timed runs (`null` on the CPU).
     longest_dispatch_s: Option<f64>,
 }
@@ -88,6 +94,30 @@ struct Report<'a> {
     runs: u32,
     adapter: Option<String>,
     rows: &'a [Row],
+}
+
+/// What one timed run cost.
+#[derive(Clone, Copy, Debug)]
+struct Timed {
+    kernel_s: f64,
+    preprocess_s: f64,
+    longest_dispatch_s: Option<f64>,
+}
+
+impl Timed {
+    fn of(r: &Rendered, backend: BenchBackend) -> Timed {
+        let t = &r.stats.time;
+        Timed {
+            // GPU: the timestamped kernels (the trace time where the adapter has no
+            // timestamps); CPU: the trace time.
+            kernel_s: match backend {
+                BenchBackend::Gpu => t.gpu_s.unwrap_or(t.trace_s),
+                BenchBackend::Cpu => t.trace_s,
+            },
+            preprocess_s: t.preprocess_s,
+            longest_dispatch_s: t.longest_dispatch_s,
+        }
+    }
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -127,39 +157,48 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         let scene = &loaded.scene;
         let name =
             path.file_stem().map_or_else(|| path.display().to_string(), |s| s.to_string_lossy().into());
-        let first = rows.len();
         for &backend in &args.backend {
-            for &accel in &args.accel {
+            let render = |accel: AccelKind| -> anyhow::Result<Rendered> {
                 let opts = RenderOptions {
                     sampling: args.sampling,
                     max_depth: args.max_depth,
                     accel,
                     ..RenderOptions::new(args.width, args.height)
                 };
-                let render = || -> anyhow::Result<Rendered> {
-                    let hidden = indicatif::ProgressBar::hidden();
-                    Ok(match backend {
-                        BenchBackend::Gpu => {
-                            gpu.as_ref().expect("opened above").render(scene, &opts, &hidden)?
-                        }
-                        BenchBackend::Cpu => reference::render(scene, &opts, &hidden)?,
-                    })
-                };
                 let what = format!("{name}, --accel {accel:?} --backend {backend:?}").to_lowercase();
                 progress.set_message(what.clone());
-                // The warm-up compiles the kernel and fills the caches; it is not reported.
-                render().with_context(|| format!("cannot render {what}"))?;
-                let mut runs = Vec::new();
-                for _ in 0..args.runs {
-                    runs.push(render().with_context(|| format!("cannot render {what}"))?);
-                }
-                let kernel = |r: &Rendered| match backend {
-                    BenchBackend::Gpu => r.stats.time.gpu_s.unwrap_or(r.stats.time.trace_s),
-                    BenchBackend::Cpu => r.stats.time.trace_s,
+                let hidden = indicatif::ProgressBar::hidden();
+                let rendered = match backend {
+                    BenchBackend::Gpu => gpu.as_ref().expect("opened above").render(scene, &opts, &hidden),
+                    BenchBackend::Cpu => reference::render(scene, &opts, &hidden),
                 };
-                let kernel_s = median(runs.iter().map(kernel).collect());
-                let last = runs.last().expect("at least one run");
-                let s = &last.stats;
+                rendered.with_context(|| format!("cannot render {what}"))
+            };
+            // The warm-up compiles each accelerator's kernels and fills the caches; it is not
+            // reported.
+            for &accel in &args.accel {
+                render(accel)?;
+            }
+            // The timed runs go in rounds, each accelerator once a round, so that a drift of
+            // the machine's speed meets them alike; the ratios are taken within a round.
+            let mut runs: Vec<Vec<Timed>> = vec![Vec::new(); args.accel.len()];
+            let mut last: Vec<Option<Stats>> = vec![None; args.accel.len()];
+            for _ in 0..args.runs {
+                for (k, &accel) in args.accel.iter().enumerate() {
+                    let r = render(accel)?;
+                    runs[k].push(Timed::of(&r, backend));
+                    last[k] = Some(r.stats);
+                }
+            }
+            let bvh = args.accel.iter().position(|&a| a == AccelKind::Bvh);
+            for (k, stats) in last.into_iter().enumerate() {
+                let s = stats.expect("at least one run");
+                let timed = &runs[k];
+                let kernel_s = median(timed.iter().map(|t| t.kernel_s).collect());
+                let ratios: Vec<f64> = match bvh {
+                    Some(b) => timed.iter().zip(&runs[b]).map(|(t, b)| t.kernel_s / b.kernel_s).collect(),
+                    None => Vec::new(),
+                };
                 rows.push(Row {
                     scene: name.clone(),
                     accel: s.settings.accel.clone(),
@@ -167,25 +206,22 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
                         BenchBackend::Gpu => "gpu",
                         BenchBackend::Cpu => "cpu",
                     },
-                    preprocess_s: median(runs.iter().map(|r| r.stats.time.preprocess_s).collect()),
+                    preprocess_s: median(timed.iter().map(|t| t.preprocess_s).collect()),
                     accel_bytes: s.accel_bytes,
                     kernel_s,
                     rays: s.rays.total,
                     mrays_per_s: s.rays.total as f64 / kernel_s.max(1e-9) / 1e6,
                     tests_per_ray: s.tests_per_ray,
                     bound_tests_per_ray: s.bound_tests_per_ray,
-                    ratio_to_bvh: None,
-                    longest_dispatch_s: runs
+                    ratio_to_bvh: (!ratios.is_empty()).then(|| median(ratios.clone())),
+                    ratio_range: ratios
                         .iter()
-                        .filter_map(|r| r.stats.time.longest_dispatch_s)
-                        .reduce(f64::max),
+                        .copied()
+                        .reduce(f64::min)
+                        .zip(ratios.iter().copied().reduce(f64::max)),
+                    longest_dispatch_s: timed.iter().filter_map(|t| t.longest_dispatch_s).reduce(f64::max),
                 });
             }
-        }
-        let bvh: Vec<(&str, f64)> =
-            rows[first..].iter().filter(|r| r.accel == "bvh").map(|r| (r.backend, r.kernel_s)).collect();
-        for r in &mut rows[first..] {
-            r.ratio_to_bvh = bvh.iter().find(|b| b.0 == r.backend).map(|b| r.kernel_s / b.1);
         }
         progress.inc(1);
     }
@@ -210,7 +246,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
 /// The rows as a Markdown table.
 fn table(rows: &[Row], args: &BenchArgs, adapter: Option<&str>) -> String {
     let mut out = format!(
-        "{}x{} {:?}, depth {}, median of {} runs after a warm-up{}\n\n",
+        "{}x{} {:?}, depth {}, median of {} rounds (each accelerator once a round) after a warm-up{}\n\n",
         args.width,
         args.height,
         args.sampling,
@@ -218,7 +254,7 @@ fn table(rows: &[Row], args: &BenchArgs, adapter: Option<&str>) -> String {
         args.runs,
         adapter.map(|a| format!(", GPU: {a}")).unwrap_or_default()
     );
-    out += "| scene | accel | backend | preprocess s | MiB | kernel s | M rays/s | tests/ray eye | shadow | reflect | refract | all | bound/ray all | × BVH | longest dispatch ms |\n";
+    out += "| scene | accel | backend | preprocess s | MiB | kernel s | M rays/s | tests/ray eye | shadow | reflect | refract | all | bound/ray all | × BVH (rounds' range) | longest dispatch ms |\n";
     out += "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for r in rows {
         let t = &r.tests_per_ray;
@@ -237,11 +273,22 @@ fn table(rows: &[Row], args: &BenchArgs, adapter: Option<&str>) -> String {
             t.refract,
             t.all,
             r.bound_tests_per_ray.all,
-            r.ratio_to_bvh.map_or("–".into(), |x| format!("{x:.2}")),
+            ratio_cell(r),
             r.longest_dispatch_s.map_or("–".into(), |x| format!("{:.1}", x * 1e3)),
         );
     }
     out
+}
+
+/// The `× BVH` cell: the median ratio, and the range over the rounds when they differ.
+fn ratio_cell(r: &Row) -> String {
+    match (r.ratio_to_bvh, r.ratio_range) {
+        (Some(x), Some((lo, hi))) if format!("{lo:.2}") != format!("{hi:.2}") => {
+            format!("{x:.2} ({lo:.2}–{hi:.2})")
+        }
+        (Some(x), _) => format!("{x:.2}"),
+        (None, _) => "–".into(),
+    }
 }
 
 #[cfg(test)]
