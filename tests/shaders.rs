@@ -70,6 +70,11 @@ fn variant_functions_follow_the_flags() {
         assert_eq!(has_f64(&m), v.f64, "{v:?}: f64 only in the f64 variant");
         assert_eq!(has_function(&m, "occluded_short"), v.shadows, "{v:?}");
         assert_eq!(has_function(&m, "trace_shadow"), v.shadows, "{v:?}");
+        // Intersection code only for the kinds of primitive the scene holds.
+        assert_eq!(has_function(&m, "intersect_sphere"), v.shapes.spheres, "{v:?}");
+        assert_eq!(has_function(&m, "intersect_triangle"), v.shapes.triangles, "{v:?}");
+        assert_eq!(has_function(&m, "intersect_cylinder"), v.shapes.cylinders, "{v:?}");
+        assert_eq!(has_function(&m, "cone_normal"), v.shapes.cylinders, "{v:?}");
     }
 }
 
@@ -152,4 +157,31 @@ fn a_scene_without_mirrors_or_glass_has_no_such_code() {
     assert!(has_function(&m, "reflect_dir") && has_function(&m, "refract_dir"));
     let m = module(Variant::for_effects(glass.effects(), 1));
     assert!(!has_function(&m, "reflect_dir") && !has_function(&m, "refract_dir"));
+}
+
+/// A scene's module holds the intersection code of the kinds of primitive it has, and no
+/// other (on lavapipe a kernel pays for the branches it never takes).
+#[test]
+fn a_scene_compiles_the_intersections_of_its_kinds_only() {
+    let cases = [
+        ("s 0 0 0 1\n", [true, false, false]),
+        ("p 3\n0 0 0\n1 0 0\n0 1 0\n", [false, true, false]),
+        ("c\n0 0 0 1\n0 1 0 0.5\ns 0 2 0 1\n", [true, false, true]),
+        ("c\n0 0 0 1\n0 1 0 0.5\ns 0 2 0 1\np 3\n0 0 0\n1 0 0\n0 1 0\n", [true, true, true]),
+    ];
+    for (prims, [spheres, triangles, cylinders]) in cases {
+        let s = scene(&format!("{VIEW}l 3 3 3\nf 1 0 0 1 0 1 0 1\n{prims}"));
+        let shapes = s.shapes();
+        assert_eq!(
+            (shapes.spheres, shapes.triangles, shapes.cylinders),
+            (spheres, triangles, cylinders),
+            "{prims}"
+        );
+        for q in Queries::ALL {
+            let m = module(Variant::for_effects(s.effects(), 5).with_queries(q).with_shapes(shapes));
+            assert_eq!(has_function(&m, "intersect_sphere"), spheres, "{prims}");
+            assert_eq!(has_function(&m, "intersect_triangle"), triangles, "{prims}");
+            assert_eq!(has_function(&m, "intersect_cylinder"), cylinders, "{prims}");
+        }
+    }
 }

@@ -90,6 +90,7 @@ struct Stepped {
     c: Closest,
 }
 
+#if SPHERES
 // Ray/sphere, Haines' precise form: the discriminant as r² − |f + b·d|².
 fn intersect_sphere(center: vec3<f32>, radius: f32, inside_only: bool, ray: Ray, t_max: f32) -> PrimHit {
     let d = vec3r(ray.d);
@@ -117,7 +118,9 @@ fn intersect_sphere(center: vec3<f32>, radius: f32, inside_only: bool, ray: Ray,
     }
     return no_hit();
 }
+#endif
 
+#if TRIANGLES
 // Ray/triangle, watertight; both sides are hit.
 fn intersect_triangle(p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>, ray: Ray, t_max: f32) -> PrimHit {
 #if F64
@@ -162,7 +165,9 @@ fn intersect_triangle(p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>, ray: Ray, t_m
     }
     return PrimHit(true, f32(t), f32(v * inv), f32(w * inv));
 }
+#endif
 
+#if CYLINDERS
 // Outward unit normal of a cone; at a cone's tip any direction across the axis serves.
 fn cone_normal(axis: vec3r, slope: real, radial: vec3r) -> vec3r {
     let len = length(radial);
@@ -242,18 +247,29 @@ fn intersect_cylinder(base: vec4<f32>, apex: vec4<f32>, inside_only: bool, ray: 
     }
     return no_hit();
 }
+#endif
 
+// The test of `p`'s kind; the module holds the kinds of its scene only (SPHERES,
+// TRIANGLES, CYLINDERS), and a kind it lacks never occurs.
 fn intersect_prim(p: Prim, ray: Ray, t_max: f32) -> PrimHit {
     let inside_only = (p.flags & FLAG_INSIDE_ONLY) != 0u;
     switch p.kind {
+#if SPHERES
         case KIND_SPHERE: {
             return intersect_sphere(p.a.xyz, p.a.w, inside_only, ray, t_max);
         }
-        case KIND_TRIANGLE: {
-            return intersect_triangle(p.a.xyz, p.b.xyz, p.c.xyz, ray, t_max);
-        }
-        default: {
+#endif
+#if CYLINDERS
+        case KIND_CYLINDER: {
             return intersect_cylinder(p.a, p.b, inside_only, ray, t_max);
+        }
+#endif
+        default: {
+#if TRIANGLES
+            return intersect_triangle(p.a.xyz, p.b.xyz, p.c.xyz, ray, t_max);
+#else
+            return no_hit();
+#endif
         }
     }
 }
@@ -322,10 +338,11 @@ fn shadow_ray(q: vec3<f32>, to_light: vec3<f32>, light: u32) -> ShadowRay {
 }
 #endif
 
-// The surface at hit `h` of `prim` (twin: kernel::geometry::surface). The point comes from
-// the primitive, not the ray: interpolated from the barycentrics on a triangle, `o + t·d`
-// projected back onto a sphere or cone, so that its rounding error scales with the
-// primitive's coordinates (`scale`) and not with how far the ray travelled.
+// The surface at hit `h` of `prim` (twin: kernel::geometry::surface), for the kinds the
+// module holds (see `intersect_prim`). The point comes from the primitive, not the ray:
+// interpolated from the barycentrics on a triangle, `o + t·d` projected back onto a sphere
+// or cone, so that its rounding error scales with the primitive's coordinates (`scale`) and
+// not with how far the ray travelled.
 fn surface(prim: Prim, ray: Ray, h: PrimHit) -> Surface {
     var s: Surface;
     s.has_uv = false;
@@ -333,6 +350,7 @@ fn surface(prim: Prim, ray: Ray, h: PrimHit) -> Surface {
     let o = vec3r(ray.o);
     let d = vec3r(ray.d);
     switch prim.kind {
+#if SPHERES
         case KIND_SPHERE: {
             let c = vec3r(prim.a.xyz);
             let v = o + d * real(h.t) - c;
@@ -342,7 +360,32 @@ fn surface(prim: Prim, ray: Ray, h: PrimHit) -> Surface {
             s.ns = s.ng;
             s.scale = max(max3(abs(s.p)), max3(abs(prim.a.xyz)) + prim.a.w);
         }
-        case KIND_TRIANGLE: {
+#endif
+#if CYLINDERS
+        case KIND_CYLINDER: {
+            let base = vec3r(prim.a.xyz);
+            let v = vec3r(prim.b.xyz) - base;
+            let height = length(v);
+            let axis = v / height;
+            let slope = (real(prim.b.w) - real(prim.a.w)) / height;
+            let w = o + d * real(h.t) - base;
+            let along = dot(w, axis);
+            let radial = w - axis * along;
+            s.ng = vec3<f32>(cone_normal(axis, slope, radial));
+            s.ns = s.ng;
+            let len = length(radial);
+            let radius = real(prim.a.w) + slope * along;
+            if len > 0.0 {
+                s.p = vec3<f32>(base + axis * along + radial * (radius / len));
+            } else {
+                s.p = vec3<f32>(base + w);
+            }
+            let extent = max(max3(abs(prim.a.xyz)), max3(abs(prim.b.xyz)));
+            s.scale = max(max3(abs(s.p)), extent);
+        }
+#endif
+        default: {
+#if TRIANGLES
             let b1 = real(h.b1);
             let b2 = real(h.b2);
             let b0 = 1.0 - b1 - b2;
@@ -366,27 +409,7 @@ fn surface(prim: Prim, ray: Ray, h: PrimHit) -> Surface {
             }
             let extent = max(max3(abs(prim.a.xyz)), max(max3(abs(prim.b.xyz)), max3(abs(prim.c.xyz))));
             s.scale = max(max3(abs(s.p)), extent);
-        }
-        default: {
-            let base = vec3r(prim.a.xyz);
-            let v = vec3r(prim.b.xyz) - base;
-            let height = length(v);
-            let axis = v / height;
-            let slope = (real(prim.b.w) - real(prim.a.w)) / height;
-            let w = o + d * real(h.t) - base;
-            let along = dot(w, axis);
-            let radial = w - axis * along;
-            s.ng = vec3<f32>(cone_normal(axis, slope, radial));
-            s.ns = s.ng;
-            let len = length(radial);
-            let radius = real(prim.a.w) + slope * along;
-            if len > 0.0 {
-                s.p = vec3<f32>(base + axis * along + radial * (radius / len));
-            } else {
-                s.p = vec3<f32>(base + w);
-            }
-            let extent = max(max3(abs(prim.a.xyz)), max3(abs(prim.b.xyz)));
-            s.scale = max(max3(abs(s.p)), extent);
+#endif
         }
     }
     return s;

@@ -143,7 +143,9 @@ impl GpuRenderer {
     fn job_variant(scene: &Scene, opts: &RenderOptions, aov: bool) -> Variant {
         let effects = if aov { Effects::default() } else { scene.effects() };
         let depth = if aov { 1 } else { opts.max_depth };
-        Self::variant(effects, depth, opts.accel).with_f64(opts.precision == Precision::F64)
+        Self::variant(effects, depth, opts.accel)
+            .with_f64(opts.precision == Precision::F64)
+            .with_shapes(scene.shapes())
     }
 
     /// The parameters the render of `scene` with `opts` builds its tables with (`aov`: the

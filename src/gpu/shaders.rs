@@ -15,7 +15,7 @@
 //! not a branch that is never taken.
 
 use crate::error::{Error, Result};
-use crate::scene::Effects;
+use crate::scene::{Effects, Shapes};
 
 /// The shader sources, by their path under `shaders/`.
 const SOURCES: &[(&str, &str)] = &[
@@ -133,6 +133,10 @@ pub struct Variant {
     pub queries: Queries,
     /// Intersection tests and hit points in f64 (`--precision f64`; `SHADER_F64`).
     pub f64: bool,
+    /// The kinds of primitive whose intersection and surface code the module holds (default:
+    /// all). On lavapipe a kernel pays for the branches it does not take, so a scene of
+    /// triangles alone traces faster without the sphere and cylinder tests in its loops.
+    pub shapes: Shapes,
 }
 
 impl Variant {
@@ -148,7 +152,13 @@ impl Variant {
             emission: e.emission,
             queries: Queries::Tables,
             f64: false,
+            shapes: Shapes::ALL,
         }
+    }
+
+    /// The same effects for a scene of `shapes` only.
+    pub fn with_shapes(self, shapes: Shapes) -> Variant {
+        Variant { shapes, ..self }
     }
 
     /// The same effects with intersections in f64 (`true`) or f32.
@@ -177,26 +187,34 @@ impl Variant {
         }
     }
 
-    /// Every one of the 192 variants: the 32 effect sets for each of [`Queries::ALL`], in f32
-    /// and in f64, the effect sets in the order of their bits (the last of each 32 has every
-    /// effect).
+    /// The variants the tests compile: the 32 effect sets for each of [`Queries::ALL`], in f32
+    /// and in f64, with every kind of primitive (192, the effect sets in the order of their
+    /// bits, the last of each 32 with every effect), then every other non-empty set of kinds
+    /// with every effect (36), so that each `#if` is compiled both ways.
     pub fn all() -> Vec<Variant> {
-        [false, true]
-            .into_iter()
-            .flat_map(|f64| {
-                Queries::ALL.into_iter().flat_map(move |queries| {
-                    (0..32u32).map(move |b| Variant {
-                        shadows: b & 1 != 0,
-                        reflection: b & 2 != 0,
-                        refraction: b & 4 != 0,
-                        textures: b & 8 != 0,
-                        emission: b & 16 != 0,
-                        queries,
-                        f64,
-                    })
+        let effects = [false, true].into_iter().flat_map(|f64| {
+            Queries::ALL.into_iter().flat_map(move |queries| {
+                (0..32u32).map(move |b| Variant {
+                    shadows: b & 1 != 0,
+                    reflection: b & 2 != 0,
+                    refraction: b & 4 != 0,
+                    textures: b & 8 != 0,
+                    emission: b & 16 != 0,
+                    queries,
+                    f64,
+                    shapes: Shapes::ALL,
                 })
             })
-            .collect()
+        });
+        let shapes = [false, true].into_iter().flat_map(|f64| {
+            Queries::ALL.into_iter().flat_map(move |queries| {
+                (1..7u32).map(move |b| {
+                    let shapes = Shapes { spheres: b & 1 != 0, triangles: b & 2 != 0, cylinders: b & 4 != 0 };
+                    Variant { f64, shapes, ..Variant::full(queries) }
+                })
+            })
+        });
+        effects.chain(shapes).collect()
     }
 
     /// Every effect with `queries`.
@@ -209,6 +227,7 @@ impl Variant {
             emission: true,
             queries,
             f64: false,
+            shapes: Shapes::ALL,
         }
     }
 
@@ -220,6 +239,9 @@ impl Variant {
             "TEXTURES" => self.textures,
             "EMISSION" => self.emission,
             "F64" => self.f64,
+            "SPHERES" => self.shapes.spheres,
+            "TRIANGLES" => self.shapes.triangles,
+            "CYLINDERS" => self.shapes.cylinders,
             // Rays leave surfaces: reflection and refraction rays, and shadow rays towards
             // directional lights (which have no table).
             "SURFACE_RAYS" => self.reflection || self.shadows,

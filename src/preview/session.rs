@@ -129,7 +129,9 @@ pub struct Session {
 
 /// The kernels' variant for the session's toggles and depth.
 fn variant(scene: &Scene, toggles: Toggles, max_depth: u32, queries: Queries) -> Variant {
-    Variant::for_effects(toggles.apply(scene.effects()), max_depth).with_queries(queries)
+    Variant::for_effects(toggles.apply(scene.effects()), max_depth)
+        .with_queries(queries)
+        .with_shapes(scene.shapes())
 }
 
 impl Session {

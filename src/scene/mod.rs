@@ -224,6 +224,26 @@ impl Aabb {
     }
 }
 
+/// Which kinds of primitive a scene holds. Renderers compile intersection and surface code
+/// only for the kinds that are `true`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+pub struct Shapes {
+    pub spheres: bool,
+    pub triangles: bool,
+    pub cylinders: bool,
+}
+
+impl Shapes {
+    /// Every kind: what code that may meet any scene compiles.
+    pub const ALL: Shapes = Shapes { spheres: true, triangles: true, cylinders: true };
+}
+
+impl Default for Shapes {
+    fn default() -> Shapes {
+        Shapes::ALL
+    }
+}
+
 /// Which Whitted effects a scene calls for. Renderers build tables and compile code only
 /// for the effects that are `true`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize)]
@@ -348,6 +368,19 @@ impl Scene {
             e.emission |= m.emits();
         }
         e
+    }
+
+    /// The kinds of primitive the scene holds.
+    pub fn shapes(&self) -> Shapes {
+        let mut k = Shapes { spheres: false, triangles: false, cylinders: false };
+        for p in &self.primitives {
+            match p {
+                Primitive::Sphere(_) => k.spheres = true,
+                Primitive::Triangle(_) => k.triangles = true,
+                Primitive::Cylinder(_) => k.cylinders = true,
+            }
+        }
+        k
     }
 
     /// Checks the invariants listed in the module documentation. Loaders call this last;
