@@ -120,6 +120,15 @@ impl Timed {
     }
 }
 
+/// Accelerator `k`'s kernel time over the BVH's (`kernels[bvh]`), round by round
+/// (`kernels[a][i]`: accelerator `a` in round `i`); empty without a BVH.
+fn round_ratios(kernels: &[Vec<f64>], k: usize, bvh: Option<usize>) -> Vec<f64> {
+    match bvh {
+        Some(b) => kernels[k].iter().zip(&kernels[b]).map(|(t, b)| t / b).collect(),
+        None => Vec::new(),
+    }
+}
+
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     let n = v.len();
@@ -190,15 +199,15 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
                     last[k] = Some(r.stats);
                 }
             }
-            let bvh = args.accel.iter().position(|&a| a == AccelKind::Bvh);
-            for (k, stats) in last.into_iter().enumerate() {
-                let s = stats.expect("at least one run");
+            let stats: Vec<Stats> = last.into_iter().map(|s| s.expect("at least one run")).collect();
+            // The BVH's row by what the render ran (`auto` may resolve to it on the CPU).
+            let bvh = stats.iter().position(|s| s.settings.accel == "bvh");
+            let kernels: Vec<Vec<f64>> =
+                runs.iter().map(|r| r.iter().map(|t| t.kernel_s).collect()).collect();
+            for (k, s) in stats.into_iter().enumerate() {
                 let timed = &runs[k];
-                let kernel_s = median(timed.iter().map(|t| t.kernel_s).collect());
-                let ratios: Vec<f64> = match bvh {
-                    Some(b) => timed.iter().zip(&runs[b]).map(|(t, b)| t.kernel_s / b.kernel_s).collect(),
-                    None => Vec::new(),
-                };
+                let kernel_s = median(kernels[k].clone());
+                let ratios = round_ratios(&kernels, k, bvh);
                 rows.push(Row {
                     scene: name.clone(),
                     accel: s.settings.accel.clone(),
@@ -293,7 +302,47 @@ fn ratio_cell(r: &Row) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::median;
+    use super::{median, ratio_cell, round_ratios, Row};
+    use cuberay::stats::TestsPerRay;
+
+    /// Rounds in which the machine's speed drifts: the ratio is taken within each round, so
+    /// it stays what it is while a ratio of medians would not.
+    #[test]
+    fn ratios_are_taken_within_each_round() {
+        let kernels = vec![vec![1.0, 2.0, 4.0], vec![2.0, 4.0, 8.0], vec![1.0, 1.0, 1.0]];
+        assert_eq!(round_ratios(&kernels, 0, Some(1)), [0.5, 0.5, 0.5]);
+        assert_eq!(round_ratios(&kernels, 1, Some(1)), [1.0, 1.0, 1.0]);
+        assert_eq!(round_ratios(&kernels, 2, Some(1)), [0.5, 0.25, 0.125]);
+        // Paired round by round, not sorted: the rounds' order matters.
+        assert_eq!(round_ratios(&[vec![3.0, 1.0], vec![1.0, 3.0]], 0, Some(1)), [3.0, 1.0 / 3.0]);
+        assert!(round_ratios(&kernels, 0, None).is_empty());
+    }
+
+    fn row(ratio: Option<f64>, range: Option<(f64, f64)>) -> Row {
+        Row {
+            scene: "s".into(),
+            accel: "cube".into(),
+            backend: "gpu",
+            preprocess_s: 0.0,
+            accel_bytes: 0,
+            kernel_s: 1.0,
+            rays: 1,
+            mrays_per_s: 1.0,
+            tests_per_ray: TestsPerRay::default(),
+            bound_tests_per_ray: TestsPerRay::default(),
+            ratio_to_bvh: ratio,
+            ratio_range: range,
+            longest_dispatch_s: None,
+        }
+    }
+
+    #[test]
+    fn the_ratio_cell_shows_the_range_when_the_rounds_disagree() {
+        assert_eq!(ratio_cell(&row(Some(0.52), Some((0.48, 0.77)))), "0.52 (0.48–0.77)");
+        assert_eq!(ratio_cell(&row(Some(1.0), Some((1.0, 1.0)))), "1.00");
+        assert_eq!(ratio_cell(&row(Some(0.5), Some((0.501, 0.504)))), "0.50");
+        assert_eq!(ratio_cell(&row(None, None)), "–");
+    }
 
     #[test]
     fn median_of_odd_and_even_counts() {

@@ -181,6 +181,13 @@ impl GpuRenderer {
             )));
         }
         let variant = Self::job_variant(scene, opts, aov);
+        let (has, needs) = (variant.shapes, scene.shapes());
+        debug_assert!(
+            (has.spheres || !needs.spheres)
+                && (has.triangles || !needs.triangles)
+                && (has.cylinders || !needs.cylinders),
+            "the kernels lack the intersection code of a kind of primitive the scene holds"
+        );
         let kernels = if aov { vec![Kernel::Aov] } else { Kernel::wavefront(variant) };
         let pipelines =
             kernels.into_iter().map(|k| Ok((k, self.kernel(k, variant)?))).collect::<Result<_>>()?;
