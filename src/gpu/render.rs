@@ -181,11 +181,8 @@ impl GpuRenderer {
             )));
         }
         let variant = Self::job_variant(scene, opts, aov);
-        let (has, needs) = (variant.shapes, scene.shapes());
         debug_assert!(
-            (has.spheres || !needs.spheres)
-                && (has.triangles || !needs.triangles)
-                && (has.cylinders || !needs.cylinders),
+            variant.shapes.contains(scene.shapes()),
             "the kernels lack the intersection code of a kind of primitive the scene holds"
         );
         let kernels = if aov { vec![Kernel::Aov] } else { Kernel::wavefront(variant) };

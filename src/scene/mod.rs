@@ -236,6 +236,13 @@ pub struct Shapes {
 impl Shapes {
     /// Every kind: what code that may meet any scene compiles.
     pub const ALL: Shapes = Shapes { spheres: true, triangles: true, cylinders: true };
+
+    /// Whether every kind `other` holds is one of these.
+    pub fn contains(self, other: Shapes) -> bool {
+        (self.spheres || !other.spheres)
+            && (self.triangles || !other.triangles)
+            && (self.cylinders || !other.cylinders)
+    }
 }
 
 impl Default for Shapes {
@@ -370,17 +377,10 @@ impl Scene {
         e
     }
 
-    /// The kinds of primitive the scene holds.
+    /// The kinds of primitive the scene holds (those [`Scene::counts`] finds).
     pub fn shapes(&self) -> Shapes {
-        let mut k = Shapes { spheres: false, triangles: false, cylinders: false };
-        for p in &self.primitives {
-            match p {
-                Primitive::Sphere(_) => k.spheres = true,
-                Primitive::Triangle(_) => k.triangles = true,
-                Primitive::Cylinder(_) => k.cylinders = true,
-            }
-        }
-        k
+        let c = self.counts();
+        Shapes { spheres: c.spheres > 0, triangles: c.triangles > 0, cylinders: c.cylinders > 0 }
     }
 
     /// Checks the invariants listed in the module documentation. Loaders call this last;
