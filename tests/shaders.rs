@@ -4,6 +4,7 @@
 
 use cuberay::gpu::shaders::{compose, Kernel, Queries, Variant};
 use cuberay::load;
+use cuberay::scene::Shapes;
 use naga::valid::{Capabilities, ValidationFlags, Validator};
 
 fn module_of(k: Kernel, v: Variant) -> naga::Module {
@@ -177,6 +178,9 @@ fn a_scene_compiles_the_intersections_of_its_kinds_only() {
             (spheres, triangles, cylinders),
             "{prims}"
         );
+        assert!(Shapes::ALL.contains(shapes) && shapes.contains(shapes), "{prims}");
+        let triangles_only = Shapes { spheres: false, triangles: true, cylinders: false };
+        assert_eq!(triangles_only.contains(shapes), !spheres && !cylinders, "{prims}");
         for q in Queries::ALL {
             let m = module(Variant::for_effects(s.effects(), 5).with_queries(q).with_shapes(shapes));
             assert_eq!(has_function(&m, "intersect_sphere"), spheres, "{prims}");
