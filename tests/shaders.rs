@@ -3,6 +3,8 @@
 //! module. (The twins of the shared structs and constants are checked in `twins.rs`.)
 
 use cuberay::gpu::shaders::{compose, Kernel, Queries, Variant};
+use cuberay::gpu::GpuRenderer;
+use cuberay::job::RenderOptions;
 use cuberay::load;
 use cuberay::scene::Shapes;
 use naga::valid::{Capabilities, ValidationFlags, Validator};
@@ -108,7 +110,7 @@ fn each_kernel_contains_only_its_own_queries() {
             assert_eq!(has_function(&m, f), cube, "{v:?}: {f}");
         }
         // The beams only where rays leave surfaces.
-        let surface_rays = v.reflection || v.shadows;
+        let surface_rays = v.surface_rays;
         assert_eq!(has_function(&m, "beam_range"), cube && surface_rays, "{v:?}: beam_range");
         assert_eq!(has_function(&m, "walk_any"), cube && v.shadows, "{v:?}");
         let walks_bvh = bvh || (cube && surface_rays);
@@ -158,6 +160,37 @@ fn a_scene_without_mirrors_or_glass_has_no_such_code() {
     assert!(has_function(&m, "reflect_dir") && has_function(&m, "refract_dir"));
     let m = module(Variant::for_effects(glass.effects(), 1));
     assert!(!has_function(&m, "reflect_dir") && !has_function(&m, "refract_dir"));
+}
+
+/// The table kernels walk the BVH for rays leaving surfaces only where a render spawns them:
+/// not for a matte scene lit by point lights (whose shadow rays leave the lights' tables),
+/// but with a mirror, with glass, or with a directional light (which has no table).
+#[test]
+fn a_scene_whose_rays_all_leave_the_eye_or_a_light_has_no_bvh_walk() {
+    let opts = RenderOptions::new(8, 8);
+    let matte = scene(&format!("{VIEW}l 3 3 3\nf 1 0 0 1 0 1 0 1\ns 0 0 0 1\n"));
+    let mirror = scene(&format!("{VIEW}l 3 3 3\nf 1 1 1 0.2 0.8 10 0 1\ns 0 0 0 1\n"));
+    let glass = scene(&format!("{VIEW}l 3 3 3\nf 1 1 1 0 0.1 10 0.9 1.5\ns 0 0 0 1\n"));
+    let mut sun = matte.clone();
+    sun.lights[0].kind = cuberay::scene::LightKind::Directional;
+    sun.lights[0].direction = glam::DVec3::new(0.0, -1.0, 0.0);
+    let shallow = RenderOptions { max_depth: 1, ..opts.clone() };
+    for (name, s, o, surface) in [
+        ("matte", &matte, &opts, false),
+        ("mirror", &mirror, &opts, true),
+        ("glass", &glass, &opts, true),
+        ("mirror at depth 1", &mirror, &shallow, false),
+        ("directional light", &sun, &opts, true),
+    ] {
+        let v = GpuRenderer::job_variant(s, o, false);
+        assert_eq!(v.surface_rays, surface, "{name}");
+        assert!(v.tables() && v.shadows, "{name}: {v:?}");
+        let m = module(v);
+        assert_eq!(has_function(&m, "bvh_nearest"), surface, "{name}");
+        assert_eq!(has_function(&m, "bvh_any"), surface, "{name}");
+        assert_eq!(has_function(&m, "beam_range"), surface, "{name}");
+        assert!(has_function(&m, "walk_any") && has_function(&m, "cube_walk_nearest"), "{name}");
+    }
 }
 
 /// A scene's module holds the intersection code of the kinds of primitive it has, and no

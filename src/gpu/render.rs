@@ -140,12 +140,22 @@ impl GpuRenderer {
 
     /// The variant of a render (`aov`: the AOV pass, which traces eye rays only, so its
     /// kernel and tables have no effects).
-    fn job_variant(scene: &Scene, opts: &RenderOptions, aov: bool) -> Variant {
+    pub fn job_variant(scene: &Scene, opts: &RenderOptions, aov: bool) -> Variant {
         let effects = if aov { Effects::default() } else { scene.effects() };
         let depth = if aov { 1 } else { opts.max_depth };
-        Self::variant(effects, depth, opts.accel)
+        let v = Self::variant(effects, depth, opts.accel)
             .with_f64(opts.precision == Precision::F64)
-            .with_shapes(scene.shapes())
+            .with_shapes(scene.shapes());
+        Self::scene_surface_rays(scene, opts, v)
+    }
+
+    /// `variant` with the walk of rays leaving surfaces only if the tables built for it trace
+    /// such rays (`coherence::traces_surface_rays`: mirrors or glass, or shadow rays towards
+    /// a directional light), so that a scene lit by point lights alone, without mirrors,
+    /// gets table kernels without a BVH loop.
+    pub fn scene_surface_rays(scene: &Scene, opts: &RenderOptions, variant: Variant) -> Variant {
+        let params = Self::variant_build_params(scene, opts, variant);
+        variant.with_surface_rays(coherence::traces_surface_rays(scene, &params))
     }
 
     /// The parameters the render of `scene` with `opts` builds its tables with (`aov`: the
@@ -210,6 +220,10 @@ impl GpuRenderer {
                 Some(TableSet::Stored(t, walks))
             }
         };
+        debug_assert!(
+            variant.surface_rays || (packed.params.surface_bvh == 0 && packed.params.beam_nodes == 0),
+            "the tables send rays leaving surfaces to kernels without their walk"
+        );
         Ok(Prepared { variant, pipelines, packed, tables, start })
     }
 

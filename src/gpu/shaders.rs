@@ -6,8 +6,9 @@
 //! binary. A tiny line-based preprocessor composes one module per [`Kernel`] and
 //! [`Variant`]: `#include "shared/file.wgsl"` pastes a file (once), and `#if NAME` / `#else` /
 //! `#endif` (nestable) keep or drop lines by the variant's flags `SHADOWS`, `REFLECTION`,
-//! `REFRACTION`, `TEXTURES` and `EMISSION`, `SURFACE_RAYS` (reflection or shadows: rays
-//! leave surfaces, and the BVH or the tables' beams take them), and `TABLES`, `BVH` and `BRUTE`, of which exactly
+//! `REFRACTION`, `TEXTURES` and `EMISSION`, `SURFACE_RAYS` (rays leave surfaces: reflection
+//! and refraction rays, shadow rays towards a directional light; the BVH or the tables' beams
+//! take them), and `TABLES`, `BVH` and `BRUTE`, of which exactly
 //! one is set: the ray queries, the candidate-table walk of `shared/walk.wgsl`, the BVH walk of
 //! `shared/bvh.wgsl` or the brute force of `shared/brute.wgsl`. The table walk includes the
 //! BVH walk with `SURFACE_RAYS`: rays leaving surfaces walk the BVH when the tables have no
@@ -137,6 +138,14 @@ pub struct Variant {
     /// all). On lavapipe a kernel pays for the branches it does not take, so a scene of
     /// triangles alone traces faster without the sphere and cylinder tests in its loops.
     pub shapes: Shapes,
+    /// Whether rays leave surfaces (`SURFACE_RAYS`), so that the table kernels hold the walk
+    /// of the BVH or of the beams that take such rays. [`Variant::for_effects`] assumes so
+    /// wherever reflection or shadows may spawn them; a render narrows it to what its tables
+    /// trace (`GpuRenderer::job_variant`): a scene whose shadow rays all leave point lights and
+    /// that has no mirror or glass traces none, and its kernels would otherwise run a BVH loop
+    /// for every eye and shadow ray on lavapipe, where a loop no invocation enters still
+    /// runs once.
+    pub surface_rays: bool,
 }
 
 impl Variant {
@@ -144,21 +153,29 @@ impl Variant {
     /// ray is ever spawned, so neither reflection nor refraction code is needed).
     pub fn for_effects(e: Effects, max_depth: u32) -> Variant {
         let secondary = max_depth >= 2;
+        let reflection = e.reflection && secondary;
         Variant {
             shadows: e.shadows,
-            reflection: e.reflection && secondary,
+            reflection,
             refraction: e.refraction && secondary,
             textures: e.textures,
             emission: e.emission,
             queries: Queries::Tables,
             f64: false,
             shapes: Shapes::ALL,
+            surface_rays: reflection || e.shadows,
         }
     }
 
     /// The same effects for a scene of `shapes` only.
     pub fn with_shapes(self, shapes: Shapes) -> Variant {
         Variant { shapes, ..self }
+    }
+
+    /// The same effects where rays leave surfaces only if `surface_rays` (and the effects
+    /// may spawn them).
+    pub fn with_surface_rays(self, surface_rays: bool) -> Variant {
+        Variant { surface_rays: self.surface_rays && surface_rays, ..self }
     }
 
     /// The same effects with intersections in f64 (`true`) or f32.
@@ -190,8 +207,9 @@ impl Variant {
     /// The variants the tests compile: the 32 effect sets for each of [`Queries::ALL`], in f32
     /// and in f64, with every kind of primitive (192, the effect sets in the order of their
     /// bits, the last of each 32 with every effect), then every other set of kinds (none
-    /// included: a scene may hold no primitive) with every effect (42), so that each `#if` is
-    /// compiled both ways.
+    /// included: a scene may hold no primitive) with every effect (42), then shadows without
+    /// rays leaving surfaces (lights with tables, no mirror), with and without textures and
+    /// emission (12), so that each `#if` is compiled both ways.
     pub fn all() -> Vec<Variant> {
         let effects = [false, true].into_iter().flat_map(|f64| {
             Queries::ALL.into_iter().flat_map(move |queries| {
@@ -204,6 +222,7 @@ impl Variant {
                     queries,
                     f64,
                     shapes: Shapes::ALL,
+                    surface_rays: b & 3 != 0,
                 })
             })
         });
@@ -215,7 +234,20 @@ impl Variant {
                 })
             })
         });
-        effects.chain(shapes).collect()
+        let point_lit = [false, true].into_iter().flat_map(|f64| {
+            Queries::ALL.into_iter().flat_map(move |queries| {
+                [false, true].map(move |more| Variant {
+                    shadows: true,
+                    textures: more,
+                    emission: more,
+                    queries,
+                    f64,
+                    shapes: Shapes::ALL,
+                    ..Variant::default()
+                })
+            })
+        });
+        effects.chain(shapes).chain(point_lit).collect()
     }
 
     /// Every effect with `queries`.
@@ -229,6 +261,7 @@ impl Variant {
             queries,
             f64: false,
             shapes: Shapes::ALL,
+            surface_rays: true,
         }
     }
 
@@ -245,7 +278,7 @@ impl Variant {
             "CYLINDERS" => self.shapes.cylinders,
             // Rays leave surfaces: reflection and refraction rays, and shadow rays towards
             // directional lights (which have no table).
-            "SURFACE_RAYS" => self.reflection || self.shadows,
+            "SURFACE_RAYS" => self.surface_rays,
             "TABLES" => self.queries == Queries::Tables,
             "BVH" => self.queries == Queries::Bvh,
             "BRUTE" => self.queries == Queries::Brute,

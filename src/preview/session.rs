@@ -128,10 +128,17 @@ pub struct Session {
 }
 
 /// The kernels' variant for the session's toggles and depth.
-fn variant(scene: &Scene, toggles: Toggles, max_depth: u32, queries: Queries) -> Variant {
-    Variant::for_effects(toggles.apply(scene.effects()), max_depth)
+fn variant(
+    scene: &Scene,
+    opts: &RenderOptions,
+    toggles: Toggles,
+    max_depth: u32,
+    queries: Queries,
+) -> Variant {
+    let v = Variant::for_effects(toggles.apply(scene.effects()), max_depth)
         .with_queries(queries)
-        .with_shapes(scene.shapes())
+        .with_shapes(scene.shapes());
+    GpuRenderer::scene_surface_rays(scene, opts, v)
 }
 
 impl Session {
@@ -155,7 +162,7 @@ impl Session {
         let tables = gpu.tables(&scene, &opts, all, &mut packed)?;
         let walks = gpu::walk_bounds(tables.as_ref().map(|t| &t.walks), &packed);
         gpu.check_loop_budget(&scene, walks.as_ref(), Some(MAX_DEPTH))?;
-        let first = variant(&scene, toggles, opts.max_depth, all.queries);
+        let first = variant(&scene, &opts, toggles, opts.max_depth, all.queries);
         let tile = tile_points(&scene, walks.as_ref(), TESTS_PER_DISPATCH);
         let sizes = gpu::queue_sizes(&scene, all);
         let buffers = gpu.upload(&packed, tables.as_ref().map(|t| &t.flat), tile, Some(sizes))?;
@@ -287,7 +294,8 @@ impl Session {
                 Ok(eye_only) => eye_only,
                 Err(e) => {
                     // Without tables the session falls back to brute force.
-                    let brute = variant(&self.scene, self.toggles, self.opts.max_depth, Queries::Brute);
+                    let brute =
+                        variant(&self.scene, &self.opts, self.toggles, self.opts.max_depth, Queries::Brute);
                     self.queries = Queries::Brute;
                     self.walks = None;
                     self.buffers = self.upload(&mut packed, None)?;
@@ -370,7 +378,7 @@ impl Session {
         let mut opts = self.opts.clone();
         opts.max_depth = max_depth;
         gpu::check(&self.scene, &opts)?;
-        let v = variant(&self.scene, toggles, max_depth, self.queries);
+        let v = variant(&self.scene, &opts, toggles, max_depth, self.queries);
         self.use_kernel(v)?;
         self.toggles = toggles;
         self.opts = opts;
