@@ -110,10 +110,9 @@ fn each_kernel_contains_only_its_own_queries() {
             assert_eq!(has_function(&m, f), cube, "{v:?}: {f}");
         }
         // The beams only where rays leave surfaces.
-        let surface_rays = v.surface_rays;
-        assert_eq!(has_function(&m, "beam_range"), cube && surface_rays, "{v:?}: beam_range");
+        assert_eq!(has_function(&m, "beam_range"), cube && v.surface_rays, "{v:?}: beam_range");
         assert_eq!(has_function(&m, "walk_any"), cube && v.shadows, "{v:?}");
-        let walks_bvh = bvh || (cube && surface_rays);
+        let walks_bvh = bvh || (cube && v.surface_rays);
         assert_eq!(has_function(&m, "bvh_nearest"), walks_bvh, "{v:?}");
         assert_eq!(has_function(&m, "box_hit"), walks_bvh, "{v:?}");
         assert_eq!(has_function(&m, "bvh_any"), walks_bvh && v.shadows, "{v:?}");

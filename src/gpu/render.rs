@@ -143,17 +143,17 @@ impl GpuRenderer {
     pub fn job_variant(scene: &Scene, opts: &RenderOptions, aov: bool) -> Variant {
         let effects = if aov { Effects::default() } else { scene.effects() };
         let depth = if aov { 1 } else { opts.max_depth };
-        let v = Self::variant(effects, depth, opts.accel)
-            .with_f64(opts.precision == Precision::F64)
-            .with_shapes(scene.shapes());
-        Self::scene_surface_rays(scene, opts, v)
+        let v = Self::variant(effects, depth, opts.accel).with_f64(opts.precision == Precision::F64);
+        Self::for_scene(scene, opts, v)
     }
 
-    /// `variant` with the walk of rays leaving surfaces only if the tables built for it trace
-    /// such rays (`coherence::traces_surface_rays`: mirrors or glass, or shadow rays towards
-    /// a directional light), so that a scene lit by point lights alone, without mirrors,
-    /// gets table kernels without a BVH loop.
-    pub fn scene_surface_rays(scene: &Scene, opts: &RenderOptions, variant: Variant) -> Variant {
+    /// `variant` narrowed to what `scene` holds and traces: the intersection code of its
+    /// kinds of primitive only, and the walk of rays leaving surfaces only if the tables
+    /// built for it trace such rays (`coherence::traces_surface_rays`: mirrors or glass, or
+    /// shadow rays towards a directional light), so that a scene lit by point lights alone,
+    /// without mirrors, gets table kernels without a BVH loop.
+    pub fn for_scene(scene: &Scene, opts: &RenderOptions, variant: Variant) -> Variant {
+        let variant = variant.with_shapes(scene.shapes());
         let params = Self::variant_build_params(scene, opts, variant);
         variant.with_surface_rays(coherence::traces_surface_rays(scene, &params))
     }

@@ -141,7 +141,7 @@ pub struct Variant {
     /// Whether rays leave surfaces (`SURFACE_RAYS`), so that the table kernels hold the walk
     /// of the BVH or of the beams that take such rays. [`Variant::for_effects`] assumes so
     /// wherever reflection or shadows may spawn them; a render narrows it to what its tables
-    /// trace (`GpuRenderer::job_variant`): a scene whose shadow rays all leave point lights and
+    /// trace (`GpuRenderer::for_scene`): a scene whose shadow rays all leave point lights and
     /// that has no mirror or glass traces none, and its kernels would otherwise run a BVH loop
     /// for every eye and shadow ray on lavapipe, where a loop no invocation enters still
     /// runs once.

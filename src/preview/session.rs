@@ -135,10 +135,8 @@ fn variant(
     max_depth: u32,
     queries: Queries,
 ) -> Variant {
-    let v = Variant::for_effects(toggles.apply(scene.effects()), max_depth)
-        .with_queries(queries)
-        .with_shapes(scene.shapes());
-    GpuRenderer::scene_surface_rays(scene, opts, v)
+    let v = Variant::for_effects(toggles.apply(scene.effects()), max_depth).with_queries(queries);
+    GpuRenderer::for_scene(scene, opts, v)
 }
 
 impl Session {
