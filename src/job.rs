@@ -78,6 +78,10 @@ pub struct RenderOptions {
     /// window changes which grid points are traced, never how: every pixel of it gets the
     /// samples, seeds and tables of the whole render.
     pub window: Option<Window>,
+    /// Whether the GPU kernels count rays and tests for the statistics (default: yes). They
+    /// run faster uncounted (see `Variant::counters`), and the counts of their
+    /// [`crate::stats::Stats`] are then zero; the CPU reference always counts.
+    pub count: bool,
 }
 
 /// The grid points a windowed render traces: `size` points from grid point `origin`, of
@@ -119,6 +123,7 @@ impl RenderOptions {
             eye_cells: None,
             transfer: None,
             window: None,
+            count: true,
         }
     }
 

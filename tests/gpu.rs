@@ -73,6 +73,21 @@ fn kernels_are_compiled_once_per_effect_set() {
     assert_eq!(r.compiled_kernels(), 6);
 }
 
+#[test]
+fn an_uncounted_render_is_the_counted_one_without_its_counts() {
+    // The showcase has mirrors, glass and shadows: every kind of ray, every counter.
+    let scene = showcase();
+    let counted = RenderOptions { sampling: Sampling::Corners, ..RenderOptions::new(24, 18) };
+    let uncounted = RenderOptions { count: false, ..counted.clone() };
+    let a = renderer().render(&scene, &counted, &hidden()).unwrap();
+    let b = renderer().render(&scene, &uncounted, &hidden()).unwrap();
+    assert_eq!(a.image.pixels, b.image.pixels, "counting changed the image");
+    let (ca, cb) = (a.stats.counters, b.stats.counters);
+    assert!(ca.rays.iter().all(|&r| r > 0), "a counted render counts every kind of ray: {ca:?}");
+    assert!(ca.tests.iter().all(|t| t.total() > 0), "and tests for each: {ca:?}");
+    assert_eq!(cb, cuberay::stats::Counters::default(), "an uncounted render counts nothing");
+}
+
 /// Renders on both backends and checks agreement: FLIP mean, finite pixels, and ray
 /// counts by kind within 1%.
 fn agree(name: &str, scene: &Scene, opts: &RenderOptions, max_flip: f64) -> (Rendered, Rendered) {

@@ -147,13 +147,13 @@ impl GpuRenderer {
         Self::for_scene(scene, opts, v)
     }
 
-    /// `variant` narrowed to what `scene` holds and traces: the intersection code of its
-    /// kinds of primitive only, and the walk of rays leaving surfaces only if the tables
+    /// `variant` narrowed to what `scene` holds and traces, counted if `opts` ask for the
+    /// counts: the intersection code of its kinds of primitive only, and the walk of rays leaving surfaces only if the tables
     /// built for it trace such rays (`coherence::traces_surface_rays`: mirrors or glass, or
     /// shadow rays towards a directional light), so that a scene lit by point lights alone,
     /// without mirrors, gets table kernels without a BVH loop.
     pub fn for_scene(scene: &Scene, opts: &RenderOptions, variant: Variant) -> Variant {
-        let variant = variant.with_shapes(scene.shapes());
+        let variant = variant.with_shapes(scene.shapes()).with_counters(opts.count);
         let params = Self::variant_build_params(scene, opts, variant);
         variant.with_surface_rays(coherence::traces_surface_rays(scene, &params))
     }

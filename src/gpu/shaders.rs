@@ -146,6 +146,11 @@ pub struct Variant {
     /// for every eye and shadow ray on lavapipe, where a loop no invocation enters still
     /// runs once.
     pub surface_rays: bool,
+    /// Whether the kernels count rays and tests into the statistics counters (`COUNTERS`).
+    /// On lavapipe counting costs a table kernel a fifth to a quarter of its time (a private
+    /// array indexed per lane at every test, workgroup atomics at the end), so a render
+    /// counts only when asked to (`RenderOptions::count`); uncounted, its counts are zero.
+    pub counters: bool,
 }
 
 impl Variant {
@@ -164,6 +169,7 @@ impl Variant {
             f64: false,
             shapes: Shapes::ALL,
             surface_rays: reflection || e.shadows,
+            counters: true,
         }
     }
 
@@ -176,6 +182,11 @@ impl Variant {
     /// may spawn them).
     pub fn with_surface_rays(self, surface_rays: bool) -> Variant {
         Variant { surface_rays: self.surface_rays && surface_rays, ..self }
+    }
+
+    /// The same effects, counted (`true`) or not.
+    pub fn with_counters(self, counters: bool) -> Variant {
+        Variant { counters, ..self }
     }
 
     /// The same effects with intersections in f64 (`true`) or f32.
@@ -209,7 +220,8 @@ impl Variant {
     /// bits, the last of each 32 with every effect), then every other set of kinds (none
     /// included: a scene may hold no primitive) with every effect (42), then shadows without
     /// rays leaving surfaces (lights with tables, no mirror), with and without textures and
-    /// emission (12), so that each `#if` is compiled both ways.
+    /// emission (12), then every effect uncounted (6), so that each `#if` is compiled both
+    /// ways. All but the last six count.
     pub fn all() -> Vec<Variant> {
         let effects = [false, true].into_iter().flat_map(|f64| {
             Queries::ALL.into_iter().flat_map(move |queries| {
@@ -223,6 +235,7 @@ impl Variant {
                     f64,
                     shapes: Shapes::ALL,
                     surface_rays: b & 3 != 0,
+                    counters: true,
                 })
             })
         });
@@ -243,11 +256,17 @@ impl Variant {
                     queries,
                     f64,
                     shapes: Shapes::ALL,
+                    counters: true,
                     ..Variant::default()
                 })
             })
         });
-        effects.chain(shapes).chain(point_lit).collect()
+        let uncounted = [false, true].into_iter().flat_map(|f64| {
+            Queries::ALL
+                .into_iter()
+                .map(move |queries| Variant { f64, ..Variant::full(queries) }.with_counters(false))
+        });
+        effects.chain(shapes).chain(point_lit).chain(uncounted).collect()
     }
 
     /// Every effect with `queries`.
@@ -262,6 +281,7 @@ impl Variant {
             f64: false,
             shapes: Shapes::ALL,
             surface_rays: true,
+            counters: true,
         }
     }
 
@@ -279,6 +299,7 @@ impl Variant {
             // Rays leave surfaces: reflection and refraction rays, and shadow rays towards
             // directional lights (which have no table).
             "SURFACE_RAYS" => self.surface_rays,
+            "COUNTERS" => self.counters,
             "TABLES" => self.queries == Queries::Tables,
             "BVH" => self.queries == Queries::Bvh,
             "BRUTE" => self.queries == Queries::Brute,
