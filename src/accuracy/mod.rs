@@ -373,13 +373,17 @@ fn measure(
         }
         None => (None, 0.0),
     };
-    gpu.render_with(scene, opts, stored.clone(), &hidden)?;
+    // The warm-up counts the self-hits and blocked shadow rays; the timed runs count nothing,
+    // as a render without `--stats` (counting costs the kernels time on lavapipe).
+    let counted =
+        gpu.render_with(scene, &RenderOptions { count: true, ..opts.clone() }, stored.clone(), &hidden)?;
+    let timed = RenderOptions { count: false, ..opts.clone() };
     let mut renders = Vec::new();
     for _ in 0..runs.max(1) {
-        renders.push(gpu.render_with(scene, opts, stored.clone(), &hidden)?);
+        renders.push(gpu.render_with(scene, &timed, stored.clone(), &hidden)?);
     }
     let last = renders.last().expect("one run at least");
-    let s = &last.stats;
+    let s = &counted.stats;
     let id = gpu.render_aov(scene, opts, Aov::Id, &hidden)?.image;
     let depth = gpu.render_aov(scene, opts, Aov::Depth, &hidden)?.image;
     Ok(Measured {

@@ -1,6 +1,6 @@
 //! `cuberay bench`: renders a set of scenes with each chosen accelerator and backend, a
-//! warm-up run of each and then `--runs` rounds in which every accelerator renders once, in
-//! turn, and prints what each costs (medians over the rounds): preprocessing, bytes of the
+//! warm-up run of each (which counts the rays and tests) and then `--runs` uncounted rounds in
+//! which every accelerator renders once, in turn, and prints what each costs (medians over the rounds): preprocessing, bytes of the
 //! acceleration structure, kernel time, rays per second, tests and bound tests per ray by
 //! kind, the kernel time's ratio to the BVH's (taken within each round, so that a drift of
 //! the machine's speed between rounds cancels out; with the rounds' range), and the longest
@@ -73,6 +73,8 @@ struct Row {
     accel_bytes: u64,
     /// GPU: the kernel time from timestamp queries; CPU: the trace time.
     kernel_s: f64,
+    /// Rays, and tests per ray below, as the warm-up counted them (the timed runs, which
+    /// trace the same rays, do not count).
     rays: u64,
     mrays_per_s: f64,
     tests_per_ray: TestsPerRay,
@@ -167,11 +169,12 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         let name =
             path.file_stem().map_or_else(|| path.display().to_string(), |s| s.to_string_lossy().into());
         for &backend in &args.backend {
-            let render = |accel: AccelKind| -> anyhow::Result<Rendered> {
+            let render = |accel: AccelKind, count: bool| -> anyhow::Result<Rendered> {
                 let opts = RenderOptions {
                     sampling: args.sampling,
                     max_depth: args.max_depth,
                     accel,
+                    count,
                     ..RenderOptions::new(args.width, args.height)
                 };
                 let what = format!("{name}, --accel {accel:?} --backend {backend:?}").to_lowercase();
@@ -183,23 +186,23 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
                 };
                 rendered.with_context(|| format!("cannot render {what}"))
             };
-            // The warm-up compiles each accelerator's kernels and fills the caches; it is not
-            // reported.
+            // The warm-up fills the caches and counts the rays and tests; its time is not
+            // reported. The timed runs count nothing, as a render without `--stats`: on
+            // lavapipe the counters cost the kernels a fifth of their time (their own
+            // kernels are compiled before the clock starts).
+            let mut stats: Vec<Stats> = Vec::new();
             for &accel in &args.accel {
-                render(accel)?;
+                stats.push(render(accel, true)?.stats);
             }
             // The timed runs go in rounds, each accelerator once a round, so that a drift of
             // the machine's speed meets them alike; the ratios are taken within a round.
             let mut runs: Vec<Vec<Timed>> = vec![Vec::new(); args.accel.len()];
-            let mut last: Vec<Option<Stats>> = vec![None; args.accel.len()];
             for _ in 0..args.runs {
                 for (k, &accel) in args.accel.iter().enumerate() {
-                    let r = render(accel)?;
+                    let r = render(accel, false)?;
                     runs[k].push(Timed::of(&r, backend));
-                    last[k] = Some(r.stats);
                 }
             }
-            let stats: Vec<Stats> = last.into_iter().map(|s| s.expect("at least one run")).collect();
             // The BVH's row by what the render ran (`auto` may resolve to it on the CPU).
             let bvh = stats.iter().position(|s| s.settings.accel == "bvh");
             let kernels: Vec<Vec<f64>> =

@@ -50,7 +50,8 @@ pub struct RenderArgs {
     /// Write an auxiliary output to the (.exr) output instead of the image.
     #[arg(long, value_enum)]
     pub aov: Option<Aov>,
-    /// Print statistics after the render: text (default) or one JSON object on stdout.
+    /// Print statistics after the render: text (default) or one JSON object on stdout. The
+    /// GPU kernels count rays and tests only then (and for a part), as counting slows them.
     #[arg(long, value_enum, num_args = 0..=1, default_missing_value = "text")]
     pub stats: Option<StatsFormat>,
     /// Render band I of N (0-based): rows I·⌈H/N⌉ up to (I+1)·⌈H/N⌉. To an .exr, the part
@@ -305,6 +306,9 @@ fn render_one(
     };
     opts.validate()?;
     let part = opts.window.is_some() && format == OutputFormat::Exr;
+    // The kernels count rays and tests only for a report or a part (whose counts `merge`
+    // adds up): uncounted they run faster.
+    opts.count = args.stats.is_some() || part;
     // A part names its scene by content, so that `merge` can refuse parts of another one.
     let scene_id = match part {
         false => None,
