@@ -97,8 +97,10 @@ pub struct PartInfo {
 
 impl PartInfo {
     /// The record of a windowed render with statistics `stats`, by `backend` (the GPU
-    /// adapter and driver, or `cpu`).
+    /// adapter and driver, or `cpu`). The render must have counted its rays
+    /// ([`crate::job::RenderOptions::count`]): `merge` adds the parts' counts up.
     pub fn new(scene: SceneId, stats: &Stats, aov: Option<String>, backend: &str) -> PartInfo {
+        debug_assert!(stats.counted, "a part's render must count its rays");
         PartInfo {
             format: PART_FORMAT.into(),
             renderer: format!("cuberay {} on {backend}", env!("CARGO_PKG_VERSION")),

@@ -229,6 +229,9 @@ pub struct Stats {
     /// Bytes of the acceleration structure on the device: the candidate tables or the BVH
     /// (0 for brute force and on the CPU).
     pub accel_bytes: u64,
+    /// Whether the rays and tests were counted. The GPU kernels count only when asked
+    /// (`RenderOptions::count`, `--stats`); uncounted, every count above is 0.
+    pub counted: bool,
     /// The raw counters the report was made from (not printed: a partial render records
     /// them, so that merged parts add up exactly).
     #[serde(skip)]
@@ -277,6 +280,7 @@ impl Stats {
             },
             time,
             accel_bytes: 0,
+            counted: true,
             counters: *c,
         }
     }
@@ -302,27 +306,31 @@ impl Stats {
             o += &format!("window:   pixels x {}..{}, y {}..{} of the image\n", w.x0, w.x1, w.y0, w.y1);
         }
         o += &format!("effects:  {effects}\n");
-        o += &format!(
-            "rays:     {} in all: {} eye ({} hit), {} reflect, {} refract, {} shadow ({} blocked); {} self-hits\n",
-            r.total, r.eye, r.eye_hit, r.reflect, r.refract, r.shadow, r.shadow_blocked, r.self_hits
-        );
-        o += &format!(
-            "tests:    {} in all: {} sphere, {} triangle, {} cylinder\n",
-            t.total(),
-            t.sphere,
-            t.triangle,
-            t.cylinder
-        );
-        o += &format!(
-            "per ray:  {:.3} eye, {:.3} shadow, {:.3} reflect, {:.3} refract, {:.3} overall\n",
-            p.eye, p.shadow, p.reflect, p.refract, p.all
-        );
-        if t.bound > 0 {
-            let b = &self.bound_tests_per_ray;
+        if self.counted {
             o += &format!(
-                "bounds:   {} group sphere tests; per ray {:.3} eye, {:.3} shadow, {:.3} reflect, {:.3} refract\n",
-                t.bound, b.eye, b.shadow, b.reflect, b.refract
+                "rays:     {} in all: {} eye ({} hit), {} reflect, {} refract, {} shadow ({} blocked); {} self-hits\n",
+                r.total, r.eye, r.eye_hit, r.reflect, r.refract, r.shadow, r.shadow_blocked, r.self_hits
             );
+            o += &format!(
+                "tests:    {} in all: {} sphere, {} triangle, {} cylinder\n",
+                t.total(),
+                t.sphere,
+                t.triangle,
+                t.cylinder
+            );
+            o += &format!(
+                "per ray:  {:.3} eye, {:.3} shadow, {:.3} reflect, {:.3} refract, {:.3} overall\n",
+                p.eye, p.shadow, p.reflect, p.refract, p.all
+            );
+            if t.bound > 0 {
+                let b = &self.bound_tests_per_ray;
+                o += &format!(
+                    "bounds:   {} group sphere tests; per ray {:.3} eye, {:.3} shadow, {:.3} reflect, {:.3} refract\n",
+                    t.bound, b.eye, b.shadow, b.reflect, b.refract
+                );
+            }
+        } else {
+            o += "rays:     not counted (the GPU kernels count for --stats)\n";
         }
         o += &format!(
             "time:     preprocess {:.3} s, trace {:.3} s",

@@ -86,6 +86,9 @@ fn an_uncounted_render_is_the_counted_one_without_its_counts() {
     assert!(ca.rays.iter().all(|&r| r > 0), "a counted render counts every kind of ray: {ca:?}");
     assert!(ca.tests.iter().all(|t| t.total() > 0), "and tests for each: {ca:?}");
     assert_eq!(cb, cuberay::stats::Counters::default(), "an uncounted render counts nothing");
+    // And says so, rather than reporting zeros.
+    assert!(a.stats.counted && !b.stats.counted);
+    assert!(b.stats.to_text().contains("not counted") && !b.stats.to_text().contains("per ray"));
 }
 
 /// Renders on both backends and checks agreement: FLIP mean, finite pixels, and ray

@@ -148,10 +148,11 @@ impl GpuRenderer {
     }
 
     /// `variant` narrowed to what `scene` holds and traces, counted if `opts` ask for the
-    /// counts: the intersection code of its kinds of primitive only, and the walk of rays leaving surfaces only if the tables
-    /// built for it trace such rays (`coherence::traces_surface_rays`: mirrors or glass, or
-    /// shadow rays towards a directional light), so that a scene lit by point lights alone,
-    /// without mirrors, gets table kernels without a BVH loop.
+    /// counts: the intersection code of its kinds of primitive only, and the walk of rays
+    /// leaving surfaces only if the tables built for it trace such rays
+    /// (`coherence::traces_surface_rays`: mirrors or glass, or shadow rays towards a
+    /// directional light), so that a scene lit by point lights alone, without mirrors, gets
+    /// table kernels without a BVH loop.
     pub fn for_scene(scene: &Scene, opts: &RenderOptions, variant: Variant) -> Variant {
         let variant = variant.with_shapes(scene.shapes()).with_counters(opts.count);
         let params = Self::variant_build_params(scene, opts, variant);
@@ -358,6 +359,7 @@ impl GpuRenderer {
             run.times(preprocess_s, trace_s, false, variant.shadows),
         );
         stats.accel_bytes = accel_bytes(&packed, tables.as_ref());
+        stats.counted = variant.counters;
         Ok(Rendered { image, stats })
     }
 
@@ -406,6 +408,7 @@ impl GpuRenderer {
             times,
         );
         stats.accel_bytes = accel_bytes(&packed, tables.as_ref());
+        stats.counted = variant.counters;
         Ok(Rendered { image, stats })
     }
 
