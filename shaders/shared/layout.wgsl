@@ -320,7 +320,7 @@ var<private> blocked_at: f32;
 
 // The statistics counters (`COUNTERS`; `--stats`). Without them the functions below do
 // nothing: on lavapipe the private array, indexed per lane at every test, and the flush's
-// workgroup atomics cost a cube kernel a fifth to a quarter of its time.
+// workgroup atomics cost a kernel 5-22 % of its time.
 #if COUNTERS
 var<private> local_counts: array<u32, COUNTER_COUNT>;
 var<workgroup> group_counts: array<atomic<u32>, COUNTER_COUNT>;

@@ -1,10 +1,11 @@
 //! `cuberay bench`: renders a set of scenes with each chosen accelerator and backend, a
-//! warm-up run of each (which counts the rays and tests) and then `--runs` uncounted rounds in
-//! which every accelerator renders once, in turn, and prints what each costs (medians over the rounds): preprocessing, bytes of the
-//! acceleration structure, kernel time, rays per second, tests and bound tests per ray by
-//! kind, the kernel time's ratio to the BVH's (taken within each round, so that a drift of
-//! the machine's speed between rounds cancels out; with the rounds' range), and the longest
-//! single dispatch. Speed targets are checked with this command, never with timed tests.
+//! counted run and a warm-up of each, and then `--runs` uncounted rounds in which every
+//! accelerator renders once, in turn, and prints what each costs (medians over the rounds):
+//! preprocessing, bytes of the acceleration structure, kernel time, rays per second, tests
+//! and bound tests per ray by kind, the kernel time's ratio to the BVH's (taken within each
+//! round, so that a drift of the machine's speed between rounds cancels out; with the
+//! rounds' range), and the longest single dispatch. Speed targets are checked with this
+//! command, never with timed tests.
 
 use std::path::PathBuf;
 
@@ -73,8 +74,8 @@ struct Row {
     accel_bytes: u64,
     /// GPU: the kernel time from timestamp queries; CPU: the trace time.
     kernel_s: f64,
-    /// Rays, and tests per ray below, as the warm-up counted them (the timed runs, which
-    /// trace the same rays, do not count).
+    /// Rays, and tests per ray below, as the counted run counted them (the timed runs,
+    /// which trace the same rays, do not count).
     rays: u64,
     mrays_per_s: f64,
     tests_per_ray: TestsPerRay,
@@ -186,13 +187,16 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
                 };
                 rendered.with_context(|| format!("cannot render {what}"))
             };
-            // The warm-up fills the caches and counts the rays and tests; its time is not
-            // reported. The timed runs count nothing, as a render without `--stats`: on
-            // lavapipe the counters cost the kernels a fifth of their time (their own
-            // kernels are compiled before the clock starts).
+            // Two untimed runs of each: one that counts the rays and tests, and a warm-up of
+            // the kernels the timed runs use, which count nothing, as a render without
+            // `--stats` (on lavapipe counting costs the kernels 5–22 % of their time). The
+            // warm-up compiles them and fills the caches, so that no timed run pays for it
+            // (on an adapter without timestamps the time is the trace time, compilation
+            // included).
             let mut stats: Vec<Stats> = Vec::new();
             for &accel in &args.accel {
                 stats.push(render(accel, true)?.stats);
+                render(accel, false)?;
             }
             // The timed runs go in rounds, each accelerator once a round, so that a drift of
             // the machine's speed meets them alike; the ratios are taken within a round.

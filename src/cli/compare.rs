@@ -54,6 +54,8 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
         bail!("--out-dir {} is not a folder", args.out_dir.display());
     }
     let (scene_name, loaded, opts) = args.trace.load(&args.scene)?;
+    // The images are compared, not the counts: the kernels need not count.
+    let opts = RenderOptions { count: false, ..opts };
     let scene = &loaded.scene;
     let stem = scene_name.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
 

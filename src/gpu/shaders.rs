@@ -8,12 +8,12 @@
 //! `#endif` (nestable) keep or drop lines by the variant's flags `SHADOWS`, `REFLECTION`,
 //! `REFRACTION`, `TEXTURES` and `EMISSION`, `SURFACE_RAYS` (rays leave surfaces: reflection
 //! and refraction rays, shadow rays towards a directional light; the BVH or the tables' beams
-//! take them), and `TABLES`, `BVH` and `BRUTE`, of which exactly
-//! one is set: the ray queries, the candidate-table walk of `shared/walk.wgsl`, the BVH walk of
-//! `shared/bvh.wgsl` or the brute force of `shared/brute.wgsl`. The table walk includes the
-//! BVH walk with `SURFACE_RAYS`: rays leaving surfaces walk the BVH when the tables have no
-//! beams. A scene without mirrors thus gets a module with no reflection code at all,
-//! not a branch that is never taken.
+//! take them), `COUNTERS` (the statistics counters), and `TABLES`, `BVH` and `BRUTE`, of
+//! which exactly one is set: the ray queries, the candidate-table walk of `shared/walk.wgsl`,
+//! the BVH walk of `shared/bvh.wgsl` or the brute force of `shared/brute.wgsl`. The table
+//! walk includes the BVH walk with `SURFACE_RAYS`: rays leaving surfaces walk the BVH when
+//! the tables have no beams. A scene without mirrors thus gets a module with no reflection
+//! code at all, not a branch that is never taken.
 
 use crate::error::{Error, Result};
 use crate::scene::{Effects, Shapes};
@@ -147,9 +147,9 @@ pub struct Variant {
     /// runs once.
     pub surface_rays: bool,
     /// Whether the kernels count rays and tests into the statistics counters (`COUNTERS`).
-    /// On lavapipe counting costs a table kernel a fifth to a quarter of its time (a private
-    /// array indexed per lane at every test, workgroup atomics at the end), so a render
-    /// counts only when asked to (`RenderOptions::count`); uncounted, its counts are zero.
+    /// On lavapipe counting costs a kernel 5–22 % of its time (a private array indexed per
+    /// lane at every test, workgroup atomics at the end), so a render counts only when asked
+    /// to (`RenderOptions::count`); uncounted, its counts are zero.
     pub counters: bool,
 }
 
