@@ -74,7 +74,13 @@ fn bvh_done(w: BvhWalk) -> bool {
 }
 
 // Enters or skips node `w.at` after its box test `hit`: a hit leaf queues its primitives.
-fn bvh_advance(w: ptr<function, BvhWalk>, n: BvhNode, hit: bool) {
+// A leaf hit while the last leaf's primitives are still queued waits (false): its box is
+// tested again in the next iteration. Counts the tests that move the walk.
+fn bvh_advance(w: ptr<function, BvhWalk>, n: BvhNode, hit: bool, ray_kind: u32) {
+    if hit && n.leaf != 0u && (*w).k < (*w).kend {
+        return;
+    }
+    count_bound(ray_kind);
     if hit && n.leaf == 0u {
         (*w).at += 1u;
         return;
@@ -86,11 +92,16 @@ fn bvh_advance(w: ptr<function, BvhWalk>, n: BvhNode, hit: bool) {
     (*w).at = n.skip;
 }
 
-// Continues the nearest-hit walk `w` for at most `budget` loop iterations, each one box test
-// or one primitive test (one flat loop: lavapipe's loop limit counts a loop's iterations
-// while any lane of the SIMD vector is still in it, so nested loops would count the inner
-// one for every lane), keeping the nearest hit in `best` (ties to the lower id; `skip`
-// never tested). True when the walk is over.
+// Continues the nearest-hit walk `w` for at most `budget` loop iterations, keeping the
+// nearest hit in `best` (ties to the lower id; `skip` never tested). True when the walk is
+// over. One flat loop (lavapipe's loop limit counts a loop's iterations while any lane of
+// the SIMD vector is still in it, so nested loops would count the inner one for every
+// lane), each iteration testing the next queued primitive *and* the next box: lavapipe runs
+// both halves of an iteration whatever its lanes take, so the primitives of a leaf are
+// tested while the walk goes on to the boxes after it, in about as many iterations as the
+// walk has boxes instead of boxes and primitives. A box tested before the leaf's last
+// primitives only sees a farther nearest hit, and is entered more often, never less: the
+// hits are those of the walk that tests them in turn.
 fn bvh_nearest(w: ptr<function, BvhWalk>, best: ptr<function, Closest>, ray: Ray, r: BoxRay, t_max: f32, skip: u32,
     ray_kind: u32, budget: u32) -> bool {
     var left = budget;
@@ -109,11 +120,11 @@ fn bvh_nearest(w: ptr<function, BvhWalk>, best: ptr<function, Closest>, ray: Ray
             if id != skip {
                 best_t = consider(id, best, ray, t_max, ray_kind, best_t);
             }
-            continue;
         }
-        let n = bvh_nodes[r.base + (*w).at];
-        count_bound(ray_kind);
-        bvh_advance(w, n, box_hit(n, r, best_t));
+        if (*w).at < params.bvh_stride {
+            let n = bvh_nodes[r.base + (*w).at];
+            bvh_advance(w, n, box_hit(n, r, best_t), ray_kind);
+        }
     }
     return true;
 }
@@ -160,7 +171,8 @@ fn closest_step(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) 
 #endif
 
 #if SHADOWS
-// Continues the any-hit walk `w` for at most `budget` loop iterations (as `bvh_nearest`):
+// Continues the any-hit walk `w` for at most `budget` loop iterations (as `bvh_nearest`, a
+// primitive and a box an iteration):
 // ANY_BLOCKED when some primitive other than `skip` is hit at 0 < t < t_max (its t noted in
 // `blocker_t`), ANY_CLEAR when the walk ended without one, ANY_UNFINISHED when the budget
 // ran out first.
@@ -181,11 +193,11 @@ fn bvh_any(w: ptr<function, BvhWalk>, ray: Ray, t_max: f32, skip: u32, budget: u
             if id != skip && blocks(id, ray, t_max) {
                 return ANY_BLOCKED;
             }
-            continue;
         }
-        let n = bvh_nodes[r.base + (*w).at];
-        count_bound(RAY_SHADOW);
-        bvh_advance(w, n, box_hit(n, r, t_max));
+        if (*w).at < params.bvh_stride {
+            let n = bvh_nodes[r.base + (*w).at];
+            bvh_advance(w, n, box_hit(n, r, t_max), RAY_SHADOW);
+        }
     }
     return ANY_CLEAR;
 }
