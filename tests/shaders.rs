@@ -4,7 +4,7 @@
 
 use cuberay::gpu::shaders::{compose, Kernel, Queries, Variant};
 use cuberay::gpu::GpuRenderer;
-use cuberay::job::RenderOptions;
+use cuberay::job::{AccelKind, RenderOptions};
 use cuberay::load;
 use cuberay::scene::Shapes;
 use naga::valid::{Capabilities, ValidationFlags, Validator};
@@ -109,8 +109,10 @@ fn each_kernel_contains_only_its_own_queries() {
         for f in table_fns {
             assert_eq!(has_function(&m, f), cube, "{v:?}: {f}");
         }
-        // The beams only where rays leave surfaces.
-        assert_eq!(has_function(&m, "beam_range"), cube && v.surface_rays, "{v:?}: beam_range");
+        // The beams only where rays leave surfaces and the tables classify them.
+        assert_eq!(has_function(&m, "beam_range"), cube && v.surface_rays && v.beams, "{v:?}: beam_range");
+        // The group entries too: only beam lists name them.
+        assert_eq!(has_function(&m, "group_hit"), cube && v.beams, "{v:?}: group_hit");
         assert_eq!(has_function(&m, "walk_any"), cube && v.shadows, "{v:?}");
         let walks_bvh = bvh || (cube && v.surface_rays);
         assert_eq!(has_function(&m, "bvh_nearest"), walks_bvh, "{v:?}");
@@ -187,8 +189,12 @@ fn a_scene_whose_rays_all_leave_the_eye_or_a_light_has_no_bvh_walk() {
         let m = module(v);
         assert_eq!(has_function(&m, "bvh_nearest"), surface, "{name}");
         assert_eq!(has_function(&m, "bvh_any"), surface, "{name}");
-        assert_eq!(has_function(&m, "beam_range"), surface, "{name}");
+        assert!(!has_function(&m, "beam_range"), "{name}: --accel cube builds no beams");
         assert!(has_function(&m, "walk_any") && has_function(&m, "cube_walk_nearest"), "{name}");
+        // With beams, the kernels look rays leaving surfaces up in them.
+        let beams = RenderOptions { accel: AccelKind::Beams, ..o.clone() };
+        let v = GpuRenderer::job_variant(s, &beams, false);
+        assert_eq!((v.beams, has_function(&module(v), "beam_range")), (surface, surface), "{name}");
     }
 }
 

@@ -83,8 +83,10 @@ const BEAM_DEPTH: u32 = 64u;
 // Relative widening of the group test (coherence::groups::GROUP_SLACK).
 const GROUP_SLACK: f32 = 1e-5;
 
+#if BEAMS
 // Whether the ray may meet group `g`'s sphere at some 0 < t <= t_far: the twin of
-// `coherence::groups::group_hit`, conservative for f32 rounding.
+// `coherence::groups::group_hit`, conservative for f32 rounding. Only beam lists name
+// groups.
 fn group_hit(g: GpuGroup, ray: Ray, t_far: f32) -> bool {
     let oc = vec3<f32>(g.cx, g.cy, g.cz) - ray.o;
     let tc = dot(oc, ray.d);
@@ -95,6 +97,7 @@ fn group_hit(g: GpuGroup, ray: Ray, t_far: f32) -> bool {
     let v = oc - tc * ray.d;
     return dot(v, v) <= rr * rr;
 }
+#endif
 
 // The table of light `light`'s shadow rays (OriginKey::Light), or NO_ORIGIN.
 fn light_table(light: u32) -> u32 {
@@ -145,6 +148,7 @@ fn cube_cell_range(origin: u32, d: vec3<f32>) -> vec2<u32> {
 }
 
 #if SURFACE_RAYS
+#if BEAMS
 // Whether a ray leaving a surface from `at` is classified into the beams: inside their box
 // (twin of coherence::beams::in_beams).
 fn in_beams(at: vec3<f32>) -> bool {
@@ -171,4 +175,5 @@ fn beam_range(at: vec3<f32>, d: vec3<f32>) -> vec2<u32> {
     }
     return vec2<u32>(0u, 0u);
 }
+#endif
 #endif

@@ -47,10 +47,12 @@ fn start_walk(from_prim: u32, at: vec3<f32>, d: vec3<f32>) -> Walk {
     if params.surface_bvh != 0u {
         return Walk(0u, BVH_WALK, 0u, 0u);
     }
+#if BEAMS
     if from_prim < params.prim_count && prim_beams[from_prim] != 0u && in_beams(at) {
         let r = beam_range(at, d);
         return Walk(r.x, r.y, 0u, 0u);
     }
+#endif
 #endif
     return walk_start(params.fallback_origin, d);
 }
@@ -97,15 +99,19 @@ fn walk_nearest(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, 
     var best_t = select(t_max, (*best).hit.t, (*best).found);
     // The members k..kend of the group entry being tested: they go through the same loop
     // as the entries, so that the kernel holds one copy of `consider` (lavapipe runs a
-    // kernel with its code inlined twice markedly slower).
+    // kernel with its code inlined twice markedly slower). Only beam lists name groups:
+    // without `BEAMS` (`--accel cube`) the loop takes entries alone, and lavapipe does not
+    // run the group test, taken or not, in every iteration.
     var k = 0u;
     var kend = 0u;
     loop {
         var id: u32;
+#if BEAMS
         if k < kend {
             id = group_prims[k];
             k += 1u;
         } else {
+#endif
             if walk_done(*w) {
                 break;
             }
@@ -117,6 +123,7 @@ fn walk_nearest(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, 
             if e.d_min > best_t {
                 break;
             }
+#if BEAMS
             if (e.id & GROUP_BIT) != 0u {
                 let g = groups[e.id & ~GROUP_BIT];
                 count_bound(ray_kind);
@@ -127,8 +134,11 @@ fn walk_nearest(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, 
                 }
                 continue;
             }
+#endif
             id = e.id;
+#if BEAMS
         }
+#endif
         if id != skip {
             best_t = consider(id, best, ray, t_max, ray_kind, best_t);
         }
@@ -198,10 +208,12 @@ fn walk_any(w: ptr<function, Walk>, ray: Ray, t_max: f32, skip: u32, budget: u32
     var kend = 0u;
     loop {
         var id: u32;
+#if BEAMS
         if k < kend {
             id = group_prims[k];
             k += 1u;
         } else {
+#endif
             if walk_done(*w) {
                 break;
             }
@@ -213,6 +225,7 @@ fn walk_any(w: ptr<function, Walk>, ray: Ray, t_max: f32, skip: u32, budget: u32
             if e.d_min >= t_max {
                 break;
             }
+#if BEAMS
             if (e.id & GROUP_BIT) != 0u {
                 let g = groups[e.id & ~GROUP_BIT];
                 count_bound(RAY_SHADOW);
@@ -223,8 +236,11 @@ fn walk_any(w: ptr<function, Walk>, ray: Ray, t_max: f32, skip: u32, budget: u32
                 }
                 continue;
             }
+#endif
             id = e.id;
+#if BEAMS
         }
+#endif
         if id != skip && blocks(id, ray, t_max) {
             return ANY_BLOCKED;
         }

@@ -152,11 +152,13 @@ impl GpuRenderer {
     /// leaving surfaces only if the tables built for it trace such rays
     /// (`coherence::traces_surface_rays`: mirrors or glass, or shadow rays towards a
     /// directional light), so that a scene lit by point lights alone, without mirrors, gets
-    /// table kernels without a BVH loop.
+    /// table kernels without a BVH loop; and the beam lookup and group test only where
+    /// beams are built.
     pub fn for_scene(scene: &Scene, opts: &RenderOptions, variant: Variant) -> Variant {
         let variant = variant.with_shapes(scene.shapes()).with_counters(opts.count);
         let params = Self::variant_build_params(scene, opts, variant);
-        variant.with_surface_rays(coherence::traces_surface_rays(scene, &params))
+        let surface_rays = coherence::traces_surface_rays(scene, &params);
+        variant.with_surface_rays(surface_rays).with_beams(params.beams && surface_rays)
     }
 
     /// The parameters the render of `scene` with `opts` builds its tables with (`aov`: the
@@ -225,6 +227,14 @@ impl GpuRenderer {
             variant.surface_rays || (packed.params.surface_bvh == 0 && packed.params.beam_nodes == 0),
             "the tables send rays leaving surfaces to kernels without their walk"
         );
+        // Kernels without `BEAMS` would take a group entry's id for a primitive's.
+        let beams = tables.as_ref().is_some_and(|t| !t.flat().group_prims.is_empty())
+            || packed.params.beam_nodes != 0;
+        if beams && !variant.beams {
+            return Err(Error::Options(
+                "internal: the tables hold beams, and the kernels do not walk them".into(),
+            ));
+        }
         Ok(Prepared { variant, pipelines, packed, tables, start })
     }
 

@@ -8,7 +8,8 @@
 //! `#endif` (nestable) keep or drop lines by the variant's flags `SHADOWS`, `REFLECTION`,
 //! `REFRACTION`, `TEXTURES` and `EMISSION`, `SURFACE_RAYS` (rays leave surfaces: reflection
 //! and refraction rays, shadow rays towards a directional light; the BVH or the tables' beams
-//! take them), `COUNTERS` (the statistics counters), and `TABLES`, `BVH` and `BRUTE`, of
+//! take them), `COUNTERS` (the statistics counters), `BEAMS` (rays leaving surfaces are
+//! looked up in the beams, whose lists name groups), and `TABLES`, `BVH` and `BRUTE`, of
 //! which exactly one is set: the ray queries, the candidate-table walk of `shared/walk.wgsl`,
 //! the BVH walk of `shared/bvh.wgsl` or the brute force of `shared/brute.wgsl`. The table
 //! walk includes the BVH walk with `SURFACE_RAYS`: rays leaving surfaces walk the BVH when
@@ -151,6 +152,12 @@ pub struct Variant {
     /// lane at every test, workgroup atomics at the end), so a render counts only when asked
     /// to (`RenderOptions::count`); uncounted, its counts are zero.
     pub counters: bool,
+    /// Whether the tables classify rays leaving surfaces into beams (`BEAMS`, `--accel
+    /// beams`): the kernels then look up a ray's beam, and their walks take the group
+    /// entries that only beam lists name. Other renders' kernels leave both out: lavapipe
+    /// would run the beam lookup at every walk's start and the group test in every
+    /// iteration of a walk, taken or not.
+    pub beams: bool,
 }
 
 impl Variant {
@@ -170,6 +177,7 @@ impl Variant {
             shapes: Shapes::ALL,
             surface_rays: reflection || e.shadows,
             counters: true,
+            beams: true,
         }
     }
 
@@ -182,6 +190,12 @@ impl Variant {
     /// may spawn them).
     pub fn with_surface_rays(self, surface_rays: bool) -> Variant {
         Variant { surface_rays: self.surface_rays && surface_rays, ..self }
+    }
+
+    /// The same effects, with the beams looked up and their group entries walked (`true`)
+    /// or not.
+    pub fn with_beams(self, beams: bool) -> Variant {
+        Variant { beams, ..self }
     }
 
     /// The same effects, counted (`true`) or not.
@@ -220,8 +234,8 @@ impl Variant {
     /// bits, the last of each 32 with every effect), then every other set of kinds (none
     /// included: a scene may hold no primitive) with every effect (42), then shadows without
     /// rays leaving surfaces (lights with tables, no mirror), with and without textures and
-    /// emission (12), then every effect uncounted (6), so that each `#if` is compiled both
-    /// ways. All but the last six count.
+    /// emission (12), then every effect uncounted (6), then the tables' kernels with every
+    /// effect and no beams (2), so that each `#if` is compiled both ways.
     pub fn all() -> Vec<Variant> {
         let effects = [false, true].into_iter().flat_map(|f64| {
             Queries::ALL.into_iter().flat_map(move |queries| {
@@ -236,6 +250,7 @@ impl Variant {
                     shapes: Shapes::ALL,
                     surface_rays: b & 3 != 0,
                     counters: true,
+                    beams: true,
                 })
             })
         });
@@ -257,6 +272,7 @@ impl Variant {
                     f64,
                     shapes: Shapes::ALL,
                     counters: true,
+                    beams: true,
                     ..Variant::default()
                 })
             })
@@ -266,7 +282,10 @@ impl Variant {
                 .into_iter()
                 .map(move |queries| Variant { f64, ..Variant::full(queries) }.with_counters(false))
         });
-        effects.chain(shapes).chain(point_lit).chain(uncounted).collect()
+        let beamless = [false, true]
+            .into_iter()
+            .map(|f64| Variant { f64, ..Variant::full(Queries::Tables) }.with_beams(false));
+        effects.chain(shapes).chain(point_lit).chain(uncounted).chain(beamless).collect()
     }
 
     /// Every effect with `queries`.
@@ -282,6 +301,7 @@ impl Variant {
             shapes: Shapes::ALL,
             surface_rays: true,
             counters: true,
+            beams: true,
         }
     }
 
@@ -300,6 +320,7 @@ impl Variant {
             // directional lights (which have no table).
             "SURFACE_RAYS" => self.surface_rays,
             "COUNTERS" => self.counters,
+            "BEAMS" => self.beams,
             "TABLES" => self.queries == Queries::Tables,
             "BVH" => self.queries == Queries::Bvh,
             "BRUTE" => self.queries == Queries::Brute,
