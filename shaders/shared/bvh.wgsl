@@ -8,7 +8,8 @@
 // passes keeps only that index and the leaf's primitives left. The same queries as walk.wgsl
 // and brute.wgsl, with
 // the same intersection functions and tie rule (`consider`); node tests are counted as
-// bound tests.
+// bound tests, once per node the walk passes (a leaf's box tested again while it waits for
+// the last leaf's primitives is not counted again).
 
 // One node of a threaded order (src/layout/bvh.rs `BvhNode`): `leaf` 0 for an inner node,
 // else `first << BVH_LEAF_SHIFT | count` primitives at bvh_prims[first..first + count].

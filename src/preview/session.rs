@@ -136,6 +136,9 @@ fn variant(
     queries: Queries,
 ) -> Variant {
     let v = Variant::for_effects(toggles.apply(scene.effects()), max_depth).with_queries(queries);
+    // The session's tables serve every effect; a toggle that turns reflection off may leave
+    // beams in them for kernels without `BEAMS`, which is safe: without rays leaving
+    // surfaces (`SURFACE_RAYS` off) no walk starts in a beam.
     GpuRenderer::for_scene(scene, opts, v)
 }
 
