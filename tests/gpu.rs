@@ -518,6 +518,7 @@ fn bvh_walks_longer_than_a_step_resume() {
     }
     let scene = nff(&s);
     let bvh = cuberay::layout::bvh::pack_bvh(&scene);
+    assert!(bvh.stride as usize + scene.primitives.len() > WALK_CHUNK as usize + 2000);
     // Each iteration tests a box and a queued primitive: a ray that misses everything still
     // tests all the primitives, one an iteration, more than a step allows.
     assert!(scene.primitives.len() > WALK_CHUNK as usize + 500);

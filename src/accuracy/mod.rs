@@ -353,8 +353,8 @@ struct Measured {
     image: Image,
 }
 
-/// Renders `opts` on `gpu` (a counted run, a warm-up, then `runs` timed runs) and measures it against
-/// `reference`.
+/// Renders `opts` on `gpu` (a counted run, a warm-up, then `runs` timed runs) and measures
+/// it against `reference`.
 fn measure(
     gpu: &GpuRenderer,
     scene: &Scene,

@@ -60,15 +60,15 @@ pub fn shadow_inline(scene: &Scene) -> u32 {
 }
 
 /// The BVH's inline shadow walks (`Params::bvh_inline`, with `--accel bvh` and for the rays
-/// leaving surfaces with `--accel cube`): a budget of
-/// loop iterations (each a box and a queued primitive), a quarter of what [`shadow_inline`] entries may
-/// take, less the primitives of the leaf that ends it. A quarter, because lavapipe ended
-/// these walks early at half of it (measured with eight lights, nine thousand triangles and
-/// walks of thousands of nodes: `bvh_walks_longer_than_a_step_resume` in `tests/gpu.rs`):
-/// it counted more iterations than the walk's (measured when each iteration was one box or
-/// one primitive; they are now fewer, a box and a primitive each, so the budget has room). A walk that does not end
-/// within the budget becomes a job and starts over; a BVH shadow walk takes tens of
-/// iterations, so almost none do.
+/// leaving surfaces with `--accel cube`): a budget of loop iterations (each a box and a
+/// queued primitive), a quarter of what [`shadow_inline`] entries may take, less the
+/// primitives of the leaf that ends it. A quarter, because lavapipe ended these walks early
+/// at half of it (measured with eight lights, nine thousand triangles and walks of thousands
+/// of nodes: `bvh_walks_longer_than_a_step_resume` in `tests/gpu.rs`): it counted more
+/// iterations than the walk's (measured when each iteration was one box or one primitive;
+/// a walk now takes fewer, so the budget has room). A walk that does not end within the
+/// budget becomes a job and starts over; a BVH shadow walk takes tens of iterations, so
+/// almost none do.
 pub fn bvh_shadow_inline(scene: &Scene) -> u32 {
     let iterations = shadow_inline(scene) as u64 * (1 + GROUP_SIZE as u64) / 4;
     iterations.saturating_sub(crate::bvh::MAX_LEAF as u64).min(u32::MAX as u64) as u32
