@@ -173,6 +173,8 @@ fn rust_constants() -> BTreeMap<&'static str, Value> {
         ("QUEUE_ARGS", U32(QUEUE_ARGS)),
         ("QUEUE_OVERFLOW", U32(QUEUE_OVERFLOW)),
         ("QUEUE_WORDS", U32(QUEUE_WORDS)),
+        ("OVERFLOW_FULL", U32(OVERFLOW_FULL)),
+        ("OVERFLOW_UNFINISHED", U32(OVERFLOW_UNFINISHED)),
         ("POINT_UNOWNED", U32(POINT_UNOWNED)),
         ("ACCUM_ONE", F32(ACCUM_ONE)),
         ("WALK_CHUNK", U32(WALK_CHUNK)),

@@ -214,11 +214,15 @@ const QUEUE_SRETRY1: u32 = 6u;
 const QUEUE_COUNT: u32 = 7u;
 const SRC_EYE: u32 = 0xffffffffu;
 // `queues` holds the queues' lengths (words 0..QUEUE_COUNT), then each queue's indirect
-// dispatch arguments (x, y, z) from word QUEUE_ARGS + 3q, then a word set when a push found
-// its queue full (QUEUE_OVERFLOW): the host then runs the tile again with smaller waves.
+// dispatch arguments (x, y, z) from word QUEUE_ARGS + 3q, then the overflow word
+// (QUEUE_OVERFLOW): OVERFLOW_FULL when a push found its queue full (the host then runs the
+// tile again with smaller waves), OVERFLOW_UNFINISHED when a walk went on past the last pass
+// of its depth (a push to a queue numbered QUEUE_COUNT or more: again, with more passes).
 const QUEUE_ARGS: u32 = 8u;
 const QUEUE_OVERFLOW: u32 = 29u;
 const QUEUE_WORDS: u32 = 32u;
+const OVERFLOW_FULL: u32 = 1u;
+const OVERFLOW_UNFINISHED: u32 = 2u;
 
 // Set in Job::point for a point the window does not own.
 const POINT_UNOWNED: u32 = 0x80000000u;
@@ -412,12 +416,17 @@ fn queue_len(q: u32) -> u32 {
     return min(atomicLoad(&queues[q]), queue_cap(q));
 }
 
-// Appends `job` to queue `q` and widens its dispatch to cover it; a full queue drops the
-// job and raises QUEUE_OVERFLOW (the host then runs the tile again with smaller waves).
+// Appends `job` to queue `q` and widens its dispatch to cover it. A full queue drops the
+// job and raises OVERFLOW_FULL; no queue (`q` QUEUE_COUNT or more: the last pass of a
+// depth has no retry queue) drops it and raises OVERFLOW_UNFINISHED.
 fn push_job(q: u32, job: Job) {
+    if q >= QUEUE_COUNT {
+        atomicOr(&queues[QUEUE_OVERFLOW], OVERFLOW_UNFINISHED);
+        return;
+    }
     let i = atomicAdd(&queues[q], 1u);
     if i >= queue_cap(q) {
-        atomicOr(&queues[QUEUE_OVERFLOW], 1u);
+        atomicOr(&queues[QUEUE_OVERFLOW], OVERFLOW_FULL);
         return;
     }
     jobs[queue_base(q) + i] = job;

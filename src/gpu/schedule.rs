@@ -31,8 +31,9 @@ use super::shaders::Kernel;
 use super::GpuContext;
 use crate::error::{Error, Result};
 use crate::layout::{
-    Params, PassDesc, QUEUE_ARGS, QUEUE_COUNT, QUEUE_OVERFLOW, QUEUE_RAY0, QUEUE_RAY1, QUEUE_RETRY0,
-    QUEUE_RETRY1, QUEUE_SHADOW, QUEUE_SRETRY0, QUEUE_SRETRY1, QUEUE_WORDS, SRC_EYE, WORKGROUP,
+    Params, PassDesc, OVERFLOW_FULL, OVERFLOW_UNFINISHED, QUEUE_ARGS, QUEUE_COUNT, QUEUE_OVERFLOW,
+    QUEUE_RAY0, QUEUE_RAY1, QUEUE_RETRY0, QUEUE_RETRY1, QUEUE_SHADOW, QUEUE_SRETRY0, QUEUE_SRETRY1,
+    QUEUE_WORDS, SRC_EYE, WORKGROUP,
 };
 
 /// How tiles are sized.
@@ -66,13 +67,9 @@ const MIN_RATE_TILE: u64 = 512;
 /// balls_s4); later tiles are sized by [`Schedule::fit_tile`].
 const FIRST_TILE: u64 = 1024;
 
-/// The queue a pass names for rays it must not spawn: a push there raises the second bit of
-/// the overflow word (a walk outlasted its passes).
+/// The queue a pass names for rays it must not spawn: a push there raises
+/// [`OVERFLOW_UNFINISHED`] (a walk outlasted its passes).
 const NO_QUEUE: u32 = QUEUE_COUNT;
-
-/// Overflow word bits: a queue was full; a walk needed more passes than planned.
-const FULL: u32 = 1;
-const UNFINISHED: u32 = 2;
 
 /// `points` rounded up to whole workgroups, at least one.
 fn whole_groups(points: u64) -> u64 {
@@ -558,7 +555,7 @@ impl Schedule {
         enc.copy_buffer_to_buffer(&self.counters_saved, 0, &buffers.counters, 0, bytes);
         ctx.queue.submit([enc.finish()]);
         ctx.wait()?;
-        if overflow & FULL != 0 {
+        if overflow & OVERFLOW_FULL != 0 {
             if tile.count as u64 <= MIN_TILE {
                 return Err(Error::Gpu(format!(
                     "the ray queues overflow even for {MIN_TILE} points: a ray tree this wide does not fit \
@@ -568,7 +565,7 @@ impl Schedule {
             self.tile_size = whole_groups(tile.count as u64 / 2);
             self.capacity = self.tile_size;
         }
-        if let (true, Some(plan)) = (overflow & UNFINISHED != 0, self.plan.as_mut()) {
+        if let (true, Some(plan)) = (overflow & OVERFLOW_UNFINISHED != 0, self.plan.as_mut()) {
             plan.retries += 1;
             log::debug!("a walk outlasted its passes: {} retry passes per depth", plan.retries);
             self.make_room(ctx);

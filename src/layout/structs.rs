@@ -233,6 +233,10 @@ pub const SRC_EYE: u32 = u32::MAX;
 pub const QUEUE_ARGS: u32 = 8;
 pub const QUEUE_OVERFLOW: u32 = 29;
 pub const QUEUE_WORDS: u32 = 32;
+/// Bits of the overflow word: a push found its queue full; a walk went on past the last
+/// pass of its depth (a push to a queue numbered [`QUEUE_COUNT`] or more).
+pub const OVERFLOW_FULL: u32 = 1;
+pub const OVERFLOW_UNFINISHED: u32 = 2;
 
 /// Set in [`Job::point`] for a point the window does not own: its rays are not counted.
 pub const POINT_UNOWNED: u32 = 0x8000_0000;
