@@ -439,6 +439,7 @@ fn add_times(a: Times, b: &Times) -> Times {
         gpu_s: sum(a.gpu_s, b.gpu_s),
         gpu_kernel_s: crate::stats::KernelTimes {
             nearest: sum(a.gpu_kernel_s.nearest, b.gpu_kernel_s.nearest),
+            shade: sum(a.gpu_kernel_s.shade, b.gpu_kernel_s.shade),
             shadow: sum(a.gpu_kernel_s.shadow, b.gpu_kernel_s.shadow),
             resolve: sum(a.gpu_kernel_s.resolve, b.gpu_kernel_s.resolve),
             aov: sum(a.gpu_kernel_s.aov, b.gpu_kernel_s.aov),

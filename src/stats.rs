@@ -174,12 +174,13 @@ pub struct Times {
     pub tiles_run_again: Option<u32>,
 }
 
-/// GPU time per kernel, seconds: the wavefront's (`nearest` the nearest-hit passes with the
-/// shading, the first of them making the eye rays; `shadow` the shadow passes; `resolve` the
-/// colours) and the AOV pass's.
+/// GPU time per kernel, seconds: the wavefront's (`nearest` the nearest-hit passes, the
+/// first of them making the eye rays; `shade` the shading of their hits, with the short
+/// shadow walks; `shadow` the shadow passes; `resolve` the colours) and the AOV pass's.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct KernelTimes {
     pub nearest: Option<f64>,
+    pub shade: Option<f64>,
     pub shadow: Option<f64>,
     pub resolve: Option<f64>,
     pub aov: Option<f64>,
@@ -339,8 +340,13 @@ impl Stats {
         if let Some(g) = self.time.gpu_s {
             o += &format!(", GPU kernels {g:.3} s");
             let k = &self.time.gpu_kernel_s;
-            let named =
-                [("nearest", k.nearest), ("shadow", k.shadow), ("resolve", k.resolve), ("aov", k.aov)];
+            let named = [
+                ("nearest", k.nearest),
+                ("shade", k.shade),
+                ("shadow", k.shadow),
+                ("resolve", k.resolve),
+                ("aov", k.aov),
+            ];
             for (name, t) in named {
                 if let Some(t) = t {
                     o += &format!(" ({name} {t:.3} s)");

@@ -14,22 +14,32 @@ fn module_of(k: Kernel, v: Variant) -> naga::Module {
     naga::front::wgsl::parse_str(&src).unwrap_or_else(|e| panic!("{k:?} {v:?}: {}", e.emit_to_string(&src)))
 }
 
-/// The `nearest` kernel of variant `v` (the one that traces and shades).
-fn module(v: Variant) -> naga::Module {
-    module_of(Kernel::Nearest, v)
+/// The modules of the kernels that trace and shade a render of variant `v` (`nearest`,
+/// `shade` and, with shadows, `shadow`).
+struct Wavefront(Vec<naga::Module>);
+
+fn module(v: Variant) -> Wavefront {
+    Wavefront(
+        Kernel::wavefront(v).into_iter().filter(|&k| k != Kernel::Resolve).map(|k| module_of(k, v)).collect(),
+    )
 }
 
 /// Whether any type of `m` is (or holds) a 64-bit float.
-fn has_f64(m: &naga::Module) -> bool {
+fn has_f64(m: &Wavefront) -> bool {
     let f64 = |s: naga::Scalar| s.kind == naga::ScalarKind::Float && s.width == 8;
-    m.types.iter().any(|(_, t)| match t.inner {
+    m.0.iter().flat_map(|m| m.types.iter()).any(|(_, t)| match t.inner {
         naga::TypeInner::Scalar(s) | naga::TypeInner::Vector { scalar: s, .. } => f64(s),
         _ => false,
     })
 }
 
-fn has_function(m: &naga::Module, name: &str) -> bool {
+fn defines(m: &naga::Module, name: &str) -> bool {
     m.functions.iter().any(|(_, f)| f.name.as_deref() == Some(name))
+}
+
+/// Whether any of the kernels defines function `name`.
+fn has_function(m: &Wavefront, name: &str) -> bool {
+    m.0.iter().any(|m| defines(m, name))
 }
 
 #[test]
@@ -66,6 +76,12 @@ fn every_kernel_and_variant_validates() {
 #[test]
 fn variant_functions_follow_the_flags() {
     for v in Variant::all() {
+        // `nearest` only traces: the shading is `shade`'s, over hits only.
+        let nearest = module_of(Kernel::Nearest, v);
+        for f in ["shade_hit", "shade_local", "light_term", "sample_texture", "reflect_dir", "refract_dir"] {
+            assert!(!defines(&nearest, f), "{v:?}: nearest defines {f}");
+        }
+        assert!(defines(&module_of(Kernel::Shade, v), "shade_hit"), "{v:?}");
         let m = module(v);
         assert_eq!(has_function(&m, "reflect_dir"), v.reflection, "{v:?}");
         assert_eq!(has_function(&m, "refract_dir"), v.refraction, "{v:?}");
@@ -90,8 +106,10 @@ fn scene(src: &str) -> cuberay::scene::Scene {
 
 const VIEW: &str = "v\nfrom 0 0 5\nat 0 0 0\nup 0 1 0\nangle 40\nhither 0.01\nresolution 8 8\n";
 
-fn binds(m: &naga::Module, binding: u32) -> bool {
-    m.global_variables.iter().any(|(_, v)| v.binding.as_ref().is_some_and(|b| b.binding == binding))
+fn binds(m: &Wavefront, binding: u32) -> bool {
+    m.0.iter()
+        .flat_map(|m| m.global_variables.iter())
+        .any(|(_, v)| v.binding.as_ref().is_some_and(|b| b.binding == binding))
 }
 
 /// Each kernel contains its own queries only: `--accel cube` kernels walk the tables (and,
@@ -133,9 +151,12 @@ fn each_kernel_contains_only_its_own_queries() {
         }
         // Only brute force loops over primitive ids; the table and BVH kernels loop over
         // candidate walks, group members and leaves.
-        let src = compose(Kernel::Nearest, v).unwrap();
-        assert_eq!(src.contains("; id < end; id++"), brute, "{v:?}");
-        assert!(!src.contains("< params.prim_count; id++"), "{v:?}: an unbounded loop");
+        for k in Kernel::wavefront(v) {
+            let src = compose(k, v).unwrap();
+            let traces = k != Kernel::Resolve;
+            assert_eq!(src.contains("; id < end; id++"), brute && traces, "{v:?} {k:?}");
+            assert!(!src.contains("< params.prim_count; id++"), "{v:?} {k:?}: an unbounded loop");
+        }
     }
 }
 

@@ -186,32 +186,35 @@ struct Job {
 }
 
 // What one pass of the wavefront kernels does, copied into `pass_desc` before its dispatch:
-// the queue it works through (`src`), where the rays it spawns go (`next`: secondary rays;
-// `shadow`: shadow rays whose walks are too long to trace inline; `retry`: rays whose walk
-// goes on in a later pass), and the sample the wave traces. A `src` of SRC_EYE names the
-// tile's eye rays of that sample, made by the pass itself (the first pass of a wave).
+// the queue it works through (`src`), where the jobs it makes go (`hit`: rays whose nearest
+// hit was found, to be shaded; `next`: secondary rays; `shadow`: shadow rays whose walks are
+// too long to trace inline; `retry`: rays whose walk goes on in a later pass), and the sample
+// the wave traces. A `src` of SRC_EYE names the tile's eye rays of that sample, made by the
+// pass itself (the first pass of a wave).
 struct PassDesc {
     src: u32,
     next: u32,
     shadow: u32,
     retry: u32,
     sample: u32,
+    hit: u32,
     pad0: u32,
     pad1: u32,
-    pad2: u32,
 }
 
 // The queues (QUEUE_* slots of `queues`): two of rays to trace, by depth in turn; two of
-// rays whose walk goes on, in turn; shadow rays; two of shadow rays whose walk goes on.
+// rays whose walk goes on, in turn; rays whose nearest hit is found (the hit in the job's
+// walk state), to shade; shadow rays; two of shadow rays whose walk goes on.
 // Queue q holds its jobs at jobs[queue_base(q) ..], at most queue_cap(q) of them.
 const QUEUE_RAY0: u32 = 0u;
 const QUEUE_RAY1: u32 = 1u;
 const QUEUE_RETRY0: u32 = 2u;
 const QUEUE_RETRY1: u32 = 3u;
-const QUEUE_SHADOW: u32 = 4u;
-const QUEUE_SRETRY0: u32 = 5u;
-const QUEUE_SRETRY1: u32 = 6u;
-const QUEUE_COUNT: u32 = 7u;
+const QUEUE_HIT: u32 = 4u;
+const QUEUE_SHADOW: u32 = 5u;
+const QUEUE_SRETRY0: u32 = 6u;
+const QUEUE_SRETRY1: u32 = 7u;
+const QUEUE_COUNT: u32 = 8u;
 const SRC_EYE: u32 = 0xffffffffu;
 // `queues` holds the queues' lengths (words 0..QUEUE_COUNT), then each queue's indirect
 // dispatch arguments (x, y, z) from word QUEUE_ARGS + 3q, then the overflow word
@@ -219,8 +222,8 @@ const SRC_EYE: u32 = 0xffffffffu;
 // tile again with smaller waves), OVERFLOW_UNFINISHED when a walk went on past the last pass
 // of its depth (a push to a queue numbered QUEUE_COUNT or more: again, with more passes).
 const QUEUE_ARGS: u32 = 8u;
-const QUEUE_OVERFLOW: u32 = 29u;
-const QUEUE_WORDS: u32 = 32u;
+const QUEUE_OVERFLOW: u32 = 32u;
+const QUEUE_WORDS: u32 = 36u;
 const OVERFLOW_FULL: u32 = 1u;
 const OVERFLOW_UNFINISHED: u32 = 2u;
 
@@ -399,7 +402,7 @@ var<private> walking: u32;
 var<private> walk_state: WalkState;
 
 // Where queue `q`'s jobs start in `jobs`, and how many it holds at most: the ray queues
-// take params.ray_queue each, the shadow queues params.shadow_queue.
+// (and the hit queue) take params.ray_queue each, the shadow queues params.shadow_queue.
 fn queue_base(q: u32) -> u32 {
     if q < QUEUE_SHADOW {
         return q * params.ray_queue;

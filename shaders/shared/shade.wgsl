@@ -1,8 +1,8 @@
 // Whitted shading and the ray trees, as the CPU reference shades (src/reference/shade.rs,
 // written independently in f64). The trees are traced breadth first by the wavefront
-// kernels: a job's hit adds its radiance to its point and pushes the rays it spawns
-// (secondary rays, and shadow rays whose walks are long) into the queues of the current
-// pass, each carrying the weight its radiance contributes with.
+// kernels: a hit (shaded by the `shade` kernel) adds its radiance to its point and pushes
+// the rays it spawns (secondary rays, and shadow rays whose walks are long) into the queues
+// of the current pass, each carrying the weight its radiance contributes with.
 
 struct Incidence {
     ok: bool,
@@ -211,35 +211,12 @@ fn refract_dir(d: vec3<f32>, n: vec3<f32>, ng: vec3<f32>, entering: bool, ior: f
 }
 #endif
 
-// Traces job `job` (or the next part of its walk; an unfinished walk goes to the pass's
-// retry queue) and, once its nearest hit is known, adds what the hit sends to its point and
-// pushes the rays the hit spawns into the pass's queues.
-fn trace_job(job: Job) {
+// Shades hit job `job` (its nearest hit in its walk state, `trace_job` in nearest.wgsl): adds
+// what the hit sends to its point and pushes the rays the hit spawns into the pass's queues.
+fn shade_hit(job: Job) {
     let pending = job.ray;
-    let kind = pending.kind & RAY_KIND_MASK;
     let ray = make_ray(pending.o, pending.d);
-    let skip = select(NO_ID, pending.from_prim, (pending.kind & RAY_SKIP_FROM) != 0u);
-    walking = job.walking;
-    walk_state = job.walk;
-    let stepped = closest_step(ray, FAR, kind, pending.from_prim, skip);
-    if !stepped.done {
-        var next = job;
-        next.walking = 1u;
-        next.walk = walk_state;
-        push_job(pass_desc.retry, next);
-        return;
-    }
-    let h = stepped.c;
-    count(C_RAYS + kind);
-    if !h.found {
-        add_radiance(job.point, pending.weight * params.background);
-        return;
-    }
-    if kind == RAY_EYE {
-        count(C_EYE_HIT);
-    } else if h.hit.t < SELF_HIT_SPAWNS * pending.spawn {
-        count(C_SELF_HITS);
-    }
+    let h = Closest(true, job.walk.prim, PrimHit(true, job.walk.t, job.walk.b1, job.walk.b2));
     let prim = prims[h.prim];
     let m = materials[prim.material];
     let s = surface(prim, ray, h.hit);

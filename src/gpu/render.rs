@@ -36,12 +36,13 @@ pub struct GpuRenderer {
 }
 
 /// What a run over the grid returns: one `vec4<f32>` per grid point, the counters, the
-/// kernel time (in all and by kernel: nearest, shadow, resolve or the single kernel), the warm-up (compilation) time and the longest submission.
+/// kernel time (in all and by kernel: nearest, shade, shadow, resolve or the single kernel),
+/// the warm-up (compilation) time and the longest submission.
 struct RunOutput {
     values: Vec<[f32; 4]>,
     counters: Counters,
     gpu_s: Option<f64>,
-    kernel_s: Option<[f64; 3]>,
+    kernel_s: Option<[f64; 4]>,
     compile_s: f64,
     longest_submit_s: f64,
     longest_dispatch_s: Option<f64>,
@@ -54,12 +55,13 @@ impl RunOutput {
     fn times(&self, preprocess_s: f64, trace_s: f64, aov: bool, shadows: bool) -> stats::Times {
         let k = self.kernel_s;
         let kernel = if aov {
-            stats::KernelTimes { aov: k.map(|k| k[2]), ..Default::default() }
+            stats::KernelTimes { aov: k.map(|k| k[3]), ..Default::default() }
         } else {
             stats::KernelTimes {
                 nearest: k.map(|k| k[0]),
-                shadow: k.filter(|_| shadows).map(|k| k[1]),
-                resolve: k.map(|k| k[2]),
+                shade: k.map(|k| k[1]),
+                shadow: k.filter(|_| shadows).map(|k| k[2]),
+                resolve: k.map(|k| k[3]),
                 aov: None,
             }
         };
@@ -446,19 +448,10 @@ impl GpuRenderer {
         let mut params = packed.params;
         buffers.size_queues(&mut params);
         let compile_s = self.warm_up(variant, pipelines, &buffers, &params)?;
-        let plan = max_depth.map(|d| WavePlan {
-            max_depth: d,
-            shadows: variant.shadows,
-            retries: budget::retry_passes(scene, walks.as_ref()),
-        });
-        let get = |k: Kernel| pipelines.iter().find(|p| p.0 == k).map(|p| p.1.as_ref());
-        let kernels = match get(Kernel::Aov) {
-            Some(aov) => Pipelines::Single(aov),
-            None => Pipelines::Wavefront {
-                nearest: get(Kernel::Nearest).expect("nearest"),
-                shadow: get(Kernel::Shadow),
-                resolve: get(Kernel::Resolve).expect("resolve"),
-            },
+        let plan = max_depth.map(|d| WavePlan::new(variant, d, budget::retry_passes(scene, walks.as_ref())));
+        let kernels = match pipelines.iter().find(|p| p.0 == Kernel::Aov) {
+            Some((_, aov)) => Pipelines::Single(aov),
+            None => Pipelines::Wavefront(pipelines),
         };
         let readback = self.ctx.readback_buffer("readback", buffers.tile * 16);
         let mut schedule = Schedule::new(&self.ctx, total, buffers.tile, plan, Pacing::Fixed, true);

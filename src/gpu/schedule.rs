@@ -4,9 +4,12 @@
 //! A tile is a run of grid points. For each of its samples (a *wave*), the first pass of
 //! `nearest` makes and traces the eye ray of every point (one invocation a point; a separate
 //! kernel writing them to a queue for it to read took 9 % of tetra_s6's kernel time); then,
-//! depth by depth, passes of `nearest` trace a queue of rays, add what their hits send to
-//! their points and push the rays the hits spawn into the next depth's queue, and passes of
-//! `shadow` trace the shadow rays too long to trace inline. A walk longer than a pass allows
+//! depth by depth, passes of `nearest` trace a queue of rays and push those that hit into the
+//! hit queue, a pass of `shade` adds what the hits send to their points and pushes the rays
+//! they spawn into the next depth's queue, and passes of `shadow` trace the shadow rays too
+//! long to trace inline. (Shading apart from tracing, over hits only: lavapipe runs the code
+//! of both sides of a branch for every group of lanes, so shading inside `nearest` cost the
+//! rays that missed as much as those that hit.) A walk longer than a pass allows
 //! ([`crate::coherence::walk::WALK_CHUNK`] iterations: lavapipe ends an invocation's loops
 //! after 65535 iterations in all, and real GPUs kill long dispatches) goes into a retry
 //! queue, which the next pass of the same depth works through; a wave holds as many retry
@@ -24,14 +27,15 @@
 //! [`Pacing::Adaptive`] (the preview) sizes tiles so that one submission (a wave) takes about
 //! a target time, keeping the window responsive.
 
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::buffers::SceneBuffers;
-use super::shaders::Kernel;
+use super::shaders::{Kernel, Variant};
 use super::GpuContext;
 use crate::error::{Error, Result};
 use crate::layout::{
-    Params, PassDesc, OVERFLOW_FULL, OVERFLOW_UNFINISHED, QUEUE_ARGS, QUEUE_COUNT, QUEUE_OVERFLOW,
+    Params, PassDesc, OVERFLOW_FULL, OVERFLOW_UNFINISHED, QUEUE_ARGS, QUEUE_COUNT, QUEUE_HIT, QUEUE_OVERFLOW,
     QUEUE_RAY0, QUEUE_RAY1, QUEUE_RETRY0, QUEUE_RETRY1, QUEUE_SHADOW, QUEUE_SRETRY0, QUEUE_SRETRY1,
     QUEUE_WORDS, SRC_EYE, WORKGROUP,
 };
@@ -77,7 +81,8 @@ fn whole_groups(points: u64) -> u64 {
 }
 
 /// What the waves of one render do: rays to `max_depth` (the eye ray is depth 1), shadow
-/// passes when `shadows`, and `retries` more passes per depth for walks longer than one.
+/// passes when `shadows`, and `retries` more passes of `nearest` (and of `shadow`) per depth
+/// for walks longer than one.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct WavePlan {
     pub max_depth: u32,
@@ -96,10 +101,23 @@ pub struct Pass {
 }
 
 impl WavePlan {
+    /// The waves of a render of `variant` to `max_depth`, with `retries` more passes per
+    /// depth.
+    pub fn new(variant: Variant, max_depth: u32, retries: u32) -> WavePlan {
+        WavePlan { max_depth, shadows: variant.shadows, retries }
+    }
+
     /// The passes of the wave of sample `sample`.
     pub fn passes(&self, sample: u32) -> Vec<Pass> {
-        let desc =
-            |src, next, shadow, retry| PassDesc { src, next, shadow, retry, sample, ..PassDesc::default() };
+        let desc = |src, next, shadow, retry| PassDesc {
+            src,
+            next,
+            shadow,
+            retry,
+            sample,
+            hit: NO_QUEUE,
+            ..PassDesc::default()
+        };
         let mut v = Vec::new();
         // Retry queues in turn; the last pass of a depth has none left.
         let retry =
@@ -116,15 +134,22 @@ impl WavePlan {
                     _ => pair[((r - 1) % 2) as usize],
                 };
                 let into = retry(r, pair);
-                let mut resets = if r == 0 { vec![next, QUEUE_SHADOW] } else { Vec::new() };
+                let mut resets = if r == 0 { vec![QUEUE_HIT] } else { Vec::new() };
                 resets.extend((into != NO_QUEUE).then_some(into));
                 v.push(Pass {
                     kernel: Kernel::Nearest,
-                    desc: desc(from, next, QUEUE_SHADOW, into),
+                    desc: PassDesc { hit: QUEUE_HIT, ..desc(from, NO_QUEUE, NO_QUEUE, into) },
                     resets,
                     over: (from != SRC_EYE).then_some(from),
                 });
             }
+            // The hits of every pass of the depth, shaded at once.
+            v.push(Pass {
+                kernel: Kernel::Shade,
+                desc: desc(QUEUE_HIT, next, QUEUE_SHADOW, NO_QUEUE),
+                resets: vec![next, QUEUE_SHADOW],
+                over: Some(QUEUE_HIT),
+            });
             if self.shadows {
                 let pair = [QUEUE_SRETRY0, QUEUE_SRETRY1];
                 for r in 0..=self.retries {
@@ -193,8 +218,8 @@ pub struct Schedule {
     timed: bool,
     timer: Option<Timer>,
     gpu_s: f64,
-    /// Kernel time by kernel: nearest, shadow, resolve (or the single kernel).
-    kernel_s: [f64; 3],
+    /// Kernel time by kernel: nearest, shade, shadow, resolve (or the single kernel).
+    kernel_s: [f64; 4],
     last_submit: Duration,
     longest_submit: Duration,
     /// The longest pass so far, seconds (from the timestamps).
@@ -210,32 +235,28 @@ pub struct Schedule {
 fn kernel_slot(k: Kernel) -> usize {
     match k {
         Kernel::Nearest => 0,
-        Kernel::Shadow => 1,
-        _ => 2,
+        Kernel::Shade => 1,
+        Kernel::Shadow => 2,
+        _ => 3,
     }
 }
 
-/// The pipelines a schedule dispatches: the wavefront kernels (a render), or one kernel
-/// run once over each tile (the `aov` kernel).
+/// The pipelines a schedule dispatches: the wavefront kernels of a render's variant
+/// ([`Kernel::wavefront`]), or one kernel run once over each tile (the `aov` kernel).
 pub enum Pipelines<'a> {
-    Wavefront {
-        nearest: &'a wgpu::ComputePipeline,
-        /// `None` without shadows.
-        shadow: Option<&'a wgpu::ComputePipeline>,
-        resolve: &'a wgpu::ComputePipeline,
-    },
+    Wavefront(&'a [(Kernel, Arc<wgpu::ComputePipeline>)]),
     Single(&'a wgpu::ComputePipeline),
 }
 
 impl Pipelines<'_> {
     fn of(&self, k: Kernel) -> &wgpu::ComputePipeline {
-        match (self, k) {
-            (Pipelines::Single(p), _) => p,
-            (Pipelines::Wavefront { nearest, .. }, Kernel::Nearest) => nearest,
-            (Pipelines::Wavefront { shadow, .. }, Kernel::Shadow) => {
-                shadow.expect("a shadow pass runs only with shadows")
-            }
-            (Pipelines::Wavefront { resolve, .. }, _) => resolve,
+        match self {
+            Pipelines::Single(p) => p,
+            Pipelines::Wavefront(all) => all
+                .iter()
+                .find(|p| p.0 == k)
+                .map(|p| p.1.as_ref())
+                .unwrap_or_else(|| panic!("a pass of the {} kernel, which this variant lacks", k.name())),
         }
     }
 }
@@ -318,7 +339,7 @@ impl Schedule {
             timed,
             timer: None,
             gpu_s: 0.0,
-            kernel_s: [0.0; 3],
+            kernel_s: [0.0; 4],
             last_submit: Duration::ZERO,
             longest_submit: Duration::ZERO,
             longest_pass: 0.0,
@@ -385,9 +406,9 @@ impl Schedule {
         self.timer.as_ref().map(|_| self.gpu_s)
     }
 
-    /// Kernel time by kernel (nearest, shadow, resolve; a single kernel counts as resolve),
-    /// when timed.
-    pub fn kernel_s(&self) -> Option<[f64; 3]> {
+    /// Kernel time by kernel (nearest, shade, shadow, resolve; a single kernel counts as
+    /// resolve), when timed.
+    pub fn kernel_s(&self) -> Option<[f64; 4]> {
         self.timer.as_ref().map(|_| self.kernel_s)
     }
 
@@ -630,9 +651,10 @@ mod tests {
             assert_eq!((passes[0].desc.src, passes[0].over), (SRC_EYE, None));
             assert!(passes.iter().all(|p| p.desc.sample == 7));
             assert_eq!(passes.iter().filter(|p| p.desc.src == SRC_EYE).count(), 1);
-            let nearest = passes.iter().filter(|p| p.kernel == Kernel::Nearest).count() as u32;
-            let shadow = passes.iter().filter(|p| p.kernel == Kernel::Shadow).count() as u32;
-            assert_eq!(nearest, plan.max_depth * (plan.retries + 1), "{plan:?}");
+            let count = |k: Kernel| passes.iter().filter(|p| p.kernel == k).count() as u32;
+            assert_eq!(count(Kernel::Nearest), plan.max_depth * (plan.retries + 1), "{plan:?}");
+            assert_eq!(count(Kernel::Shade), plan.max_depth, "{plan:?}");
+            let shadow = count(Kernel::Shadow);
             assert_eq!(shadow, if plan.shadows { plan.max_depth * (plan.retries + 1) } else { 0 });
             // Queues written since their last reset.
             let mut filled = [false; QUEUE_COUNT as usize];
@@ -640,14 +662,20 @@ mod tests {
                 for &q in &p.resets {
                     filled[q as usize] = false;
                 }
+                let d = p.desc;
                 if let Some(q) = p.over {
                     assert!(filled[q as usize], "{plan:?}: {p:?} reads queue {q}, which nothing filled");
-                    assert!(p.desc.next != q && p.desc.shadow != q && p.desc.retry != q, "{p:?}");
+                    assert!(![d.next, d.shadow, d.retry, d.hit].contains(&q), "{p:?}");
                 }
-                for q in [p.desc.next, p.desc.shadow, p.desc.retry] {
-                    if q < QUEUE_COUNT && (p.kernel != Kernel::Shadow || q == p.desc.retry) {
-                        filled[q as usize] = true;
-                    }
+                // What each kernel pushes to; the queues it does not push to are NO_QUEUE.
+                let (writes, unused) = match p.kernel {
+                    Kernel::Nearest => (vec![d.hit, d.retry], vec![d.next, d.shadow]),
+                    Kernel::Shade => (vec![d.next, d.shadow], vec![d.hit, d.retry]),
+                    _ => (vec![d.retry], vec![d.next, d.shadow, d.hit]),
+                };
+                assert!(unused.iter().all(|&q| q == NO_QUEUE), "{p:?}");
+                for q in writes.into_iter().filter(|&q| q < QUEUE_COUNT) {
+                    filled[q as usize] = true;
                 }
             }
             // The last pass of each depth has no retry queue: a longer walk is reported.

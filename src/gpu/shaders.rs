@@ -22,6 +22,7 @@ use crate::scene::{Effects, Shapes};
 /// The shader sources, by their path under `shaders/`.
 const SOURCES: &[(&str, &str)] = &[
     ("nearest.wgsl", include_str!("../../shaders/nearest.wgsl")),
+    ("shade.wgsl", include_str!("../../shaders/shade.wgsl")),
     ("shadow.wgsl", include_str!("../../shaders/shadow.wgsl")),
     ("resolve.wgsl", include_str!("../../shaders/resolve.wgsl")),
     ("aov.wgsl", include_str!("../../shaders/aov.wgsl")),
@@ -42,8 +43,10 @@ const SOURCES: &[(&str, &str)] = &[
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Kernel {
     /// Traces a queue of rays (or a tile's eye rays, which it makes: see `gpu::schedule`) for
-    /// their nearest hits and shades the hits.
+    /// their nearest hits and queues the hits.
     Nearest,
+    /// Shades a queue of hits: their light, their shadow rays and the rays they spawn.
+    Shade,
     /// Traces a queue of shadow rays (variants with shadows).
     Shadow,
     /// The tile's radiance, summed in fixed point, as f32 colours.
@@ -57,13 +60,20 @@ pub enum Kernel {
 }
 
 impl Kernel {
-    pub const ALL: [Kernel; 6] =
-        [Kernel::Nearest, Kernel::Shadow, Kernel::Resolve, Kernel::Aov, Kernel::Accumulate, Kernel::Display];
+    pub const ALL: [Kernel; 7] = [
+        Kernel::Nearest,
+        Kernel::Shade,
+        Kernel::Shadow,
+        Kernel::Resolve,
+        Kernel::Aov,
+        Kernel::Accumulate,
+        Kernel::Display,
+    ];
 
     /// The wavefront kernels a render with `variant` runs (the shadow kernel only with
     /// shadows).
     pub fn wavefront(variant: Variant) -> Vec<Kernel> {
-        let mut k = vec![Kernel::Nearest];
+        let mut k = vec![Kernel::Nearest, Kernel::Shade];
         if variant.shadows {
             k.push(Kernel::Shadow);
         }
@@ -75,6 +85,7 @@ impl Kernel {
     pub fn name(self) -> &'static str {
         match self {
             Kernel::Nearest => "nearest",
+            Kernel::Shade => "shade",
             Kernel::Shadow => "shadow",
             Kernel::Resolve => "resolve",
             Kernel::Aov => "aov",

@@ -200,8 +200,9 @@ pub struct Job {
 
 /// One pass of the wavefront kernels (WGSL `PassDesc`, keep in sync with
 /// `shaders/shared/layout.wgsl`): the queue it works through ([`SRC_EYE`]: the tile's eye
-/// rays, made by the pass itself), the queues the rays it spawns go to, and the sample the
-/// wave traces.
+/// rays, made by the pass itself), the queues the jobs it makes go to (`hit`: traced rays to
+/// shade; `next`: secondary rays; `shadow`: shadow rays; `retry`: walks that go on), and the
+/// sample the wave traces.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
 pub struct PassDesc {
@@ -210,29 +211,32 @@ pub struct PassDesc {
     pub shadow: u32,
     pub retry: u32,
     pub sample: u32,
+    pub hit: u32,
     pub pad0: u32,
     pub pad1: u32,
-    pub pad2: u32,
 }
 
 /// The wavefront's queues (WGSL `QUEUE_*`): rays to trace by depth in turn, rays whose walk
-/// goes on (in turn), shadow rays, shadow rays whose walk goes on (in turn).
+/// goes on (in turn), rays whose nearest hit is found (to shade), shadow rays, shadow rays
+/// whose walk goes on (in turn). The queues before [`QUEUE_SHADOW`] hold
+/// [`Params::ray_queue`] jobs each, the others [`Params::shadow_queue`].
 pub const QUEUE_RAY0: u32 = 0;
 pub const QUEUE_RAY1: u32 = 1;
 pub const QUEUE_RETRY0: u32 = 2;
 pub const QUEUE_RETRY1: u32 = 3;
-pub const QUEUE_SHADOW: u32 = 4;
-pub const QUEUE_SRETRY0: u32 = 5;
-pub const QUEUE_SRETRY1: u32 = 6;
-pub const QUEUE_COUNT: u32 = 7;
+pub const QUEUE_HIT: u32 = 4;
+pub const QUEUE_SHADOW: u32 = 5;
+pub const QUEUE_SRETRY0: u32 = 6;
+pub const QUEUE_SRETRY1: u32 = 7;
+pub const QUEUE_COUNT: u32 = 8;
 /// [`PassDesc::src`] of the first pass of a wave: it traces the tile's eye rays, which it
 /// makes itself, instead of a queue's jobs (WGSL `SRC_EYE`).
 pub const SRC_EYE: u32 = u32::MAX;
 /// Words of the `queues` buffer: the lengths, from [`QUEUE_ARGS`] each queue's indirect
 /// dispatch arguments (x, y, z), and the overflow flag at [`QUEUE_OVERFLOW`].
 pub const QUEUE_ARGS: u32 = 8;
-pub const QUEUE_OVERFLOW: u32 = 29;
-pub const QUEUE_WORDS: u32 = 32;
+pub const QUEUE_OVERFLOW: u32 = 32;
+pub const QUEUE_WORDS: u32 = 36;
 /// Bits of the overflow word: a push found its queue full; a walk went on past the last
 /// pass of its depth (a push to a queue numbered [`QUEUE_COUNT`] or more).
 pub const OVERFLOW_FULL: u32 = 1;

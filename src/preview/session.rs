@@ -187,11 +187,7 @@ impl Session {
         });
         let accumulate = compute_pipeline(ctx, Kernel::Accumulate, Variant::default(), None)?;
         let accumulate_bind = accumulate_bind(ctx, &accumulate, &tile_buffer, &buffers, &accum);
-        let plan = WavePlan {
-            max_depth: opts.max_depth,
-            shadows: first.shadows,
-            retries: retry_passes(&scene, walks.as_ref()),
-        };
+        let plan = WavePlan::new(first, opts.max_depth, retry_passes(&scene, walks.as_ref()));
         let schedule = Schedule::new(
             ctx,
             total,
@@ -385,7 +381,7 @@ impl Session {
         self.opts = opts;
         self.base.max_depth = max_depth;
         let retries = retry_passes(&self.scene, self.walks.as_ref());
-        let plan = WavePlan { max_depth, shadows: v.shadows, retries };
+        let plan = WavePlan::new(v, max_depth, retries);
         self.schedule.set_plan(&self.gpu.ctx, plan);
         self.restart();
         Ok(())
@@ -435,12 +431,7 @@ impl Session {
     fn step(&mut self) -> Result<()> {
         let sample = pass_sample(self.passes, self.opts.spp);
         let base = Params { sample_first: sample, sample_end: sample + 1, ..self.base };
-        let get = |k: Kernel| self.pipelines.iter().find(|p| p.0 == k).map(|p| p.1.as_ref());
-        let kernels = Pipelines::Wavefront {
-            nearest: get(Kernel::Nearest).expect("nearest"),
-            shadow: get(Kernel::Shadow),
-            resolve: get(Kernel::Resolve).expect("resolve"),
-        };
+        let kernels = Pipelines::Wavefront(&self.pipelines);
         let Progress::TileDone { first, count, pass_done } =
             self.schedule.step(&self.gpu.ctx, &kernels, &self.buffers, &base)?
         else {
