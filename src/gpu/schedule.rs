@@ -102,9 +102,16 @@ pub struct Pass {
 
 impl WavePlan {
     /// The waves of a render of `variant` to `max_depth`, with `retries` more passes per
-    /// depth.
+    /// depth. Only a variant that spawns rays from its hits (mirrors or glass) traces past the
+    /// eye's depth: the passes of an empty depth still cost lavapipe about 50 µs each, and
+    /// at depth 5 they took 13–15 % of tetra_s6's kernel time.
     pub fn new(variant: Variant, max_depth: u32, retries: u32) -> WavePlan {
-        WavePlan { max_depth, shadows: variant.shadows, retries }
+        let spawns = variant.reflection || variant.refraction;
+        WavePlan {
+            max_depth: if spawns { max_depth } else { max_depth.min(1) },
+            shadows: variant.shadows,
+            retries,
+        }
     }
 
     /// The passes of the wave of sample `sample`.
@@ -687,6 +694,19 @@ mod tests {
                 .collect();
             assert!(last_nearest.iter().all(|p| p.desc.retry == NO_QUEUE), "{plan:?}");
         }
+    }
+
+    /// Only hits that spawn rays (mirrors, glass) need the depths past the eye's.
+    #[test]
+    fn a_plan_traces_past_the_eye_only_where_hits_spawn_rays() {
+        let matte = Variant { shadows: true, ..Variant::default() };
+        let plan = WavePlan::new(matte, 5, 2);
+        assert_eq!(plan, WavePlan { max_depth: 1, shadows: true, retries: 2 });
+        assert!(plan.passes(0).iter().all(|p| p.desc.next == NO_QUEUE || p.kernel == Kernel::Shade));
+        for v in [Variant { reflection: true, ..matte }, Variant { refraction: true, ..matte }] {
+            assert_eq!(WavePlan::new(v, 5, 2).max_depth, 5, "{v:?}");
+        }
+        assert_eq!(WavePlan::new(matte, 0, 0).max_depth, 0);
     }
 
     #[test]
