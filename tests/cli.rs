@@ -176,7 +176,8 @@ fn a_first_compile_is_announced_once_and_a_headless_render_is_otherwise_quiet() 
     };
     let first = render("first.png");
     assert!(
-        first.contains("compiling the nearest, shadow, resolve kernels for") && first.lines().count() == 1,
+        first.contains("compiling the nearest, shade, shadow, resolve kernels for")
+            && first.lines().count() == 1,
         "stderr of a first render: {first}"
     );
     assert_eq!(render("second.png"), "", "stderr of a later render");

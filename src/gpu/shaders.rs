@@ -413,8 +413,8 @@ mod tests {
 
     #[test]
     fn flags_select_lines() {
-        let all = compose(Kernel::Nearest, Variant::full(Queries::Tables)).unwrap();
-        let none = compose(Kernel::Nearest, Variant::default()).unwrap();
+        let all = compose(Kernel::Shade, Variant::full(Queries::Tables)).unwrap();
+        let none = compose(Kernel::Shade, Variant::default()).unwrap();
         assert!(all.contains("fn reflect_dir") && all.contains("fn refract_dir"));
         assert!(!none.contains("fn reflect_dir") && !none.contains("fn refract_dir"));
         assert!(!none.contains("#"), "a directive leaked into the module");
