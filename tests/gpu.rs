@@ -60,17 +60,17 @@ fn kernels_are_compiled_once_per_effect_set() {
     let opts = RenderOptions::new(8, 6);
     r.render(&scene, &opts, &hidden()).unwrap();
     r.render(&scene, &opts, &hidden()).unwrap();
-    // The wavefront's kernels: nearest, shadow (the showcase has shadows), resolve.
-    assert_eq!(r.compiled_kernels(), 3);
+    // The wavefront's kernels: nearest, shade, shadow (the showcase has shadows), resolve.
+    assert_eq!(r.compiled_kernels(), 4);
     // The AOV pass traces eye rays only: a module (and tables) without effects.
     r.render_aov(&scene, &opts, Aov::Id, &hidden()).unwrap();
     r.render_aov(&scene, &opts, Aov::Depth, &hidden()).unwrap();
-    assert_eq!(r.compiled_kernels(), 4);
+    assert_eq!(r.compiled_kernels(), 5);
     // Depth 1 needs neither reflection nor refraction: other modules of the kernels that
     // trace (`resolve` traces nothing: one module of it serves every variant).
     let shallow = RenderOptions { max_depth: 1, ..opts.clone() };
     r.render(&scene, &shallow, &hidden()).unwrap();
-    assert_eq!(r.compiled_kernels(), 6);
+    assert_eq!(r.compiled_kernels(), 8);
 }
 
 #[test]
@@ -153,8 +153,8 @@ fn showcase_agrees_with_the_cpu() {
     // The wavefront's kernels ran: their times add up to the total.
     let k = g.stats.time.gpu_kernel_s;
     if let Some(total) = g.stats.time.gpu_s {
-        let parts = [k.nearest, k.shadow, k.resolve].map(|t| t.unwrap_or(0.0));
-        assert!(k.nearest.is_some() && k.resolve.is_some(), "{k:?}");
+        let parts = [k.nearest, k.shade, k.shadow, k.resolve].map(|t| t.unwrap_or(0.0));
+        assert!(k.nearest.is_some() && k.shade.is_some() && k.resolve.is_some(), "{k:?}");
         assert!((parts.iter().sum::<f64>() - total).abs() <= 1e-9 * total.max(1.0), "{k:?} against {total}");
     }
     assert_eq!(k.aov, None);
