@@ -1,17 +1,6 @@
 // The `aov` kernel: traces the eye ray through each pixel centre of one tile and writes the
 // distance to its first hit, the shading normal or the object id (params.aov).
-#include "shared/layout.wgsl"
-#include "shared/geometry.wgsl"
-#if TABLES
-#include "shared/tables.wgsl"
-#include "shared/walk.wgsl"
-#endif
-#if BVH
-#include "shared/bvh.wgsl"
-#endif
-#if BRUTE
-#include "shared/brute.wgsl"
-#endif
+#include "shared/trace.wgsl"
 #include "shared/sampling.wgsl"
 
 @compute @workgroup_size(WORKGROUP)

@@ -5,19 +5,8 @@
 // kernel works through (src/gpu/schedule.rs runs the passes). Shading here cost every
 // invocation, hit or not: lavapipe runs both sides of a branch for a group of lanes that
 // disagree (tetra_s6, 513² corners: 0.050 s of which 0.025 s with the shading code absent).
-#include "shared/layout.wgsl"
-#include "shared/geometry.wgsl"
+#include "shared/trace.wgsl"
 #include "shared/sampling.wgsl"
-#if TABLES
-#include "shared/tables.wgsl"
-#include "shared/walk.wgsl"
-#endif
-#if BVH
-#include "shared/bvh.wgsl"
-#endif
-#if BRUTE
-#include "shared/brute.wgsl"
-#endif
 
 // The job of tile point `k`'s eye ray, for sample `pass_desc.sample`.
 fn eye_job(k: u32) -> Job {

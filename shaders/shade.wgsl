@@ -2,18 +2,7 @@
 // passes of a depth filled, the hit in each job's walk state): adds what the hit sends to
 // its point, traces its short shadow walks, and pushes the rays it spawns into the pass's
 // queues (src/gpu/schedule.rs runs the passes).
-#include "shared/layout.wgsl"
-#include "shared/geometry.wgsl"
-#if TABLES
-#include "shared/tables.wgsl"
-#include "shared/walk.wgsl"
-#endif
-#if BVH
-#include "shared/bvh.wgsl"
-#endif
-#if BRUTE
-#include "shared/brute.wgsl"
-#endif
+#include "shared/trace.wgsl"
 #if TEXTURES
 #include "shared/texture.wgsl"
 #endif

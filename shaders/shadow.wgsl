@@ -1,18 +1,7 @@
 // The `shadow` kernel (scenes with shadows): traces each shadow job of queue
 // `pass_desc.src` (a long walk a chunk per pass, the rest through the retry queue) and adds
 // its light to its point unless blocked (src/gpu/schedule.rs runs the passes).
-#include "shared/layout.wgsl"
-#include "shared/geometry.wgsl"
-#if TABLES
-#include "shared/tables.wgsl"
-#include "shared/walk.wgsl"
-#endif
-#if BVH
-#include "shared/bvh.wgsl"
-#endif
-#if BRUTE
-#include "shared/brute.wgsl"
-#endif
+#include "shared/trace.wgsl"
 #if TEXTURES
 #include "shared/texture.wgsl"
 #endif

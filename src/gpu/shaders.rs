@@ -1,8 +1,10 @@
 //! Composing the WGSL kernels per effect set and accelerator.
 //!
-//! The kernels live in `shaders/`: one file per kernel (`render.wgsl`, `aov.wgsl`, and the
-//! preview's `accumulate.wgsl` and `display.wgsl`), the kernel, its pipeline and its label
-//! sharing one name, and the code they share in `shaders/shared/`. All are embedded in the
+//! The kernels live in `shaders/`: one file per kernel (the wavefront's `nearest.wgsl`,
+//! `shade.wgsl`, `shadow.wgsl` and `resolve.wgsl`, `aov.wgsl`, and the preview's
+//! `accumulate.wgsl` and `display.wgsl`), the kernel, its pipeline and its label sharing one
+//! name, and the code they share in `shaders/shared/` (the kernels that trace include
+//! `shared/trace.wgsl`, which brings the variant's one accelerator). All are embedded in the
 //! binary. A tiny line-based preprocessor composes one module per [`Kernel`] and
 //! [`Variant`]: `#include "shared/file.wgsl"` pastes a file (once), and `#if NAME` / `#else` /
 //! `#endif` (nestable) keep or drop lines by the variant's flags `SHADOWS`, `REFLECTION`,
@@ -37,6 +39,7 @@ const SOURCES: &[(&str, &str)] = &[
     ("shared/sampling.wgsl", include_str!("../../shaders/shared/sampling.wgsl")),
     ("shared/texture.wgsl", include_str!("../../shaders/shared/texture.wgsl")),
     ("shared/shade.wgsl", include_str!("../../shaders/shared/shade.wgsl")),
+    ("shared/trace.wgsl", include_str!("../../shaders/shared/trace.wgsl")),
 ];
 
 /// A kernel: its file `shaders/NAME.wgsl`, its entry point(s) and its pipeline share the name.

@@ -1,0 +1,18 @@
+// The ray queries of a kernel that traces (`closest` and its stepped form, `occluded_short`,
+// `occluded_step`), from the one accelerator the variant holds: the candidate-table walk
+// (`TABLES`: walk.wgsl over tables.wgsl, which brings the BVH walk for rays leaving surfaces),
+// the BVH walk (`BVH`) or brute force (`BRUTE`), over the scene's layout and intersection
+// code. The kernels include this file, not the accelerators', so that which walk a kernel
+// gets is decided in one place.
+#include "shared/layout.wgsl"
+#include "shared/geometry.wgsl"
+#if TABLES
+#include "shared/tables.wgsl"
+#include "shared/walk.wgsl"
+#endif
+#if BVH
+#include "shared/bvh.wgsl"
+#endif
+#if BRUTE
+#include "shared/brute.wgsl"
+#endif
