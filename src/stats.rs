@@ -157,7 +157,7 @@ pub struct Times {
     /// The same time per kernel ([`KernelTimes`]; `null` for a kernel that did not run); all
     /// `null` where `gpu_s` is.
     pub gpu_kernel_s: KernelTimes,
-    /// Wall-clock time of the kernel's compilation, done before the timed dispatches
+    /// Wall-clock time of the kernels' compilation, done before the timed dispatches
     /// (lavapipe compiles at the first dispatch: seconds for a new variant, milliseconds once
     /// Mesa's shader cache holds it); `null` on the CPU.
     pub compile_s: Option<f64>,
@@ -191,7 +191,7 @@ pub struct KernelTimes {
 pub struct Settings {
     /// `cpu` or `gpu`.
     pub backend: String,
-    /// The acceleration structure actually used (`brute`, `bvh`, `cube`).
+    /// The acceleration structure actually used (`brute`, `bvh`, `cube`, `beams`).
     pub accel: String,
     /// `[width, height]` of the image.
     pub size: [u32; 2],

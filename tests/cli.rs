@@ -151,8 +151,8 @@ fn sigterm_stops_a_cpu_render_and_writes_nothing() {
 }
 
 /// The first render of a kernel on a machine says on stderr that the kernel is being compiled
-/// (lavapipe on Mesa 25 takes about 40 s over it); after that a headless GPU render prints
-/// nothing on stderr, even where XDG_RUNTIME_DIR is unset (Mesa's device-selection layer made
+/// (lavapipe on Mesa 25.0 takes about 6 s over the four kernels); after that a headless GPU
+/// render prints nothing on stderr, even where XDG_RUNTIME_DIR is unset (Mesa's device-selection layer made
 /// libwayland complain about it on every run).
 #[test]
 fn a_first_compile_is_announced_once_and_a_headless_render_is_otherwise_quiet() {

@@ -25,8 +25,9 @@ struct Params {
     max_depth: u32,
     light_count: u32,
     aov: u32,
-    // The samples started by `render` are sample_first..sample_end (0..spp for a whole
-    // render; the preview renders one sample per pass); spp sizes the jitter lattice.
+    // The samples a tile runs, one wave each, are sample_first..sample_end (0..spp for a
+    // whole render; the preview renders one sample per pass); the CPU schedule reads them and
+    // gives each pass its sample in PassDesc.sample. spp sizes the jitter lattice.
     sample_first: u32,
     sample_end: u32,
     // `--accel cube`: the eye's origin, and the origin listing every primitive that rays

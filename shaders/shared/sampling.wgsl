@@ -1,4 +1,4 @@
-// Eye-ray placement and the camera; twins of src/reference/sampling.rs and Camera::ray.
+// Eye-ray placement and the camera; twins of src/sampling.rs and Camera::ray.
 
 // PCG-RXS-M-XS 32-bit hash (Jarzynski and Olano 2020).
 fn pcg(v: u32) -> u32 {

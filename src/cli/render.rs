@@ -39,7 +39,8 @@ pub struct RenderArgs {
     /// Scene file (.nff, .gltf, .glb). Without one, the built-in showcase
     /// (scenes/showcase.nff: mirrors, glass, shadows, three lights).
     pub scene: Option<PathBuf>,
-    /// Output image: .png (clamped, sRGB-encoded) or .exr (linear radiance; AOVs).
+    /// Output image: .png (clamped, 8 bits, encoded by --transfer) or .exr (the values as
+    /// rendered; AOVs).
     #[arg(short, long)]
     pub output: PathBuf,
     /// Renderer: the WGSL kernels (default) or the f64 CPU reference.

@@ -1,9 +1,10 @@
 //! The GPU renderer: checks a job, compiles the kernels it needs, packs the scene (and, with
-//! `--accel cube`, builds the candidate tables, with `--accel bvh` the BVH), runs the kernel
+//! `--accel cube`, builds the candidate tables, with `--accel bvh` the BVH), runs the kernels
 //! over the grid with the one dispatch schedule ([`super::schedule`]) and reads back the
 //! image, the ray and test counters and the kernel time.
 //!
-//! `--accel auto` and `cube` trace the tables, `bvh` the BVH, `brute` tests every primitive.
+//! `--accel auto`, `cube` and `beams` trace the tables (`beams` with ray-classification beams
+//! for rays from surfaces), `bvh` the BVH, `brute` tests every primitive.
 //! The three query sets answer the same WGSL calls, and a module contains only one of them
 //! ([`Variant::queries`]).
 
@@ -178,7 +179,7 @@ impl GpuRenderer {
         BuildParams { eye_n: opts.eye_cells, beams: opts.accel == AccelKind::Beams, ..p }
     }
 
-    /// What both renders do first: check the options, pick and compile the kernel, then
+    /// What both renders do first: check the options, pick and compile the kernels, then
     /// (timed as preprocessing) pack the scene and build the tables it traces, or take
     /// `stored` ones (built with [`GpuRenderer::build_params`], checked here).
     fn prepare(

@@ -48,7 +48,7 @@ fn chunk_iterations(scene: &Scene) -> u64 {
     per_test(scene) * (WALK_CHUNK as u64 + GROUP_SIZE as u64)
 }
 
-/// Shadow walks of at most this many entries are traced by the invocation that found the
+/// Shadow walks of at most this many entries are traced by the `shade` invocation of the
 /// hit (`Params::shadow_inline`): as many as keep it, with one whole chunk of a walk and
 /// every light's inline walk (each entry possibly a group of `GROUP_SIZE`), within
 /// lavapipe's loop limit. Longer walks become jobs of the shadow queue.

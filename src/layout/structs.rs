@@ -33,13 +33,14 @@ pub struct Params {
     pub light_count: u32,
     /// 0 depth, 1 normal, 2 object id (the `aov` entry point).
     pub aov: u32,
-    /// `render` starts samples `sample_first..sample_end` of the `spp`-sample lattice.
+    /// The samples a tile runs, `sample_first..sample_end` of the `spp`-sample lattice, one
+    /// wave each (read by the schedule; a wave's passes get their sample in `PassDesc::sample`).
     pub sample_first: u32,
     pub sample_end: u32,
     /// `--accel cube`: the eye's origin and the fallback origin (every primitive).
     pub eye_origin: u32,
     pub fallback_origin: u32,
-    /// Shadow walks of at most this many entries are traced within the step that found the
+    /// Shadow walks of at most this many entries are traced by the `shade` invocation of the
     /// hit; longer ones become jobs of the shadow queue ([`super::budget::shadow_inline`]).
     pub shadow_inline: u32,
     /// The spawn offset is `scale·spawn_rel + spawn_abs` ([`crate::kernel::spawn`]).

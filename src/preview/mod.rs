@@ -4,8 +4,8 @@
 //! - [`session`]: the GPU side without a window — passes of one sample each, split into
 //!   short steps, added to an accumulation; camera, effect and depth changes restart it;
 //! - [`controls`]: orbit, pan, zoom and fly as camera geometry;
-//! - [`display`]: the display pass (the accumulation's average, clamped and sRGB-encoded
-//!   like the PNG output);
+//! - [`display`]: the display pass (the accumulation's average, clamped and encoded by the
+//!   render's `--transfer` like the PNG output);
 //! - this module: the window, input, the title (samples per pixel, milliseconds per frame,
 //!   rays per second) and screenshots.
 //!
