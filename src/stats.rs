@@ -326,7 +326,7 @@ impl Stats {
             if t.bound > 0 {
                 let b = &self.bound_tests_per_ray;
                 o += &format!(
-                    "bounds:   {} group sphere tests; per ray {:.3} eye, {:.3} shadow, {:.3} reflect, {:.3} refract\n",
+                    "bounds:   {} bound tests (beam-list group spheres, BVH nodes); per ray {:.3} eye, {:.3} shadow, {:.3} reflect, {:.3} refract\n",
                     t.bound, b.eye, b.shadow, b.reflect, b.refract
                 );
             }

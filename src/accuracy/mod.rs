@@ -41,12 +41,14 @@ pub enum Parameter {
     /// Samples per pixel (stratified jitter).
     Spp,
     /// Maximum ray-tree depth.
+    #[value(alias = "max_depth")]
     MaxDepth,
     /// The kernels' intersection arithmetic: f32, f64 where the adapter has it.
     Precision,
     /// The spawn offset: the scaled policy, fixed epsilons of several sizes.
     Offset,
     /// Cells per face edge of the eye's table: time and memory, never the image.
+    #[value(alias = "table_resolution")]
     TableResolution,
     /// The accelerator: time only, never the image.
     Accel,
