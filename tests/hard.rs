@@ -563,6 +563,70 @@ fn a_huge_sphere() {
     );
 }
 
+/// A sky sphere of radius 1e13 around the camera, a light and a unit sphere 5 units below the
+/// light: every sky pixel whose shadow line (from the sky point to the light, in f64) passes
+/// the unit sphere more than 1% inside its radius shows the ambient term alone on both
+/// backends, every one passing more than 1% outside more than that. The CPU's shadow rays used to end 1e-9 of their
+/// length (1e4 units) before the light and passed through the sphere: no shadow at all.
+#[test]
+fn a_sky_sphere_keeps_the_shadows_next_to_the_light() {
+    let c = run_file("sky_sphere.nff", 0.02, 0);
+    let (sky, r) = sphere_of(&c.scene, 0);
+    let (blocker, br) = sphere_of(&c.scene, 1);
+    let light = c.scene.lights[0].position;
+    // What a sky pixel in shadow shows: the ambient term alone.
+    let m = &c.scene.materials[c.scene.primitives[0].material() as usize];
+    let ambient_only = (c.scene.ambient * m.kd * m.color).to_array();
+    let (mut dark, mut lit) = (0, 0);
+    for (x, y) in c.pixels() {
+        let (o, d) = c.ray(x, y);
+        let d = d.normalize();
+        let m = miss_distance(o, d, sky);
+        let p = o + d * ((sky - o).dot(d) + (r * r - m * m).sqrt());
+        let shadow = miss_distance(light, p - light, blocker);
+        for (backend, img) in [("GPU", &c.gpu.image), ("CPU", &c.cpu.image)] {
+            let v = img.get(x, y);
+            let ambient = v[..3].iter().zip(ambient_only).all(|(a, b)| (*a as f64 - b).abs() < 1e-6);
+            if shadow < 0.99 * br {
+                assert!(
+                    ambient,
+                    "{backend}: light leaks at ({x}, {y}): {v:?}, ambient alone {ambient_only:?}"
+                );
+            } else if shadow > 1.01 * br {
+                assert!(!ambient, "{backend}: a false shadow at ({x}, {y})");
+            }
+        }
+        if shadow < 0.99 * br {
+            dark += 1;
+        } else if shadow > 1.01 * br {
+            lit += 1;
+        }
+    }
+    let blocked = (c.gpu.stats.rays.shadow_blocked, c.cpu.stats.rays.shadow_blocked);
+    eprintln!("hard-case sky_sphere: {dark} pixels in shadow, {lit} lit; blocked shadow rays (GPU, CPU) {blocked:?}");
+    assert!(dark > 100 && lit > 100, "{dark} {lit}");
+    assert_eq!(blocked.0, blocked.1);
+}
+
+/// A sphere so large that f32 squares of its coordinates overflow (radius 1e20) is refused by
+/// the GPU backend with an error naming it and the way out, before any Inf reaches a kernel;
+/// the CPU reference renders it.
+#[test]
+fn a_sphere_beyond_f32_reach_is_refused_on_the_gpu() {
+    let mut scene = load_case("sky_sphere.nff").scene;
+    match &mut scene.primitives[0] {
+        Primitive::Sphere(s) => s.radius = 1e20,
+        p => panic!("not a sphere: {p:?}"),
+    }
+    let opts = RenderOptions::new(16, 16);
+    let e = renderer().render(&scene, &opts, &hidden()).err().expect("the GPU refuses it");
+    eprintln!("{e}");
+    let msg = e.to_string();
+    assert!(msg.contains("primitive 0") && msg.contains("--backend cpu"), "{msg}");
+    let cpu = reference::render(&scene, &opts, &hidden()).unwrap();
+    assert!(cpu.image.pixels.iter().all(|p| p.iter().all(|v| v.is_finite())));
+}
+
 // ---------------------------------------------------------------------------------------------
 // 7, 8. Tangent, overlapping and nested bounds; the camera inside bounds
 

@@ -579,5 +579,36 @@ pub fn check(scene: &Scene, opts: &RenderOptions) -> Result<()> {
     if scene.primitives.len() >= u32::MAX as usize {
         return Err(Error::Scene("too many primitives for the GPU backend".into()));
     }
+    check_f32_range(scene)?;
+    Ok(())
+}
+
+/// How far from the camera (where the packed scene is centred) a coordinate may lie on the
+/// GPU: the kernels square coordinates and radii in f32, whose largest value is 3.4·10³⁸.
+pub const F32_REACH: f64 = (1u64 << 60) as f64;
+
+/// Refuses a scene that the kernels' f32 arithmetic would overflow: a finite f64 value that
+/// turns to Inf in f32, or squares to it, so that no Inf reaches a kernel.
+fn check_f32_range(scene: &Scene) -> Result<()> {
+    let eye = scene.camera.eye;
+    let reach_of = |b: crate::scene::Aabb| (b.min - eye).abs().max((b.max - eye).abs()).max_element();
+    let too_far = |what: String, reach: f64| {
+        Error::Scene(format!(
+            "{what} reaches {reach:.3e} from the camera, beyond what the GPU's f32 arithmetic can \
+             square ({F32_REACH:.3e}); render it with --backend cpu"
+        ))
+    };
+    for (id, p) in scene.primitives.iter().enumerate() {
+        let r = reach_of(p.bounds());
+        if r > F32_REACH {
+            return Err(too_far(format!("primitive {id}"), r));
+        }
+    }
+    for (i, l) in scene.lights.iter().enumerate() {
+        let r = (l.position - eye).abs().max_element();
+        if !matches!(l.kind, crate::scene::LightKind::Directional) && r > F32_REACH {
+            return Err(too_far(format!("light {i}"), r));
+        }
+    }
     Ok(())
 }
