@@ -210,7 +210,10 @@ pub fn write_atomically(
     }
     let tmp = builder.tempfile_in(dir).map_err(|e| Error::Io {
         path: dir.to_owned(),
-        source: std::io::Error::new(e.kind(), "cannot create a file in this folder"),
+        source: std::io::Error::new(
+            e.kind(),
+            if dir.is_dir() { "cannot create a file in this folder" } else { "no such folder" },
+        ),
     })?;
     {
         let mut w = BufWriter::new(tmp.as_file());

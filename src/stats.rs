@@ -300,8 +300,16 @@ impl Stats {
         let effects = if self.effects.is_empty() { "none".to_string() } else { self.effects.join(", ") };
         let mut o = String::new();
         o += &format!(
-            "render:   {} backend, accel {}, {}x{}, sampling {}, {} spp, seed {}, max depth {}, transfer {:?}\n",
-            s.backend, s.accel, s.size[0], s.size[1], s.sampling, s.spp, s.seed, s.max_depth, s.transfer
+            "render:   {} backend, accel {}, {}x{}, sampling {}, {} spp, seed {}, max depth {}, transfer {}\n",
+            s.backend,
+            s.accel,
+            s.size[0],
+            s.size[1],
+            s.sampling,
+            s.spp,
+            s.seed,
+            s.max_depth,
+            s.transfer.name()
         );
         if let Some(w) = s.window {
             o += &format!("window:   pixels x {}..{}, y {}..{} of the image\n", w.x0, w.x1, w.y0, w.y1);

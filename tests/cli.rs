@@ -80,6 +80,73 @@ fn bad_input_exits_non_zero_with_file_and_line() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// What a user of `render` and `compare` expects at the edges: one of `--width` and
+/// `--height` alone keeps the scene's aspect (the SPD files are square: a copy of tetra_s1
+/// at 64×32 is made here), `--camera` on an NFF file is refused rather than ignored, a missing output folder
+/// is named as such, and `compare` on a scene that does not load leaves no `--out-dir`.
+#[test]
+fn size_camera_and_folder_edges() {
+    let dir = tempfile::tempdir().unwrap();
+    let wide = dir.path().join("wide.nff");
+    let text = std::fs::read_to_string(shared("spd/nff/tetra_s1.nff")).unwrap();
+    let text: String = text
+        .lines()
+        .map(|l| if l.starts_with("resolution") { "resolution 64 32" } else { l })
+        .collect::<Vec<_>>()
+        .join("\n");
+    std::fs::write(&wide, text).unwrap();
+    let size = |args: &[&str]| {
+        let out = cuberay()
+            .arg("render")
+            .arg(&wide)
+            .args(args)
+            .args(["--stats", "json", "-o"])
+            .arg(dir.path().join("out.png"))
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        (v["settings"]["size"][0].as_u64().unwrap(), v["settings"]["size"][1].as_u64().unwrap())
+    };
+    assert_eq!(size(&[]), (64, 32));
+    assert_eq!(size(&["--width", "20"]), (20, 10));
+    assert_eq!(size(&["--height", "7"]), (14, 7));
+    assert_eq!(size(&["--width", "9", "--height", "9"]), (9, 9));
+
+    let out = cuberay()
+        .arg("render")
+        .arg(&wide)
+        .args(["--camera", "1", "-o"])
+        .arg(dir.path().join("c.png"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("--camera 1") && err.contains("NFF"), "{err}");
+
+    let out = cuberay()
+        .arg("render")
+        .arg(&wide)
+        .arg("-o")
+        .arg(dir.path().join("nowhere/out.png"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("nowhere: no such folder"), "{err}");
+
+    let out_dir = dir.path().join("cmp");
+    let out = cuberay()
+        .arg("compare")
+        .arg(dir.path().join("missing.nff"))
+        .arg("--out-dir")
+        .arg(&out_dir)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(!out_dir.exists(), "a failed compare left --out-dir behind");
+}
+
 /// Runs `cuberay render ARGS -o DIR/out.png`, sends `signal` once it has rendered for a
 /// while, and checks that it stops within a second with exit status `code` (128 + the
 /// signal's number) and leaves the output folder empty: no image, no temporary file.

@@ -81,7 +81,9 @@ pub fn run(args: AccuracyArgs) -> anyhow::Result<()> {
     if args.width == 0 || args.height == 0 {
         bail!("the image is empty: --width and --height must be at least 1");
     }
-    // The folder must take files before minutes of rendering, not after.
+    let loaded = super::load_scene(&args.scene, args.camera, None)?;
+    // The folder must take files before minutes of rendering, not after; it is made once the
+    // scene has loaded, so that a scene that does not load leaves no folder behind.
     std::fs::create_dir_all(&args.out_dir)
         .with_context(|| format!("cannot create --out-dir {}", args.out_dir.display()))?;
     if !args.out_dir.is_dir() {
@@ -89,8 +91,6 @@ pub fn run(args: AccuracyArgs) -> anyhow::Result<()> {
     }
     tempfile::tempfile_in(&args.out_dir)
         .with_context(|| format!("cannot write into --out-dir {}", args.out_dir.display()))?;
-
-    let loaded = super::load_scene(&args.scene, args.camera, None)?;
     let scene = &loaded.scene;
     let scene_bytes =
         std::fs::read(&args.scene).with_context(|| format!("cannot read {}", args.scene.display()))?;

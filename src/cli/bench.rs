@@ -262,10 +262,11 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
 /// The rows as a Markdown table.
 fn table(rows: &[Row], args: &BenchArgs, adapter: Option<&str>) -> String {
     let mut out = format!(
-        "{}x{} {:?}, depth {}, median of {} rounds (each accelerator once a round) after a warm-up{}\n\n",
+        "{}x{} {}, depth {}, median of {} rounds (each accelerator once a round) after a warm-up{}\n\n",
         args.width,
         args.height,
-        args.sampling,
+        clap::ValueEnum::to_possible_value(&args.sampling)
+            .map_or_else(String::new, |v| v.get_name().to_owned()),
         args.max_depth,
         args.runs,
         adapter.map(|a| format!(", GPU: {a}")).unwrap_or_default()

@@ -46,6 +46,8 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
     if !(args.tolerance.is_finite() && args.tolerance >= 0.0) {
         bail!("--tolerance {} is not a non-negative number", args.tolerance);
     }
+    let (scene_name, loaded, opts) = args.trace.load(&args.scene)?;
+    // Made once the scene has loaded: a scene that does not load leaves no folder behind.
     if !args.out_dir.exists() {
         std::fs::create_dir_all(&args.out_dir)
             .with_context(|| format!("cannot create --out-dir {}", args.out_dir.display()))?;
@@ -53,7 +55,6 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
     if !args.out_dir.is_dir() {
         bail!("--out-dir {} is not a folder", args.out_dir.display());
     }
-    let (scene_name, loaded, opts) = args.trace.load(&args.scene)?;
     // The images are compared, not the counts: the kernels need not count.
     let opts = RenderOptions { count: false, ..opts };
     let scene = &loaded.scene;

@@ -82,7 +82,10 @@ fn parse_tile(s: &str) -> Result<(u32, u32), String> {
     let (i, n) = s.split_once('/').ok_or_else(|| format!("{s:?} is not I/N (for example 0/4)"))?;
     let num = |t: &str| t.trim().parse::<u32>().map_err(|_| format!("{t:?} in {s:?} is not a whole number"));
     let (i, n) = (num(i)?, num(n)?);
-    if n == 0 || i >= n {
+    if n == 0 {
+        return Err(format!("{s:?}: the tile count must be at least 1"));
+    }
+    if i >= n {
         return Err(format!("{s:?}: the tile index must be in 0..{n} (tiles count from 0)"));
     }
     Ok((i, n))
@@ -107,7 +110,8 @@ fn parse_crop(s: &str) -> Result<Window, String> {
 /// sampling, depth and acceleration structure.
 #[derive(Args, Debug)]
 pub struct TraceArgs {
-    /// Image width (default: the scene's resolution, else 512 high at the camera's aspect).
+    /// Image width (default: the scene's resolution, else 512 high at the camera's aspect;
+    /// given alone, the height follows at that aspect, and likewise the other way).
     #[arg(long)]
     pub width: Option<u32>,
     /// Image height.
@@ -170,9 +174,17 @@ impl TraceArgs {
             None => load::showcase().context("the built-in showcase scene does not load")?,
         };
         let (dw, dh) = loaded.scene.resolution.unwrap_or_else(|| loaded.scene.camera.default_resolution());
+        // One of --width and --height alone keeps the default size's aspect.
+        let follow =
+            |given: u32, of: u32, to: u32| ((given as f64 * to as f64 / of as f64).round() as u32).max(1);
+        let (width, height) = match (self.width, self.height) {
+            (Some(w), None) => (w, follow(w, dw, dh)),
+            (None, Some(h)) => (follow(h, dh, dw), h),
+            (w, h) => (w.unwrap_or(dw), h.unwrap_or(dh)),
+        };
         let opts = RenderOptions {
-            width: self.width.unwrap_or(dw),
-            height: self.height.unwrap_or(dh),
+            width,
+            height,
             spp: self.spp.unwrap_or(1),
             seed: self.seed,
             sampling: self.sampling,

@@ -37,7 +37,14 @@ pub struct Loaded {
 pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, Error> {
     let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
     match ext.as_deref() {
-        Some("nff") => nff::load(path),
+        Some("nff") => match options.camera {
+            Some(n) => Err(Error::Options(format!(
+                "--camera {n}: {} is an NFF file, whose one view is its `v` block; --camera picks a \
+                 camera of a glTF scene",
+                path.display()
+            ))),
+            None => nff::load(path),
+        },
         Some("gltf") | Some("glb") => gltf::load(path, options),
         _ => Err(Error::UnknownSceneFormat { path: path.to_owned() }),
     }

@@ -329,6 +329,16 @@ pub enum Transfer {
     Display,
 }
 
+impl Transfer {
+    /// The name `--transfer` and the JSON use.
+    pub fn name(self) -> &'static str {
+        match self {
+            Transfer::Srgb => "srgb",
+            Transfer::Display => "display",
+        }
+    }
+}
+
 impl Scene {
     pub fn counts(&self) -> PrimitiveCounts {
         let mut c = PrimitiveCounts::default();
