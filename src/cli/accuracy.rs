@@ -22,9 +22,10 @@ pub struct AccuracyArgs {
     /// Folder for the results and the reference's cache file. Created when missing.
     #[arg(long, default_value = "accuracy")]
     pub out_dir: PathBuf,
-    /// Image width and height.
+    /// Image width (--quick: 64).
     #[arg(long, default_value_t = 256)]
     pub width: u32,
+    /// Image height (--quick: 64).
     #[arg(long, default_value_t = 256)]
     pub height: u32,
     /// The parameters to sweep, comma-separated (default: all).
