@@ -4,8 +4,8 @@
 //! Only materials that the scene's triangles use are converted, and only the images
 //! those materials need are decoded (in parallel): base colour textures become scene
 //! textures; metallic-roughness, emissive and transmission textures are reduced to their
-//! mean value (the Whitted material has one number for each). Normal and occlusion maps
-//! are never decoded. The mapping itself is documented in [`crate::scene`].
+//! mean value (the Whitted material has one number for each), with a warning that gives
+//! the values. Normal and occlusion maps are never decoded, and a warning says so. The mapping itself is documented in [`crate::scene`].
 
 use std::borrow::Cow;
 use std::collections::{BTreeSet, HashMap};
@@ -179,9 +179,18 @@ pub fn build(
 
     let mut table = MaterialTable { materials: Vec::new(), textures: Vec::new(), by_gltf: HashMap::new() };
     let mut texture_ids: HashMap<usize, u32> = HashMap::new();
+    // Materials whose normal or occlusion map is not applied (one warning each, at the end).
+    let (mut normal_maps, mut occlusion_maps) = (Vec::new(), Vec::new());
     for &i in &used_gltf {
         let m = &materials[i];
         let loc = format!("materials[{i}]");
+        let named = format!("{loc}{}", m.name().map(|n| format!(" ({n})")).unwrap_or_default());
+        if m.normal_texture().is_some() {
+            normal_maps.push(i);
+        }
+        if m.occlusion_texture().is_some() {
+            occlusion_maps.push(i);
+        }
         let pbr = m.pbr_metallic_roughness();
         let f3 = |v: [f32; 3]| DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64);
         let bc = pbr.base_color_factor();
@@ -193,18 +202,34 @@ pub fn build(
             ior: m.ior().map_or(1.5, f64::from),
             emission: f3(m.emissive_factor()) * m.emissive_strength().map_or(1.0, f64::from),
         };
-        // Textures the Whitted material cannot sample contribute their mean.
+        // Textures the Whitted material cannot sample contribute their mean, and say so: a
+        // mostly metallic map, say, makes a dark mirror of the whole surface.
+        let mut averaged = Vec::new();
         if let Some(img) = pbr.metallic_roughness_texture().and_then(|t| images.get(&source(&t))) {
             inputs.metallic *= mean_channel(img, 2);
             inputs.roughness *= mean_channel(img, 1);
+            averaged.push(format!(
+                "metallicRoughnessTexture (metallic {:.2}, roughness {:.2})",
+                inputs.metallic, inputs.roughness
+            ));
         }
         if let Some(img) = m.emissive_texture().and_then(|t| images.get(&source(&t))) {
             inputs.emission *= mean_srgb(img);
+            let e = inputs.emission;
+            averaged.push(format!("emissiveTexture (emission {:.3}, {:.3}, {:.3})", e.x, e.y, e.z));
         }
         if let Some(img) =
             m.transmission().and_then(|t| t.transmission_texture()).and_then(|t| images.get(&source(&t)))
         {
             inputs.transmission *= mean_channel(img, 0);
+            averaged.push(format!("transmissionTexture (transmission {:.2})", inputs.transmission));
+        }
+        if !averaged.is_empty() {
+            warnings.push(format!(
+                "{named}: applied as the mean over the texture, not per hit (only base colour textures \
+                 are sampled): {}",
+                averaged.join(", ")
+            ));
         }
         if inputs.ior.is_nan() || inputs.ior < 1.0 {
             return Err(ctx.err(loc, format!("KHR_materials_ior: ior {} is not at least 1", inputs.ior)));
@@ -238,13 +263,20 @@ pub fn build(
         mat.validate(table.textures.len()).map_err(|e| ctx.err(&loc, e.into_message()))?;
         match m.alpha_mode() {
             AlphaMode::Opaque => {}
-            mode => warnings.push(format!(
-                "{loc}{}: alphaMode {mode:?} is ignored; the surface is opaque",
-                m.name().map(|n| format!(" ({n})")).unwrap_or_default()
-            )),
+            mode => warnings.push(format!("{named}: alphaMode {mode:?} is ignored; the surface is opaque")),
         }
         table.by_gltf.insert(Some(i), table.materials.len() as u32);
         table.materials.push(mat);
+    }
+    let list = |v: &[usize]| v.iter().map(|i| format!("materials[{i}]")).collect::<Vec<_>>().join(", ");
+    if !normal_maps.is_empty() {
+        warnings.push(format!(
+            "{}: normal maps are not applied; shading uses the interpolated vertex normals",
+            list(&normal_maps)
+        ));
+    }
+    if !occlusion_maps.is_empty() {
+        warnings.push(format!("{}: occlusion maps are not applied", list(&occlusion_maps)));
     }
     if used.contains(&None) {
         table.by_gltf.insert(None, table.materials.len() as u32);
