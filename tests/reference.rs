@@ -205,10 +205,20 @@ fn mirror_reflects_uniform_surroundings() {
 /// The camera sits inside a glass sphere. A ray meeting the wall beyond the critical
 /// angle is totally reflected, and chords of a sphere keep their angle, so it stays
 /// inside: every hit adds the glass's emission and no refraction ray is ever spawned.
-/// Below the critical angle each hit also refracts out to the background.
+/// Below the critical angle each hit also refracts out to the background. Glass whose
+/// transmission is tinted (glTF's KHR_materials_transmission) weights what it transmits by
+/// its colour too, per channel.
 #[test]
 fn total_internal_reflection_in_a_glass_sphere() {
+    for tinted in [false, true] {
+        total_internal_reflection_in_a_glass_sphere_tinted(tinted);
+    }
+}
+
+fn total_internal_reflection_in_a_glass_sphere_tinted(tinted: bool) {
     let (radius, ior, depth) = (2.0, 1.5, 5u32);
+    let color = DVec3::new(0.3, 0.8, 0.5);
+    let tint = if tinted { color } else { DVec3::ONE };
     let e = DVec3::new(0.05, 0.1, 0.2);
     let bg = DVec3::new(0.3, 0.6, 0.9);
     let (mirror, trans) = (0.1, 0.8);
@@ -222,6 +232,8 @@ fn total_internal_reflection_in_a_glass_sphere() {
                 kd: 0.0,
                 mirror: DVec3::splat(mirror),
                 transmittance: trans,
+                tinted_transmission: tinted,
+                color,
                 ior,
                 emission: e,
                 ..Material::default()
@@ -235,9 +247,9 @@ fn total_internal_reflection_in_a_glass_sphere() {
     check_stats(&tir);
     assert_eq!(tir.stats.rays.refract, 0, "a refraction ray was spawned under total internal reflection");
     assert_eq!(tir.stats.rays.reflect, (depth - 1) as u64);
-    // Each of the `depth` hits adds e, weighted by (mirror + transmittance)^k.
-    let w = mirror + trans;
-    let want: DVec3 = (0..depth).map(|k| e * w.powi(k as i32)).sum();
+    // Each of the `depth` hits adds e, weighted by (mirror + transmittance·tint)^k.
+    let w = DVec3::splat(mirror) + trans * tint;
+    let want: DVec3 = (0..depth).map(|k| e * w.powf(k as f64)).sum();
     assert_close(px(&tir.image, 0, 0), want, 1e-6, "total internal reflection");
 
     let out = run(&build(0.3 * radius), &opts(1, 1));
@@ -246,7 +258,7 @@ fn total_internal_reflection_in_a_glass_sphere() {
     // V_depth = e; V_k = e + mirror·V_{k+1} + trans·bg.
     let mut v = e;
     for _ in 1..depth {
-        v = e + v * mirror + bg * trans;
+        v = e + v * mirror + bg * trans * tint;
     }
     assert_close(px(&out.image, 0, 0), v, 1e-6, "partial refraction");
 }

@@ -97,7 +97,8 @@ struct Material {
     ior: f32,
     // Texture index + 1; 0 = none.
     texture: u32,
-    pad: u32,
+    // MATERIAL_TINTED_TRANSMISSION.
+    flags: u32,
 }
 
 // kind: LIGHT_POINT, LIGHT_SPOT or LIGHT_DIRECTIONAL. `range` 0 = unlimited.
@@ -265,6 +266,8 @@ const KIND_CYLINDER: u32 = 2u;
 const FLAG_INSIDE_ONLY: u32 = 1u;
 const FLAG_NORMALS: u32 = 2u;
 const FLAG_UVS: u32 = 4u;
+
+const MATERIAL_TINTED_TRANSMISSION: u32 = 1u;
 
 const LIGHT_POINT: u32 = 0u;
 const LIGHT_SPOT: u32 = 1u;

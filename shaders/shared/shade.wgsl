@@ -232,18 +232,22 @@ fn shade_hit(job: Job) {
         var weight = m.mirror;
 #if REFRACTION
         var refracted = Refracted(false, vec3<f32>(0.0));
+        var transmitted = vec3<f32>(m.transmittance);
+        if (m.flags & MATERIAL_TINTED_TRANSMISSION) != 0u {
+            transmitted *= base_color(m, s);
+        }
         if transmits {
             refracted = refract_dir(d, n, ng, entering, m.ior);
             if !refracted.ok {
                 // Total internal reflection: what would have been transmitted is reflected.
-                weight += vec3<f32>(m.transmittance);
+                weight += transmitted;
             }
         }
         if refracted.ok {
             let flags = select(0u, RAY_SKIP_FROM, leave_skip(h.prim, refracted.dir, s.ng) != NO_ID);
             let child = Pending(spawn_origin(s, refracted.dir),
                 RAY_REFRACT | flags | ((depth + 1u) << RAY_DEPTH_SHIFT), refracted.dir, spawn_offset(s),
-                pending.weight * m.transmittance, h.prim);
+                pending.weight * transmitted, h.prim);
             push_job(pass_desc.next, new_job(child, job.point));
         }
 #endif

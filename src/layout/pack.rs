@@ -122,7 +122,7 @@ pub fn pack(scene: &Scene, width: u32, height: u32, spawn: SpawnPolicy) -> Packe
             transmittance: m.transmittance as f32,
             ior: m.ior as f32,
             texture: m.base_color_texture.map_or(0, |t| t.texture + 1),
-            pad: 0,
+            flags: if m.tinted_transmission { MATERIAL_TINTED_TRANSMISSION } else { 0 },
         })
         .collect();
     let lights = scene

@@ -116,7 +116,8 @@ pub struct Material {
     pub ior: f32,
     /// Texture index + 1; 0 = none.
     pub texture: u32,
-    pub pad: u32,
+    /// [`MATERIAL_TINTED_TRANSMISSION`].
+    pub flags: u32,
 }
 
 /// A light (WGSL `Light`, keep in sync with `shaders/shared/layout.wgsl`); positions relative
@@ -262,6 +263,10 @@ pub const KIND_CYLINDER: u32 = 2;
 pub const FLAG_INSIDE_ONLY: u32 = 1;
 pub const FLAG_NORMALS: u32 = 2;
 pub const FLAG_UVS: u32 = 4;
+
+/// [`Material::flags`] bit (WGSL `MATERIAL_TINTED_TRANSMISSION`): the refracted ray is
+/// weighted by the base colour at the hit too (`scene::Material::tinted_transmission`).
+pub const MATERIAL_TINTED_TRANSMISSION: u32 = 1;
 
 /// [`Light::kind`] codes (WGSL `LIGHT_*`).
 pub const LIGHT_POINT: u32 = 0;

@@ -8,7 +8,8 @@
 //! L = m.emission + ambient·kd·C
 //!   + Σ_lights [N·Lᵢ > 0, unshadowed] Iᵢ·(kd·C·(N·Lᵢ) + ks·max(Rᵢ·V, 0)^shine)
 //!   + mirror·L(reflected ray)                  (mirror + transmittance under total internal reflection)
-//!   + transmittance·L(refracted ray)
+//!   + transmittance·T·L(refracted ray)         (T: the base colour if the transmission
+//!                                               is tinted (glTF), else 1 (NFF))
 //! ```
 //!
 //! - Iᵢ = colour·intensity·falloff. NFF lights have no falloff. glTF point and spot lights
@@ -231,6 +232,7 @@ impl Tracer<'_> {
         }
         let transmits = m.transmits();
         let refracted = if transmits { refract(d, n, ng, entering, m.ior) } else { None };
+        let transmitted = m.transmittance * if m.tinted_transmission { base } else { DVec3::ONE };
         if m.reflects() || transmits {
             let mut r = reflect(d, n);
             if r.dot(ng) <= 0.0 {
@@ -238,7 +240,7 @@ impl Tracer<'_> {
             }
             let weight = if transmits && refracted.is_none() {
                 // Total internal reflection: what would have been transmitted is reflected.
-                m.mirror + DVec3::splat(m.transmittance)
+                m.mirror + transmitted
             } else {
                 m.mirror
             };
@@ -249,7 +251,7 @@ impl Tracer<'_> {
         if let Some(t) = refracted {
             let rt = Ray::new(spawn_origin(&s, t), t);
             let spawn = spawn_offset(&s);
-            l += m.transmittance
+            l += transmitted
                 * self.trace(&rt, RayOrigin::Surface(h.prim), RayKind::Refract, depth + 1, spawn, c);
         }
         l

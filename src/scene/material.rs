@@ -7,7 +7,8 @@ use crate::error::{Error, Result};
 
 /// A Whitted/Phong material (Whitted 1980, Haines' NFF):
 /// `L = ambient·kd·C + Σ_lights vis·I·(kd·C·max(N·L,0) + ks·max(R·V,0)^shine)
-///      + mirror·L_reflected + transmittance·L_refracted + emission`.
+///      + mirror·L_reflected + transmittance·T·L_refracted + emission`, with `T = C` for a
+/// tinted transmission (glTF) and 1 otherwise (NFF).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     pub name: Option<String>,
@@ -23,6 +24,10 @@ pub struct Material {
     pub mirror: DVec3,
     /// Weight of the refracted ray; > 0 makes the surface two-sided and refracting.
     pub transmittance: f64,
+    /// The refracted ray is also weighted by the base colour at the hit (`color` times the
+    /// base colour texture), as KHR_materials_transmission tints transmitted light; NFF's
+    /// `T` is not tinted.
+    pub tinted_transmission: bool,
     /// Index of refraction of the inside.
     pub ior: f64,
     /// Emitted radiance, linear RGB.
@@ -44,6 +49,7 @@ impl Default for Material {
             shine: 1.0,
             mirror: DVec3::ZERO,
             transmittance: 0.0,
+            tinted_transmission: false,
             ior: 1.0,
             emission: DVec3::ZERO,
             base_color_texture: None,

@@ -34,7 +34,9 @@
 //! the mean red channel of its texture; η = KHR_materials_ior, default 1.5; base, m, ρ and
 //! t clamped to [0, 1]):
 //! - `color = base` (times the base colour texture, when present, at shading time);
-//! - `transmittance = t·(1 − m)`; `ior = η`;
+//! - `transmittance = t·(1 − m)`, tinted (`tinted_transmission`): the refracted ray is also
+//!   weighted by the base colour at the hit, texture included, as KHR_materials_transmission
+//!   tints transmitted light; `ior = η`;
 //! - `kd = (1 − m)·(1 − transmittance)`;
 //! - `ks = (1 − ρ)·(0.04 + 0.96·m)` and `shine = clamp(2/α² − 2, 1, 10000)` with α = ρ²
 //!   (the usual Blinn-Phong ↔ GGX width correspondence);

@@ -79,6 +79,7 @@ pub fn whitted(p: &PbrInputs) -> Material {
         shine,
         mirror,
         transmittance,
+        tinted_transmission: true,
         ior: p.ior,
         emission: p.emission.max(DVec3::ZERO),
         base_color_texture: None,
