@@ -45,7 +45,8 @@ pub struct AccuracyArgs {
     /// 64×64, at most 8 samples per pixel, one timed run: a quick look, not a measurement.
     #[arg(long)]
     pub quick: bool,
-    /// glTF: index of the camera to use.
+    /// glTF: which camera node to look through, counted from 0 in the scene's node order
+    /// (default: the first; none: a camera framing the scene).
     #[arg(long)]
     pub camera: Option<usize>,
 }

@@ -36,7 +36,8 @@ enum Command {
         /// Also build the direction-cube candidate tables and report their statistics.
         #[arg(long)]
         tables: bool,
-        /// glTF: index of the camera to use.
+        /// glTF: which camera node to look through, counted from 0 in the scene's node order
+        /// (default: the first; none: a camera framing the scene).
         #[arg(long)]
         camera: Option<usize>,
     },

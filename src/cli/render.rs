@@ -145,7 +145,8 @@ pub struct TraceArgs {
     /// the tables' time and memory, never the image.
     #[arg(long)]
     pub eye_cells: Option<u32>,
-    /// glTF: index of the camera to use.
+    /// glTF: which camera node to look through, counted from 0 in the scene's node order
+    /// (default: the first; none: a camera framing the scene).
     #[arg(long)]
     pub camera: Option<usize>,
     /// How a PNG (and the preview window) encodes the values: srgb (linear radiance,
@@ -220,6 +221,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let format = OutputFormat::from_path(&args.output)?;
     if args.aov.is_some() && format != OutputFormat::Exr {
         bail!(cuberay::Error::AovNeedsExr { path: args.output.clone() });
+    }
+    if args.trace.transfer.is_some() && format == OutputFormat::Exr {
+        log::warn!(
+            "--transfer has no effect on {}: an EXR stores the values as rendered",
+            args.output.display()
+        );
     }
     if !(args.fps.is_finite() && args.fps > 0.0) {
         bail!("--fps {} is not a positive number of frames per second", args.fps);
