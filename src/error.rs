@@ -44,7 +44,7 @@ pub enum Error {
     #[error("{}: {message}", path.display())]
     Part { path: PathBuf, message: String },
     /// An output file name whose extension names no format cuberay writes.
-    #[error("{}: unknown image format (expected a .png or .exr file name)", path.display())]
+    #[error("{}: unknown image format (expected a .png, .exr or .hdr file name)", path.display())]
     UnknownImageFormat { path: PathBuf },
     /// An auxiliary output (depth, normal, id) asked for in a format that cannot hold it.
     #[error("{}: auxiliary outputs (--aov) hold linear values and need an .exr file", path.display())]

@@ -1,5 +1,5 @@
-//! Images and writing them: PNG for display, OpenEXR for linear radiance and auxiliary
-//! outputs (AOVs).
+//! Images and writing them: PNG for display, OpenEXR (and Radiance HDR) for linear radiance,
+//! OpenEXR for auxiliary outputs (AOVs).
 //!
 //! - **PNG**: each channel is clamped to [0, 1] (exposure 1, no other tone curve) and
 //!   encoded by the image's [`Transfer`], 8 bits per channel, RGB: the sRGB transfer function
@@ -10,8 +10,10 @@
 //!   the pixel's ray hit something, 0 where it missed; see [`Aov`] for the values),
 //!   ZIP-compressed scan lines written in order, so that equal images give equal files
 //!   ([`encode_exr`], which the partial images of [`crate::part`] use too).
+//! - **HDR** (Radiance RGBE): linear values as rendered, RGB, 8-bit mantissas with a shared
+//!   exponent (about 1% precision); no AOVs.
 //!
-//! The format is chosen by the file extension (`.png`, `.exr`, any case);
+//! The format is chosen by the file extension (`.png`, `.exr`, `.hdr`, any case);
 //! [`OutputFormat::from_path`] rejects anything else, so a command can check it before
 //! rendering. Files are written atomically: into a temporary file in the target's
 //! directory, which is renamed over the target only once complete, so a failed or
@@ -78,6 +80,8 @@ pub enum Aov {
 pub enum OutputFormat {
     Png,
     Exr,
+    /// Radiance RGBE (.hdr): linear radiance, 8-bit mantissas with a shared exponent.
+    Hdr,
 }
 
 impl OutputFormat {
@@ -87,6 +91,7 @@ impl OutputFormat {
         match ext.as_deref() {
             Some("png") => Ok(OutputFormat::Png),
             Some("exr") => Ok(OutputFormat::Exr),
+            Some("hdr") => Ok(OutputFormat::Hdr),
             _ => Err(Error::UnknownImageFormat { path: path.to_owned() }),
         }
     }
@@ -123,7 +128,7 @@ pub fn to_rgb8(img: &Image) -> ImageBuffer<Rgb<u8>, Vec<u8>> {
 /// Writes `img` to `path` in the format its extension names, atomically.
 pub fn write(img: &Image, path: &Path) -> Result<(), Error> {
     let format = OutputFormat::from_path(path)?;
-    if img.has_alpha && format == OutputFormat::Png {
+    if img.has_alpha && format != OutputFormat::Exr {
         return Err(Error::AovNeedsExr { path: path.to_owned() });
     }
     write_atomically(path, |w| match format {
@@ -132,6 +137,19 @@ pub fn write(img: &Image, path: &Path) -> Result<(), Error> {
             .map_err(|source| Error::Encode { path: path.to_owned(), source }),
         OutputFormat::Exr => encode_exr(w, img, (0, 0), (img.width, img.height), None)
             .map_err(|e| Error::Options(format!("{}: cannot encode the image: {e}", path.display()))),
+        OutputFormat::Hdr => to_rgb32f(img)
+            .write_to(w, ImageFormat::Hdr)
+            .map_err(|source| Error::Encode { path: path.to_owned(), source }),
+    })
+}
+
+/// The linear values an .hdr file holds: RGBE stores no negative or NaN value, so those
+/// become 0 (a render makes neither; an image read from elsewhere might).
+pub fn to_rgb32f(img: &Image) -> image::Rgb32FImage {
+    let f = |v: f32| if v > 0.0 { v } else { 0.0 };
+    ImageBuffer::from_fn(img.width, img.height, |x, y| {
+        let p = img.get(x, y);
+        Rgb([f(p[0]), f(p[1]), f(p[2])])
     })
 }
 
@@ -236,6 +254,7 @@ mod tests {
     fn formats_by_extension() {
         assert_eq!(OutputFormat::from_path(Path::new("a/b.PNG")).unwrap(), OutputFormat::Png);
         assert_eq!(OutputFormat::from_path(Path::new("b.exr")).unwrap(), OutputFormat::Exr);
+        assert_eq!(OutputFormat::from_path(Path::new("b.HDR")).unwrap(), OutputFormat::Hdr);
         assert!(OutputFormat::from_path(Path::new("b.jpg")).is_err());
         assert!(OutputFormat::from_path(Path::new("b")).is_err());
     }
@@ -288,6 +307,29 @@ mod tests {
         assert!(files.windows(2).all(|w| w[0] == w[1]), "the EXR bytes vary between writes");
         let back = image::open(dir.path().join("x0.exr")).unwrap().into_rgb32f();
         assert_eq!(back.get_pixel(17, 3).0, [img.get(17, 3)[0], img.get(17, 3)[1], img.get(17, 3)[2]]);
+    }
+
+    /// An .hdr file holds linear radiance above 1 to RGBE's precision (8-bit mantissas under
+    /// an exponent shared by the pixel: each channel within 1% of the pixel's largest),
+    /// negative and NaN values as 0, and refuses an AOV.
+    #[test]
+    fn hdr_holds_linear_radiance() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut img = Image::new(4, 3, false);
+        img.pixels[5] = [0.25, 37.5, 0.003, 1.0];
+        img.pixels[6] = [-1.0, f32::NAN, 1.0, 1.0];
+        let hdr = dir.path().join("x.hdr");
+        write(&img, &hdr).unwrap();
+        let back = image::open(&hdr).unwrap().into_rgb32f();
+        assert_eq!(back.dimensions(), (4, 3));
+        for (got, want) in back.get_pixel(1, 1).0.iter().zip([0.25f32, 37.5, 0.003]) {
+            assert!((got - want).abs() <= 0.01 * 37.5, "{got} for {want}");
+        }
+        assert!((back.get_pixel(1, 1).0[1] - 37.5).abs() / 37.5 < 0.01);
+        assert_eq!(back.get_pixel(2, 1).0[..2], [0.0, 0.0]);
+        assert!((back.get_pixel(2, 1).0[2] - 1.0).abs() < 0.01);
+        let aov = Image::new(2, 2, true);
+        assert!(matches!(write(&aov, &dir.path().join("a.hdr")), Err(Error::AovNeedsExr { .. })));
     }
 
     #[test]

@@ -39,8 +39,8 @@ pub struct RenderArgs {
     /// Scene file (.nff, .gltf, .glb). Without one, the built-in showcase
     /// (scenes/showcase.nff: mirrors, glass, shadows, three lights).
     pub scene: Option<PathBuf>,
-    /// Output image: .png (clamped, 8 bits, encoded by --transfer) or .exr (the values as
-    /// rendered; AOVs).
+    /// Output image: .png (clamped, 8 bits, encoded by --transfer), .exr (the values as
+    /// rendered, f32; AOVs) or .hdr (the values as rendered, Radiance RGBE).
     #[arg(short, long)]
     pub output: PathBuf,
     /// Renderer: the WGSL kernels (default) or the f64 CPU reference.
@@ -222,9 +222,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if args.aov.is_some() && format != OutputFormat::Exr {
         bail!(cuberay::Error::AovNeedsExr { path: args.output.clone() });
     }
-    if args.trace.transfer.is_some() && format == OutputFormat::Exr {
+    if args.trace.transfer.is_some() && format != OutputFormat::Png {
         log::warn!(
-            "--transfer has no effect on {}: an EXR stores the values as rendered",
+            "--transfer has no effect on {}: EXR and HDR files store the values as rendered",
             args.output.display()
         );
     }
