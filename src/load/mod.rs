@@ -35,6 +35,12 @@ pub struct Loaded {
 
 /// Loads a scene file, choosing the format by extension.
 pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, Error> {
+    if path.is_dir() {
+        return Err(Error::Io {
+            path: path.to_owned(),
+            source: std::io::Error::new(std::io::ErrorKind::IsADirectory, "a folder, not a scene file"),
+        });
+    }
     let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
     match ext.as_deref() {
         Some("nff") => match options.camera {
