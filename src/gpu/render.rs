@@ -286,8 +286,14 @@ impl GpuRenderer {
             markers.extend(first_compile_marker(&self.ctx, *k, variant)?);
         }
         if !markers.is_empty() {
+            // Said as a warning once per process (`accuracy` and `bench` compile one variant
+            // per set of effects), then only in the log.
+            static ANNOUNCED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+            let first = !ANNOUNCED.swap(true, std::sync::atomic::Ordering::Relaxed);
+            let level = if first { log::Level::Warn } else { log::Level::Info };
             let names: Vec<&str> = cold.iter().map(|(k, _)| k.name()).collect();
-            log::warn!(
+            log::log!(
+                level,
                 "compiling the {} kernel{} for {}, {}: the first time on a machine this can take a minute",
                 names.join(", "),
                 if names.len() > 1 { "s" } else { "" },
