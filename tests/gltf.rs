@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use glam::{DMat3, DMat4, DQuat, DVec3};
+use glam::{DMat3, DMat4, DQuat, DVec2, DVec3};
 use serde_json::{json, Value};
 
 use cuberay::load::{self, LoadOptions, Loaded};
@@ -326,10 +326,12 @@ fn toy_car_cameras_are_selectable_and_extensions_warned_once() {
     let loaded = load_with(&path, Some(7));
     assert!(matches!(loaded.scene.camera.projection, Projection::Perspective { .. }));
     assert!(load::load(&path, &LoadOptions { camera: Some(8), time: None }).is_err());
-    for ext in ["KHR_texture_transform", "KHR_materials_clearcoat", "KHR_materials_sheen"] {
+    for ext in ["KHR_materials_clearcoat", "KHR_materials_sheen"] {
         let n = loaded.warnings.iter().filter(|w| w.contains(ext)).count();
         assert_eq!(n, 1, "{ext}: {:?}", loaded.warnings);
     }
+    // KHR_texture_transform is applied (the fabric's base colour repeats 3×), not warned.
+    assert!(!loaded.warnings.iter().any(|w| w.contains("KHR_texture_transform")), "{:?}", loaded.warnings);
     // The glass material transmits (KHR_materials_transmission).
     assert!(loaded.scene.materials.iter().any(|m| m.transmittance > 0.0));
 }
@@ -672,6 +674,48 @@ fn uvs_follow_the_base_colour_texture_coordinate_set() {
         (cuberay::scene::Wrap::ClampToEdge, cuberay::scene::Wrap::MirroredRepeat, false)
     );
     let m = &scene.materials[tris[0].material as usize];
+    assert_eq!(m.base_color_texture.unwrap().texcoord, 1);
+}
+
+/// KHR_texture_transform on the base colour texture moves the triangles' UVs: offset ·
+/// rotation (counter-clockwise, as the extension's matrix turns (1, 0) to (cos, sin)) ·
+/// scale, reading the TEXCOORD set its `texCoord` names instead of the textureInfo's; no
+/// warning says the extension is ignored.
+#[test]
+fn texture_transforms_move_the_uvs() {
+    let dir = TempDir::new();
+    image::RgbaImage::from_pixel(2, 2, image::Rgba([200, 100, 50, 255])).save(dir.path("tex.png")).unwrap();
+    let mut doc = Doc::new();
+    let p = doc.vec3(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+    let uv0 = doc.vec2(&[[9.0, 9.0]; 3]);
+    let uv1 = doc.vec2(&[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]);
+    let rot = std::f64::consts::FRAC_PI_2;
+    let path = doc.write(
+        &dir,
+        "tt.gltf",
+        json!({
+            "extensionsUsed": ["KHR_texture_transform"],
+            "images": [{"uri": "tex.png"}],
+            "textures": [{"source": 0}],
+            "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0, "texCoord": 0,
+                "extensions": {"KHR_texture_transform": {
+                    "offset": [0.5, 0.25], "rotation": rot, "scale": [2.0, 3.0], "texCoord": 1}}}}}],
+            "meshes": [{"primitives": [
+                {"attributes": {"POSITION": p, "TEXCOORD_0": uv0, "TEXCOORD_1": uv1}, "material": 0},
+            ]}],
+            "nodes": [{"mesh": 0}],
+            "scenes": [{"nodes": [0]}],
+        }),
+    );
+    let loaded = load(&path);
+    assert!(!loaded.warnings.iter().any(|w| w.contains("KHR_texture_transform")), "{:?}", loaded.warnings);
+    let uv = triangles(&loaded.scene)[0].uv.expect("UVs");
+    // (u, v) → scale (2u, 3v) → rotate a quarter turn (−3v, 2u) → offset (0.5 − 3v, 0.25 + 2u).
+    let want = [DVec2::new(0.5, 0.25), DVec2::new(0.5, 2.25), DVec2::new(-2.5, 0.25)];
+    for (got, want) in uv.iter().zip(want) {
+        assert!((*got - want).length() < 1e-6, "{uv:?}");
+    }
+    let m = &loaded.scene.materials[0];
     assert_eq!(m.base_color_texture.unwrap().texcoord, 1);
 }
 

@@ -33,7 +33,8 @@
 //! metallicRoughnessTexture when there is one; t = KHR_materials_transmission factor times
 //! the mean red channel of its texture; η = KHR_materials_ior, default 1.5; base, m, ρ and
 //! t clamped to [0, 1]):
-//! - `color = base` (times the base colour texture, when present, at shading time);
+//! - `color = base` (times the base colour texture, when present, at shading time, read
+//!   through its KHR_texture_transform, which the loader applies to the UVs);
 //! - `transmittance = t·(1 − m)`, tinted (`tinted_transmission`): the refracted ray is also
 //!   weighted by the base colour at the hit, texture included, as KHR_materials_transmission
 //!   tints transmitted light; `ior = η`;

@@ -9,7 +9,7 @@
 use std::collections::HashMap;
 use std::sync::Arc;
 
-use glam::{DMat3, DMat4, DQuat, DVec2, DVec3};
+use glam::{DAffine2, DMat3, DMat4, DQuat, DVec2, DVec3};
 use gltf::mesh::Mode;
 use gltf::{Document, Semantic};
 use rayon::prelude::*;
@@ -125,6 +125,8 @@ struct PrimGeom {
     /// Unit or zero (zero marks a bad normal: the triangle's geometric normal is used).
     normals: Option<Arc<Vec<[f32; 3]>>>,
     uvs: Option<Arc<Vec<[f32; 2]>>>,
+    /// KHR_texture_transform of the material's base colour texture, applied to `uvs`.
+    uv_transform: Option<DAffine2>,
     tris: Arc<Vec<[u32; 3]>>,
     material: u32,
 }
@@ -243,7 +245,7 @@ impl Cache {
             }
         };
 
-        let (material, uv_set) = table.lookup(prim.material().index());
+        let (material, uv_set, uv_transform) = table.lookup(prim.material().index());
         let uvs = match uv_set {
             None => None,
             Some(set) => match prim.get(&Semantic::TexCoords(set)) {
@@ -301,7 +303,7 @@ impl Cache {
                 t
             }
         };
-        Ok(Some(PrimGeom { positions, normals, uvs, tris, material }))
+        Ok(Some(PrimGeom { positions, normals, uvs, uv_transform, tris, material }))
     }
 }
 
@@ -358,7 +360,8 @@ impl Job {
             if let Some(uvs) = &g.uvs {
                 tri.uv = Some(idx.map(|i| {
                     let [u, v] = uvs[i as usize];
-                    DVec2::new(u as f64, v as f64)
+                    let uv = DVec2::new(u as f64, v as f64);
+                    g.uv_transform.map_or(uv, |m| m.transform_point2(uv))
                 }));
             }
             out.push(Primitive::Triangle(tri));

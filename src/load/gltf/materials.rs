@@ -10,7 +10,7 @@
 use std::borrow::Cow;
 use std::collections::{BTreeSet, HashMap};
 
-use glam::DVec3;
+use glam::{DAffine2, DVec2, DVec3};
 use gltf::material::AlphaMode;
 use gltf::texture::{MagFilter, WrappingMode};
 use gltf::Document;
@@ -28,14 +28,19 @@ pub struct MaterialTable {
     pub textures: Vec<Texture>,
     /// glTF material index (None: the default material) → scene material index.
     by_gltf: HashMap<Option<usize>, u32>,
+    /// Scene material index → the KHR_texture_transform of its base colour texture, which
+    /// the loader applies to the UVs of the triangles that use it (the base colour texture
+    /// is the only one sampled per hit, so the UVs serve it alone).
+    uv_transforms: HashMap<u32, DAffine2>,
 }
 
 impl MaterialTable {
-    /// The scene material for a glTF material (None: the default material) and the
-    /// TEXCOORD set its base colour texture reads, if it has one.
-    pub fn lookup(&self, gltf: Option<usize>) -> (u32, Option<u32>) {
+    /// The scene material for a glTF material (None: the default material), the TEXCOORD
+    /// set its base colour texture reads, if it has one, and the transform its UVs take.
+    pub fn lookup(&self, gltf: Option<usize>) -> (u32, Option<u32>, Option<DAffine2>) {
         let i = self.by_gltf[&gltf];
-        (i, self.materials[i as usize].base_color_texture.map(|t| t.texcoord))
+        let set = self.materials[i as usize].base_color_texture.map(|t| t.texcoord);
+        (i, set, self.uv_transforms.get(&i).copied())
     }
 }
 
@@ -85,6 +90,13 @@ pub fn whitted(p: &PbrInputs) -> Material {
         base_color_texture: None,
         double_sided: false,
     }
+}
+
+/// KHR_texture_transform's UV transform: translation · rotation · scale, the rotation
+/// turning UVs counter-clockwise by `rotation` radians (the extension's matrix).
+pub fn uv_transform(offset: [f32; 2], rotation: f32, scale: [f32; 2]) -> DAffine2 {
+    let v = |a: [f32; 2]| DVec2::new(a[0] as f64, a[1] as f64);
+    DAffine2::from_scale_angle_translation(v(scale), rotation as f64, v(offset))
 }
 
 /// Decodes image `index` (PNG or JPEG, from a file, a data URI or a buffer view) to RGBA8.
@@ -178,7 +190,12 @@ pub fn build(
         needed.par_iter().map(|&i| decode_image(ctx, doc, buffers, i)).collect::<Result<_, _>>()?;
     let images: HashMap<usize, RgbaImage> = needed.into_iter().zip(decoded).collect();
 
-    let mut table = MaterialTable { materials: Vec::new(), textures: Vec::new(), by_gltf: HashMap::new() };
+    let mut table = MaterialTable {
+        materials: Vec::new(),
+        textures: Vec::new(),
+        by_gltf: HashMap::new(),
+        uv_transforms: HashMap::new(),
+    };
     let mut texture_ids: HashMap<usize, u32> = HashMap::new();
     // Materials whose normal or occlusion map is not applied (one warning each, at the end).
     let (mut normal_maps, mut occlusion_maps) = (Vec::new(), Vec::new());
@@ -259,7 +276,19 @@ pub fn build(
                     id
                 }
             };
-            mat.base_color_texture = Some(TextureRef { texture: id, texcoord: info.tex_coord() });
+            let transform = info.texture_transform();
+            let texcoord = transform.as_ref().and_then(|t| t.tex_coord()).unwrap_or(info.tex_coord());
+            mat.base_color_texture = Some(TextureRef { texture: id, texcoord });
+            if let Some(t) = transform {
+                let m = uv_transform(t.offset(), t.rotation(), t.scale());
+                if !m.is_finite() {
+                    let loc = format!(
+                        "{loc}.pbrMetallicRoughness.baseColorTexture.extensions.KHR_texture_transform"
+                    );
+                    return Err(ctx.err(loc, "offset, rotation and scale must be finite"));
+                }
+                table.uv_transforms.insert(table.materials.len() as u32, m);
+            }
         }
         mat.validate(table.textures.len()).map_err(|e| ctx.err(&loc, e.into_message()))?;
         match m.alpha_mode() {

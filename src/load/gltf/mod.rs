@@ -20,7 +20,8 @@
 //! - KHR_lights_punctual point, spot and directional lights; without any light, the
 //!   documented default headlight ([`Light::default_for`], with a warning);
 //! - metallic-roughness materials with KHR_materials_transmission, KHR_materials_ior and
-//!   KHR_materials_emissive_strength, mapped as [`crate::scene`] documents.
+//!   KHR_materials_emissive_strength, mapped as [`crate::scene`] documents; the base colour
+//!   texture's KHR_texture_transform is applied to the UVs of the triangles that use it.
 //!
 //! glTF has no ambient light or background colour: both are black.
 
@@ -47,6 +48,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_transmission",
     "KHR_materials_ior",
     "KHR_materials_emissive_strength",
+    "KHR_texture_transform",
 ];
 
 /// The file being loaded, for error messages.
