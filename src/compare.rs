@@ -4,9 +4,9 @@
 //! heat map.
 //!
 //! Every metric is taken on what a viewer sees: both images are encoded as the PNG
-//! writer encodes them (clamped, by the render's transfer, 8 bits), and RMSE, PSNR, the maximum difference
-//! and the tolerance use those values scaled to [0, 1] (PSNR with peak 1). A pixel is
-//! over the tolerance when any of its channels differs by more than it.
+//! writer encodes them (clamped, by the render's transfer, 8 bits), and RMSE, PSNR, the
+//! maximum difference and the tolerance use those values scaled to [0, 1] (PSNR with peak
+//! 1). A pixel is over the tolerance when any of its channels differs by more than it.
 
 use serde::Serialize;
 

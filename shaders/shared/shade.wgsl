@@ -232,11 +232,14 @@ fn shade_hit(job: Job) {
         var weight = m.mirror;
 #if REFRACTION
         var refracted = Refracted(false, vec3<f32>(0.0));
-        var transmitted = vec3<f32>(m.transmittance);
-        if (m.flags & MATERIAL_TINTED_TRANSMISSION) != 0u {
-            transmitted *= base_color(m, s);
-        }
+        var transmitted = vec3<f32>(0.0);
         if transmits {
+            // Tinted (glTF) glass samples its base colour again, only here: other hits pay
+            // nothing for it.
+            transmitted = vec3<f32>(m.transmittance);
+            if (m.flags & MATERIAL_TINTED_TRANSMISSION) != 0u {
+                transmitted *= base_color(m, s);
+            }
             refracted = refract_dir(d, n, ng, entering, m.ior);
             if !refracted.ok {
                 // Total internal reflection: what would have been transmitted is reflected.

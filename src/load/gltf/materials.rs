@@ -5,7 +5,8 @@
 //! those materials need are decoded (in parallel): base colour textures become scene
 //! textures; metallic-roughness, emissive and transmission textures are reduced to their
 //! mean value (the Whitted material has one number for each), with a warning that gives
-//! the values. Normal and occlusion maps are never decoded, and a warning says so. The mapping itself is documented in [`crate::scene`].
+//! the values. Normal and occlusion maps are never decoded, and a warning says so. The
+//! mapping itself is documented in [`crate::scene`].
 
 use std::borrow::Cow;
 use std::collections::{BTreeSet, HashMap};
