@@ -278,6 +278,12 @@ cmd_start() {
 
     write_slurm_conf "$node" "$cpus" "$mem" "$ctld_port" "$slurmd_port"
     : >"$ETC/plugstack.conf"       # empty: do not pick up /etc/slurm/plugstack.conf.d
+    # slurmd loads a cgroup plugin at start even when nothing uses it (proctrack/linuxproc,
+    # task/none above). The default, CgroupPlugin=autodetect, fails where no cgroup
+    # filesystem is mounted on /sys/fs/cgroup (a chroot, many containers: "Unable to
+    # initialize cgroup plugin"); naming cgroup/v1 skips the detection, and its plugin
+    # touches no cgroup until a constraint asks it to, which none here does.
+    printf 'CgroupPlugin=cgroup/v1\n' >"$ETC/cgroup.conf"
     export SLURM_CONF=$CONF
 
     # If anything below fails, show the logs and tear down what was started.
