@@ -842,6 +842,35 @@ fn bad_truncated_glb() {
     assert_error(&load_err(&path), &path, &["buffers[0]", "binary chunk"]);
 }
 
+/// gltf-json 1.4's validation indexed `accessors` with a primitive's POSITION unchecked:
+/// such a file panicked (`cuberay info` exit 101) instead of being refused.
+#[test]
+fn bad_position_accessor_that_does_not_exist() {
+    let (doc, mut rest) = valid_doc();
+    let dir = TempDir::new();
+    rest["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(7);
+    let path = doc.write(&dir, "t.gltf", rest.clone());
+    let n = doc.accessors.len();
+    assert_error(
+        &load_err(&path),
+        &path,
+        &[
+            "meshes[0].primitives[0].attributes.POSITION",
+            &format!("names accessors[7], but the file has {n} accessors"),
+        ],
+    );
+    // No accessors at all (a misspelt `accessors` array).
+    let mut text: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    text.as_object_mut().unwrap().remove("accessors");
+    text["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(2);
+    std::fs::write(&path, serde_json::to_string(&text).unwrap()).unwrap();
+    assert_error(
+        &load_err(&path),
+        &path,
+        &["attributes.POSITION", "names accessors[2], but the file has 0 accessors"],
+    );
+}
+
 #[test]
 fn bad_missing_bin() {
     let (doc, rest) = valid_doc();

@@ -101,7 +101,14 @@ fn parse(ctx: &Ctx, bytes: &[u8]) -> Result<gltf::Gltf, Error> {
             ));
         }
     }
-    let document = Document::from_json(document.into_json()).map_err(|e| match e {
+    let json = document.into_json();
+    check_what_validation_indexes(ctx, &json)?;
+    // The crate's validation indexes some references before checking them (a bad POSITION
+    // accessor above): whatever else it might panic on is contained here and reported as
+    // this file's error, not a crash.
+    let validated = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| Document::from_json(json)))
+        .map_err(|_| ctx.err("file", "the glTF validation failed on this file (a malformed reference)"))?;
+    let document = validated.map_err(|e| match e {
         gltf::Error::Validation(errors) => {
             let (path, first) = &errors[0];
             let more = match errors.len() {
@@ -113,6 +120,33 @@ fn parse(ctx: &Ctx, bytes: &[u8]) -> Result<gltf::Gltf, Error> {
         e => ctx.err("file", format!("{e}")),
     })?;
     Ok(gltf::Gltf { document, blob })
+}
+
+/// The references the `gltf` crate's validation follows before checking them: gltf-json
+/// 1.4's `primitive_validate_hook` indexes `accessors` with a primitive's POSITION
+/// unchecked, so a file naming an accessor that does not exist panicked inside
+/// `Document::from_json` (found by mutating sample files). The upstream fix is a
+/// `root.accessors.get(i)` there, reporting `Error::IndexOutOfBounds`.
+fn check_what_validation_indexes(ctx: &Ctx, json: &gltf::json::Root) -> Result<(), Error> {
+    let accessors = json.accessors.len();
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let position = gltf::json::validation::Checked::Valid(gltf::Semantic::Positions);
+            if let Some(index) = prim.attributes.get(&position) {
+                if index.value() >= accessors {
+                    return Err(ctx.err(
+                        format!("meshes[{m}].primitives[{p}].attributes.POSITION"),
+                        format!(
+                            "names accessors[{}], but the file has {accessors} accessor{}",
+                            index.value(),
+                            if accessors == 1 { "" } else { "s" }
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// A GLB container error in words.
