@@ -2,7 +2,7 @@
 #
 # local-cluster.sh - a private, throw-away, single-node Slurm cluster on localhost
 # (munged + slurmctld + slurmd), for trying the job scripts beside it and for the
-# test that runs them (tests/slurm.rs). A real cluster needs none of this: submit
+# test that runs them (tests/it/slurm.rs). A real cluster needs none of this: submit
 # there with submit.sh.
 #
 # Usage:

@@ -1,7 +1,7 @@
 // Shared declarations of every kernel: the structs, constants and bindings shared with the
 // host, and the per-invocation counters. Coordinates are re-centred on the camera.
 // Keep in sync with src/layout/structs.rs and src/layout/counters.rs: each struct and
-// constant here has one Rust twin of the same name, and tests/twins.rs compares them.
+// constant here has one Rust twin of the same name, and tests/it/twins.rs compares them.
 
 struct Params {
     cam_forward: vec3<f32>,

@@ -27,7 +27,7 @@
 //! in its always-test list with `d_min` 0, walked by rays whose origin entity has no table.
 //!
 //! The structs are the Rust twins of the WGSL structs of the same names in
-//! `shaders/shared/tables.wgsl` (keep them in sync; `tests/twins.rs` compares the layouts).
+//! `shaders/shared/tables.wgsl` (keep them in sync; `tests/it/twins.rs` compares the layouts).
 //! Every field is a 4-byte scalar, so WGSL's and C's layouts agree and no implicit padding
 //! exists.
 //!

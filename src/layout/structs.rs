@@ -1,6 +1,6 @@
 //! The Rust twins of the structs and constants in `shaders/shared/layout.wgsl` (keep them in
 //! sync): one `#[repr(C)]` bytemuck struct per WGSL struct, with the same name and fields,
-//! and one constant per WGSL constant. `tests/twins.rs` reads the WGSL through naga and
+//! and one constant per WGSL constant. `tests/it/twins.rs` reads the WGSL through naga and
 //! compares every layout and value. The table structs (`GpuOrigin`, `GpuFace`, `GpuEntry`,
 //! `GpuGroup`) are twinned in [`crate::coherence::flat`].
 

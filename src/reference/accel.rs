@@ -85,7 +85,7 @@ pub fn test_closest(
     // Let t == best.t through so that ties can go to the lower id. The intersection tests
     // compare scaled distances (`t·det` against `t_max·det`), whose rounding can turn away a
     // hit at exactly `best.t` when the limit is only one ulp above it: a BVH that met a
-    // primitive's exact twin first then kept the twin (`tests/hard.rs`, coplanar triangles).
+    // primitive's exact twin first then kept the twin (`tests/it/hard.rs`, coplanar triangles).
     // A few ulps of room let every tie through; `better` below decides exactly.
     let limit = best.map_or(t_max, |b| b.hit.t * TIE_ROOM);
     if let Some(h) = intersect(prim, ray, limit) {

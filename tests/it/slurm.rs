@@ -7,12 +7,10 @@
 //! Needs Debian's `slurm-wlm` and `munge` (`bash .ci/setup` installs them) and root (the
 //! daemons run as root); without them the test fails and says so.
 
-mod common;
-
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use common::{cuberay, shared};
+use crate::common::{cuberay, shared};
 
 fn repo() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -1,8 +1,6 @@
 //! The command line as a user meets it: `info` on real scenes, errors on bad input.
 
-mod common;
-
-use common::{cuberay, shared};
+use crate::common::{cuberay, shared};
 
 fn info_json(path: &std::path::Path) -> serde_json::Value {
     let out = cuberay().arg("info").arg("--json").arg(path).output().unwrap();

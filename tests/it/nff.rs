@@ -5,9 +5,7 @@
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
-mod common;
-
-use common::shared_scenes;
+use crate::common::shared_scenes;
 use cuberay::load::nff::parse;
 use cuberay::load::Loaded;
 use cuberay::scene::{FovSpan, LightSource, Material, Primitive, Projection, Triangle};

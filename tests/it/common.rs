@@ -1,7 +1,10 @@
-//! Helpers shared by the integration tests.
-#![allow(dead_code)]
+//! Helpers shared by the integration tests: where the scenes are, the binary under test,
+//! the one GPU renderer, and what a failed comparison leaves behind.
 
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use cuberay::gpu::GpuRenderer;
 
 /// The third-party scenes folder (`../shared/scenes` beside the repository, or
 /// `$CUBERAY_SHARED_SCENES`). Panics with a plain message when it is missing: tests that
@@ -31,6 +34,20 @@ pub fn shared(rel: &str) -> PathBuf {
     let p = shared_scenes().join(rel);
     assert!(p.exists(), "missing shared scene file {}", p.display());
     p
+}
+
+/// A file of the project's own hard-case scenes (`scenes/hard/`).
+pub fn hard(file: &str) -> PathBuf {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/hard").join(file);
+    assert!(p.exists(), "missing hard-case scene {}", p.display());
+    p
+}
+
+/// The GPU renderer every test shares (one device; a test that needs its own makes it).
+/// Without a Vulkan adapter it fails, saying how to install one.
+pub fn renderer() -> &'static GpuRenderer {
+    static R: OnceLock<GpuRenderer> = OnceLock::new();
+    R.get_or_init(|| GpuRenderer::new().unwrap_or_else(|e| panic!("{e}")))
 }
 
 /// The cuberay binary built for these tests.

@@ -16,25 +16,9 @@ use cuberay::Error;
 // Helpers
 // ---------------------------------------------------------------------------------------
 
-/// The shared glTF sample models: `$CUBERAY_SHARED_SCENES/gltf`, or the `shared/scenes/gltf`
-/// found by walking up from the crate root. Panics (failing the test) when it is missing.
+/// The shared glTF sample models (`gltf/` of the shared scenes folder).
 fn models_dir() -> PathBuf {
-    if let Some(dir) = std::env::var_os("CUBERAY_SHARED_SCENES") {
-        let dir = PathBuf::from(dir).join("gltf");
-        assert!(dir.is_dir(), "the shared scenes folder {} is missing", dir.display());
-        return dir;
-    }
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    for dir in root.ancestors() {
-        let candidate = dir.join("shared/scenes/gltf");
-        if candidate.is_dir() {
-            return candidate;
-        }
-    }
-    panic!(
-        "the shared scenes folder (shared/scenes/gltf above {}) is missing; set CUBERAY_SHARED_SCENES",
-        root.display()
-    );
+    crate::common::shared_scenes().join("gltf")
 }
 
 fn model(rel: &str) -> PathBuf {

@@ -4,9 +4,6 @@
 //! tangent and nested spheres, huge ground polygons), and SPD scenes traced with every ray
 //! checked.
 
-#[macro_use]
-mod common;
-
 use glam::{DVec3, Vec3};
 use proptest::prelude::*;
 
@@ -756,7 +753,7 @@ fn memory_budget_is_respected() {
 /// refraction ray checked against brute force; surface lists name primitive groups from
 /// `group_min_list` entries.
 fn spd_every_ray_agrees_with_brute_force(name: &str, group_min_list: usize) {
-    let path = common::shared(&format!("spd/nff/{name}.nff"));
+    let path = crate::common::shared(&format!("spd/nff/{name}.nff"));
     let scene = cuberay::load::load(&path, &Default::default()).unwrap().scene;
     let params = BuildParams {
         eye_n: Some(64),
@@ -931,13 +928,13 @@ fn moving_the_eye_rebuilds_only_its_table() {
     check(&s, &tables);
 }
 
-/// Every scene of `scenes/hard/` (the hard-case suite of `tests/hard.rs`), with the default
+/// Every scene of `scenes/hard/` (the hard-case suite of `tests/it/hard.rs`), with the default
 /// build and with small tables: rays from the eye through the image, from every light in
 /// every direction (nearest and any-hit), and leaving every primitive with a table, outward
 /// and inward, at its own scale and at the largest the spawn model allows, all agree with
 /// brute force.
 fn hard_scene_tables_match_brute_force(file: &str) {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/hard").join(file);
+    let path = crate::common::hard(file);
     let s = cuberay::load::load(&path, &Default::default()).unwrap_or_else(|e| panic!("{e}")).scene;
     for params in [BuildParams::default(), small_params()] {
         let w = World::new(&s, &params);

@@ -1,15 +1,12 @@
 //! Tests of the CPU reference renderer: analytic scenes whose pixels are known in closed
 //! form, sampling and statistics, brute force against the BVH, and the `render` command.
 
-#[macro_use]
-mod common;
-
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 use indicatif::ProgressBar;
 
-use common::cuberay;
+use crate::common::cuberay;
 
 use cuberay::job::{AccelKind, RenderOptions, Rendered};
 use cuberay::output::{Aov, Image};
@@ -509,7 +506,7 @@ fn a_failed_render_writes_nothing() {
 // SPD scenes (read from the shared scenes folder; the tests fail when it is missing)
 
 fn load_spd(name: &str) -> Scene {
-    let path = common::shared(&format!("spd/nff/{name}.nff"));
+    let path = crate::common::shared(&format!("spd/nff/{name}.nff"));
     cuberay::load::load(&path, &Default::default()).unwrap_or_else(|e| panic!("{e}")).scene
 }
 
@@ -573,8 +570,9 @@ fn spd_render_matches_the_orientation_of_its_reference_image(name: &str) {
     };
     {
         let s = load_spd(&format!("{name}_s{size}"));
-        let reference =
-            image::open(common::shared(&format!("spd/doc/reference_images/{name}.png"))).unwrap().into_rgb8();
+        let reference = image::open(crate::common::shared(&format!("spd/doc/reference_images/{name}.png")))
+            .unwrap()
+            .into_rgb8();
         assert_eq!(reference.dimensions(), (512, 512));
         let ours = cuberay::output::to_rgb8(&run(&s, &opts(64, 64)).image);
         let mirrored = image::imageops::flip_horizontal(&ours);
@@ -674,7 +672,7 @@ fn render_command_writes_images_and_statistics() {
 /// A glTF sample model renders with finite pixels, and the effect it calls for is simulated.
 fn gltf_model_renders_without_nan(file: &str, effect: &str) {
     {
-        let path = common::shared(&format!("gltf/{file}"));
+        let path = crate::common::shared(&format!("gltf/{file}"));
         let s = cuberay::load::load(&path, &Default::default()).unwrap_or_else(|e| panic!("{e}")).scene;
         let r = run(&s, &opts(24, 24));
         check_stats(&r);
@@ -732,7 +730,7 @@ fn png_transfer_defaults_to_the_scene_format_and_can_be_chosen() {
         }
     }
     assert!(brighter > 0, "sRGB encoding lifts mid-tones");
-    let gltf = common::shared("gltf/Box/Box.gltf");
+    let gltf = crate::common::shared("gltf/Box/Box.gltf");
     let st = cuberay()
         .arg("render")
         .arg(&gltf)

@@ -4,11 +4,7 @@
 //! failed comparison writes both images and the FLIP map into the tests' scratch folder,
 //! naming the files in its message.
 
-#[macro_use]
-mod common;
-
-use std::sync::OnceLock;
-
+use crate::common::renderer;
 use cuberay::coherence::walk::WALK_CHUNK;
 use cuberay::compare::compare;
 use cuberay::gpu::{GpuContext, GpuRenderer};
@@ -27,11 +23,6 @@ fn gpu() -> GpuContext {
 }
 
 /// One renderer for the whole test binary (opening lavapipe takes a moment).
-fn renderer() -> &'static GpuRenderer {
-    static R: OnceLock<GpuRenderer> = OnceLock::new();
-    R.get_or_init(|| GpuRenderer::new().unwrap_or_else(|e| panic!("{e}")))
-}
-
 fn hidden() -> ProgressBar {
     ProgressBar::hidden()
 }
@@ -41,7 +32,7 @@ fn showcase() -> Scene {
 }
 
 fn spd(name: &str) -> Scene {
-    let p = common::shared(&format!("spd/nff/{name}.nff"));
+    let p = crate::common::shared(&format!("spd/nff/{name}.nff"));
     load::load(&p, &Default::default()).unwrap_or_else(|e| panic!("{name}: {e}")).scene
 }
 
@@ -103,7 +94,7 @@ fn agree(name: &str, scene: &Scene, opts: &RenderOptions, max_flip: f64) -> (Ren
         cmp.flip_mean, cmp.rmse, g.stats.rays.total, c.stats.rays.total
     );
     if cmp.flip_mean > max_flip {
-        let files = common::save_failure(
+        let files = crate::common::save_failure(
             name,
             &[("gpu", &g.image), ("cpu", &c.image)],
             Some((&heat, opts.width, opts.height)),
@@ -254,7 +245,7 @@ fn brute_force_passes_within_lavapipes_loop_limit() {
 
 /// A glTF sample model agrees with the CPU and exercises `effect`.
 fn gltf_model_agrees_with_the_cpu(file: &str, effect: &str) {
-    let path = common::shared(&format!("gltf/{file}"));
+    let path = crate::common::shared(&format!("gltf/{file}"));
     let scene = load::load(&path, &Default::default()).unwrap_or_else(|e| panic!("{file}: {e}")).scene;
     let (g, _) = agree(file, &scene, &RenderOptions::new(48, 48), 0.01);
     assert!(g.stats.effects.contains(&effect), "{file}: {:?}", g.stats.effects);
@@ -278,7 +269,7 @@ cases!(gltf_models_agree_with_the_cpu: super::gltf_model_agrees_with_the_cpu {
 fn render_defaults_to_the_gpu_and_the_showcase() {
     let dir = tempfile::tempdir().unwrap();
     let png = dir.path().join("show.png");
-    let st = common::cuberay()
+    let st = crate::common::cuberay()
         .args(["render", "--width", "32", "--height", "24", "--stats", "json", "-o"])
         .arg(&png)
         .output()
@@ -294,7 +285,7 @@ fn render_defaults_to_the_gpu_and_the_showcase() {
 fn compare_reports_writes_images_and_applies_the_threshold() {
     let dir = tempfile::tempdir().unwrap();
     let run = |threshold: &str| {
-        common::cuberay()
+        crate::common::cuberay()
             .args(["compare", "--width", "96", "--height", "72", "--json", "--threshold", threshold])
             .arg("--out-dir")
             .arg(dir.path())
@@ -429,8 +420,8 @@ fn accels_match_brute_force(name: &str, scene: &Scene, w: u32, h: u32) {
 /// Fails, saving both images, at the first pixel where accelerator `label`'s image differs
 /// from brute force's in any bit.
 fn assert_same_pixels(name: &str, label: &str, a: &cuberay::output::Image, brute: &cuberay::output::Image) {
-    if let Some((x, y, c, b)) = common::first_difference(a, brute) {
-        let files = common::save_failure(name, &[(label, a), ("brute", brute)], None);
+    if let Some((x, y, c, b)) = crate::common::first_difference(a, brute) {
+        let files = crate::common::save_failure(name, &[(label, a), ("brute", brute)], None);
         panic!("{name}: pixel ({x}, {y}) {label} {c:?} brute force {b:?}; images: {files}");
     }
 }
@@ -568,10 +559,10 @@ fn bvh_walks_longer_than_a_step_resume() {
 fn a_long_render_keeps_its_memory_flat() {
     let dir = tempfile::tempdir().unwrap();
     let render = |size: &str| {
-        let mut c = common::cuberay();
+        let mut c = crate::common::cuberay();
         c.args(["render", "--accel", "brute", "--width", size, "--height", size, "-o"])
             .arg(dir.path().join("long.png"))
-            .arg(common::shared("spd/nff/tetra_s6.nff"))
+            .arg(crate::common::shared("spd/nff/tetra_s6.nff"))
             .stdout(std::process::Stdio::null())
             .stderr(std::process::Stdio::null());
         c

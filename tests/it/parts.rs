@@ -5,12 +5,8 @@
 //!
 //! GPU tests run on lavapipe in CI and fail with an install hint without an adapter.
 
-mod common;
-
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
 
-use cuberay::gpu::GpuRenderer;
 use cuberay::job::{RenderOptions, Rendered, Window};
 use cuberay::load;
 use cuberay::output::Aov;
@@ -20,12 +16,7 @@ use cuberay::sampling::Sampling;
 use cuberay::scene::Scene;
 use indicatif::ProgressBar;
 
-use common::{cuberay, shared};
-
-fn renderer() -> &'static GpuRenderer {
-    static R: OnceLock<GpuRenderer> = OnceLock::new();
-    R.get_or_init(|| GpuRenderer::new().unwrap_or_else(|e| panic!("{e}")))
-}
+use crate::common::{cuberay, renderer, shared};
 
 #[derive(Clone, Copy, Debug)]
 enum Backend {

@@ -2,8 +2,6 @@
 //! needed), and the window itself, run under Xvfb with `--frames`/`--screenshot`, shows
 //! what `cuberay render` writes for the same samples and seed.
 
-mod common;
-
 use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
@@ -16,7 +14,7 @@ use cuberay::preview::session::{Session, Toggles};
 use cuberay::scene::Camera;
 use indicatif::ProgressBar;
 
-use common::cuberay;
+use crate::common::cuberay;
 
 fn opts(w: u32, h: u32, spp: u32) -> RenderOptions {
     RenderOptions { spp, seed: 3, ..RenderOptions::new(w, h) }

@@ -16,14 +16,8 @@
 //! Each case then asserts its own expected behaviour, in closed form where there is one.
 //! Every test prints a `hard-case NAME:` line with its measured worst values.
 
-#[macro_use]
-mod common;
-
-use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
-
+use crate::common::{hard, renderer};
 use cuberay::compare::compare;
-use cuberay::gpu::GpuRenderer;
 use cuberay::job::{AccelKind, RenderOptions, Rendered};
 use cuberay::kernel::geometry::{make_ray, Prim32};
 use cuberay::kernel::FAR;
@@ -34,20 +28,8 @@ use cuberay::scene::{Primitive, Scene};
 use glam::DVec3;
 use indicatif::ProgressBar;
 
-fn renderer() -> &'static GpuRenderer {
-    static R: OnceLock<GpuRenderer> = OnceLock::new();
-    R.get_or_init(|| GpuRenderer::new().unwrap_or_else(|e| panic!("{e}")))
-}
-
 fn hidden() -> ProgressBar {
     ProgressBar::hidden()
-}
-
-/// A file of `scenes/hard/`.
-fn hard(file: &str) -> PathBuf {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/hard").join(file);
-    assert!(p.exists(), "missing hard-case scene {}", p.display());
-    p
 }
 
 fn load_case(file: &str) -> Loaded {
@@ -95,9 +77,9 @@ impl Case {
 
 /// Asserts two renders of one backend are identical: every pixel bit and every ray count.
 fn assert_identical(name: &str, what: &str, a: &Rendered, b: &Rendered) {
-    if let Some((x, y, p, q)) = common::first_difference(&a.image, &b.image) {
+    if let Some((x, y, p, q)) = crate::common::first_difference(&a.image, &b.image) {
         let files =
-            common::save_failure(&format!("{name}-{what}"), &[("a", &a.image), ("b", &b.image)], None);
+            crate::common::save_failure(&format!("{name}-{what}"), &[("a", &a.image), ("b", &b.image)], None);
         panic!("{name}: {what}: pixel ({x}, {y}) {p:?} vs {q:?}; images: {files}");
     }
     let (ra, rb) = (&a.stats.rays, &b.stats.rays);
@@ -184,7 +166,7 @@ fn run(name: &str, scene: Scene, opts: RenderOptions, max_flip: f64, max_ids: us
         cr.shadow_blocked
     );
     if cmp.flip_mean > max_flip {
-        let files = common::save_failure(
+        let files = crate::common::save_failure(
             name,
             &[("gpu", &case.gpu.image), ("cpu", &case.cpu.image)],
             Some((&heat, case.opts.width, case.opts.height)),
@@ -470,7 +452,7 @@ fn a_scene_1e5_from_the_origin() {
         cmp.flip_mean, cmp.max_abs
     );
     if cmp.flip_mean > 1e-3 || ids > 2 {
-        let files = common::save_failure(
+        let files = crate::common::save_failure(
             "offset_1e5",
             &[("origin", &near.gpu.image), ("far", &far.gpu.image)],
             Some((&heat, near.opts.width, near.opts.height)),
@@ -659,7 +641,7 @@ fn camera_inside_a_glass_sphere_and_bounds() {
 /// tables find exactly what brute force finds (`run`), and the spheres placed on those
 /// directions are seen where the f64 rays meet them. The file's −0.0 components are read
 /// and normalised away (the camera's rays carry +0.0); directions with −0.0 components are
-/// walked one by one in `tests/coherence.rs` (`boundary_directions_from_every_origin_kind`).
+/// walked one by one in `tests/it/coherence.rs` (`boundary_directions_from_every_origin_kind`).
 #[test]
 fn directions_on_cell_boundaries() {
     let c = run_file("cell_boundaries.nff", 0.01, 4);
@@ -774,7 +756,7 @@ fn nan_and_inf_in_gltf_fields() {
     // From the command line: a non-zero exit, the message, and no image file.
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out.png");
-    let st = common::cuberay()
+    let st = crate::common::cuberay()
         .arg("render")
         .arg(hard("bad/nan_position.gltf"))
         .arg("-o")
@@ -917,12 +899,12 @@ fn a_light_on_and_inside_geometry() {
     let g = renderer().render(&without, &c.opts, &hidden()).unwrap();
     let k = reference::render(&without, &c.opts, &hidden()).unwrap();
     assert_eq!(
-        common::first_difference(&g.image, &c.gpu.image),
+        crate::common::first_difference(&g.image, &c.gpu.image),
         None,
         "GPU: light 1 inside its sphere lights something"
     );
     assert_eq!(
-        common::first_difference(&k.image, &c.cpu.image),
+        crate::common::first_difference(&k.image, &c.cpu.image),
         None,
         "CPU: light 1 inside its sphere lights something"
     );
@@ -988,7 +970,7 @@ fn coplanar_overlapping_triangles() {
     }
     assert!(worst <= 2.0 / 255.0, "GPU and CPU differ by {worst} outside the overlap");
     let again = renderer().render_aov(&c.scene, &c.opts, Aov::Id, &hidden()).unwrap();
-    assert_eq!(common::first_difference(&again.image, &c.gpu_id), None, "a second render differs");
+    assert_eq!(crate::common::first_difference(&again.image, &c.gpu_id), None, "a second render differs");
     eprintln!(
         "hard-case coplanar_triangles: GPU pixels by id {counts:?} (id 2, the twin, never); GPU and CPU pick \
          apart triangles 0 and 1 at {fights} pixels of their overlap, nowhere else; elsewhere they differ by \

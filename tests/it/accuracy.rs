@@ -10,29 +10,14 @@
 //! - the reference is cached and read back equal; the command writes its four files, and
 //!   on bad input writes none.
 
-mod common;
-
-use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
+use std::path::Path;
 
 use cuberay::accuracy::{self, Parameter, Reference, Row, Settings};
-use cuberay::gpu::GpuRenderer;
 use cuberay::load;
 use cuberay::scene::Scene;
 use indicatif::ProgressBar;
 
-use common::{cuberay, shared};
-
-fn renderer() -> &'static GpuRenderer {
-    static R: OnceLock<GpuRenderer> = OnceLock::new();
-    R.get_or_init(|| GpuRenderer::new().unwrap_or_else(|e| panic!("{e}")))
-}
-
-fn hard(file: &str) -> PathBuf {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/hard").join(file);
-    assert!(p.exists(), "missing hard-case scene {}", p.display());
-    p
-}
+use crate::common::{cuberay, hard, renderer, shared};
 
 fn load(path: &Path) -> Scene {
     load::load(path, &Default::default()).unwrap_or_else(|e| panic!("{}: {e}", path.display())).scene

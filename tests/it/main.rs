@@ -1,0 +1,20 @@
+//! cuberay's integration tests: one test crate (so that `cargo test` links wgpu and naga
+//! once, not once per area), a module per area. docs/architecture.md's test map says what
+//! each proves. Run one area with `cargo test --release --test it hard::`.
+
+#[macro_use]
+mod common;
+
+mod accuracy;
+mod cli;
+mod coherence;
+mod gltf;
+mod gpu;
+mod hard;
+mod nff;
+mod parts;
+mod preview;
+mod reference;
+mod shaders;
+mod slurm;
+mod twins;
