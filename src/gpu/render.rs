@@ -218,11 +218,7 @@ impl GpuRenderer {
                 )))
             }
             Some(t) => {
-                t.flat.check_scene(scene.primitives.len(), scene.lights.len())?;
-                let params = Self::variant_build_params(scene, opts, variant);
-                let walks = WalkBounds::of(scene, &t.flat, params.effects.unwrap_or(scene.effects()));
-                point_at(&mut packed.params, &t.flat);
-                add_surface_bvh(&mut packed, scene, &t.flat, &params);
+                let walks = Self::take_stored(scene, opts, variant, &mut packed, &t)?;
                 Some(TableSet::Stored(t, walks))
             }
         };
@@ -239,6 +235,33 @@ impl GpuRenderer {
             ));
         }
         Ok(Prepared { variant, pipelines, packed, tables, start })
+    }
+
+    /// What a render does with stored tables before it uploads them: checks every index
+    /// they hold against the scene, bounds their walks, and points `packed`'s params at
+    /// them (adding the BVH when rays leaving surfaces walk it).
+    fn take_stored(
+        scene: &Scene,
+        opts: &RenderOptions,
+        variant: Variant,
+        packed: &mut Packed,
+        t: &StoredTables,
+    ) -> Result<WalkBounds> {
+        t.flat.check_scene(scene.primitives.len(), scene.lights.len())?;
+        let params = Self::variant_build_params(scene, opts, variant);
+        let walks = WalkBounds::of(scene, &t.flat, params.effects.unwrap_or(scene.effects()));
+        point_at(&mut packed.params, &t.flat);
+        add_surface_bvh(packed, scene, &t.flat, &params);
+        Ok(walks)
+    }
+
+    /// The checks a render runs on stored tables before upload ([`Self::take_stored`]),
+    /// without a device: for tests and the tables file's fuzz target.
+    pub fn check_stored(scene: &Scene, opts: &RenderOptions, t: &StoredTables) -> Result<()> {
+        check(scene, opts)?;
+        let variant = Self::job_variant(scene, opts, false);
+        let mut packed = pack(scene, opts.width, opts.height, opts.spawn);
+        Self::take_stored(scene, opts, variant, &mut packed, t).map(|_| ())
     }
 
     /// Builds the candidate tables when `variant` traces them (for all its effects) and

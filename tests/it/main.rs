@@ -8,6 +8,7 @@ mod common;
 mod accuracy;
 mod cli;
 mod coherence;
+mod fuzz;
 mod gltf;
 mod gpu;
 mod hard;

@@ -1,0 +1,9 @@
+//! Fuzz target: the nff reader, through the harness the regression test replays.
+#![no_main]
+
+#[path = "../harness.rs"]
+mod harness;
+
+libfuzzer_sys::fuzz_target!(|data: &[u8]| {
+    let _ = harness::run(harness::Reader::Nff, data);
+});
