@@ -70,4 +70,5 @@ fn nearest(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocat
         }
     }
     flush_counters(lid);
+    flush_lanes(lid, traced, LANE_NEAREST);
 }

@@ -11,7 +11,8 @@
 @compute @workgroup_size(WORKGROUP)
 fn shade(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let i = gid.x;
-    if i < queue_len(pass_desc.src) {
+    let busy = i < queue_len(pass_desc.src);
+    if busy {
         let job = jobs[queue_base(pass_desc.src) + i];
         shade_hit(job);
         if (job.point & POINT_UNOWNED) != 0u {
@@ -19,4 +20,5 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocatio
         }
     }
     flush_counters(lid);
+    flush_lanes(lid, busy, LANE_SHADE);
 }

@@ -10,7 +10,8 @@
 @compute @workgroup_size(WORKGROUP)
 fn shadow(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let i = gid.x;
-    if i < queue_len(pass_desc.src) {
+    let busy = i < queue_len(pass_desc.src);
+    if busy {
         let job = jobs[queue_base(pass_desc.src) + i];
         trace_shadow(job);
         if (job.point & POINT_UNOWNED) != 0u {
@@ -18,4 +19,5 @@ fn shadow(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocati
         }
     }
     flush_counters(lid);
+    flush_lanes(lid, busy, LANE_SHADOW);
 }

@@ -109,7 +109,7 @@ impl PartInfo {
             aov,
             effects: stats.effects.iter().map(|e| e.to_string()).collect(),
             counters: stats.counters,
-            time: stats.time,
+            time: stats.time.clone(),
         }
     }
 
@@ -443,6 +443,25 @@ fn add_times(a: Times, b: &Times) -> Times {
             shadow: sum(a.gpu_kernel_s.shadow, b.gpu_kernel_s.shadow),
             resolve: sum(a.gpu_kernel_s.resolve, b.gpu_kernel_s.resolve),
             aov: sum(a.gpu_kernel_s.aov, b.gpu_kernel_s.aov),
+        },
+        gpu_depth_s: match (&a.gpu_depth_s, &b.gpu_depth_s) {
+            (Some(x), Some(y)) => {
+                let mut all = x.clone();
+                for d in y {
+                    match all.iter_mut().find(|e| e.depth == d.depth) {
+                        Some(e) => {
+                            e.nearest += d.nearest;
+                            e.shade += d.shade;
+                            e.shadow += d.shadow;
+                            e.all += d.all;
+                        }
+                        None => all.push(*d),
+                    }
+                }
+                all.sort_by_key(|e| e.depth);
+                Some(all)
+            }
+            (x, y) => x.clone().or_else(|| y.clone()),
         },
         compile_s: sum(a.compile_s, b.compile_s),
         longest_dispatch_s: match (a.longest_dispatch_s, b.longest_dispatch_s) {

@@ -145,7 +145,7 @@ pub struct TestsPerRay {
 }
 
 /// Wall-clock times in seconds.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Times {
     /// Building the acceleration structure (BVH, candidate tables...), after loading.
     pub preprocess_s: f64,
@@ -157,6 +157,10 @@ pub struct Times {
     /// The same time per kernel ([`KernelTimes`]; `null` for a kernel that did not run); all
     /// `null` where `gpu_s` is.
     pub gpu_kernel_s: KernelTimes,
+    /// The wavefront kernels' time by depth ([`DepthTimes`], depths 1 to `max_depth` that
+    /// ran); `null` where `gpu_s` is and for the AOV pass.
+    #[serde(default)]
+    pub gpu_depth_s: Option<Vec<DepthTimes>>,
     /// Wall-clock time of the kernels' compilation, done before the timed dispatches
     /// (lavapipe compiles at the first dispatch: seconds for a new variant, milliseconds once
     /// Mesa's shader cache holds it); `null` on the CPU.
@@ -172,6 +176,47 @@ pub struct Times {
     /// outlasted the passes planned for it (then with another pass per depth); `null` on the
     /// CPU.
     pub tiles_run_again: Option<u32>,
+}
+
+/// The GPU kernel time of one depth of the ray trees (the eye rays: depth 1), seconds: the
+/// passes of each wavefront kernel that worked on rays of that depth, from their own
+/// timestamps (`resolve`, once per tile, belongs to no depth).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct DepthTimes {
+    pub depth: u32,
+    pub nearest: f64,
+    pub shade: f64,
+    pub shadow: f64,
+    /// The three together.
+    pub all: f64,
+}
+
+/// Lane coherence of one wavefront kernel's passes at one depth: how much of what a group
+/// of invocations running in lockstep pays is work. lavapipe runs 8 neighbouring
+/// invocations as one SIMD vector (a real GPU's warp holds 32), and a group takes as many
+/// loop iterations as its busiest lane; `max8 / steps` is what that costs over the mean.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Lanes {
+    pub depth: u32,
+    /// Invocations that had a job.
+    pub invocations: u64,
+    /// Mean loop iterations of an invocation: walk steps (entries, BVH nodes with a queued
+    /// primitive, brute-force primitives); in `shade`, light iterations and the steps of the
+    /// shadow walks traced inline.
+    pub steps: f64,
+    /// Mean over groups of 8 neighbouring invocations (with a job) of the group's largest
+    /// `steps`.
+    pub max8: f64,
+    /// The same over groups of 32.
+    pub max32: f64,
+}
+
+/// Lane coherence of each wavefront kernel, by depth (the depths whose passes had work).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct LaneStats {
+    pub nearest: Vec<Lanes>,
+    pub shade: Vec<Lanes>,
+    pub shadow: Vec<Lanes>,
 }
 
 /// GPU time per kernel, seconds: the wavefront's (`nearest` the nearest-hit passes, the
@@ -233,6 +278,9 @@ pub struct Stats {
     /// Whether the rays and tests were counted. The GPU kernels count only when asked
     /// (`RenderOptions::count`, `--stats`); uncounted, every count above is 0.
     pub counted: bool,
+    /// Lane coherence of the wavefront kernels by depth ([`LaneStats`]): counted GPU renders
+    /// only, else empty.
+    pub lanes: LaneStats,
     /// The raw counters the report was made from (not printed: a partial render records
     /// them, so that merged parts add up exactly).
     #[serde(skip)]
@@ -282,6 +330,7 @@ impl Stats {
             time,
             accel_bytes: 0,
             counted: true,
+            lanes: LaneStats::default(),
             counters: *c,
         }
     }
@@ -374,6 +423,29 @@ impl Stats {
             o += &format!(", {n} tiles run again");
         }
         o += "\n";
+        if let Some(depths) = self.time.gpu_depth_s.as_ref().filter(|d| d.len() > 1) {
+            o += "by depth: GPU kernels (nearest + shade + shadow)\n";
+            for d in depths {
+                o += &format!(
+                    "  {:2}: {:.3} s ({:.3} + {:.3} + {:.3})\n",
+                    d.depth, d.all, d.nearest, d.shade, d.shadow
+                );
+            }
+        }
+        let l = &self.lanes;
+        if !(l.nearest.is_empty() && l.shade.is_empty() && l.shadow.is_empty()) {
+            o += "lanes:    mean loop iterations per invocation / per group of 8 / of 32 (its busiest lane), by depth\n";
+            for (name, rows) in [("nearest", &l.nearest), ("shade", &l.shade), ("shadow", &l.shadow)] {
+                if rows.is_empty() {
+                    continue;
+                }
+                let parts: Vec<String> = rows
+                    .iter()
+                    .map(|r| format!("{}: {:.1} / {:.1} / {:.1}", r.depth, r.steps, r.max8, r.max32))
+                    .collect();
+                o += &format!("  {name:8}{}\n", parts.join(", "));
+            }
+        }
         o
     }
 }

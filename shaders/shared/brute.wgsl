@@ -10,6 +10,7 @@
 fn brute_range(ray: Ray, t_max: f32, skip: u32, ray_kind: u32, first: u32, end: u32, best: ptr<function, Closest>) {
     var best_t = select(t_max, (*best).hit.t, (*best).found);
     for (var id = first; id < end; id++) {
+        count_step();
         if id != skip {
             best_t = consider(id, best, ray, t_max, ray_kind, best_t);
         }
@@ -54,6 +55,7 @@ fn closest_step(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) 
 // `blocked_at` as its distance from the shadow ray's spawn origin (`q_t` along the ray).
 fn brute_any_range(ray: Ray, t_max: f32, q_t: f32, skip: u32, first: u32, end: u32) -> bool {
     for (var id = first; id < end; id++) {
+        count_step();
         if id != skip && blocks(id, ray, t_max) {
             blocked_at = abs(blocker_t - q_t);
             return true;

@@ -111,6 +111,7 @@ fn bvh_nearest(w: ptr<function, BvhWalk>, best: ptr<function, Closest>, ray: Ray
         if bvh_done(*w) {
             break;
         }
+        count_step();
         if left == 0u {
             return false;
         }
@@ -184,6 +185,7 @@ fn bvh_any(w: ptr<function, BvhWalk>, ray: Ray, t_max: f32, skip: u32, budget: u
         if bvh_done(*w) {
             break;
         }
+        count_step();
         if left == 0u {
             return ANY_UNFINISHED;
         }

@@ -190,9 +190,10 @@ struct Job {
 // What one pass of the wavefront kernels does, copied into `pass_desc` before its dispatch:
 // the queue it works through (`src`), where the jobs it makes go (`hit`: rays whose nearest
 // hit was found, to be shaded; `next`: secondary rays; `shadow`: shadow rays whose walks are
-// too long to trace inline; `retry`: rays whose walk goes on in a later pass), and the sample
-// the wave traces. A `src` of SRC_EYE names the tile's eye rays of that sample, made by the
-// pass itself (the first pass of a wave).
+// too long to trace inline; `retry`: rays whose walk goes on in a later pass), the sample
+// the wave traces and the depth of the rays it works on (the eye's: 1; the lane counters
+// are kept by depth). A `src` of SRC_EYE names the tile's eye rays of that sample, made by
+// the pass itself (the first pass of a wave).
 struct PassDesc {
     src: u32,
     next: u32,
@@ -200,7 +201,7 @@ struct PassDesc {
     retry: u32,
     sample: u32,
     hit: u32,
-    pad0: u32,
+    depth: u32,
     pad1: u32,
 }
 
@@ -313,6 +314,19 @@ const C_BOUNDS: u32 = 18u;
 const C_SELF_HITS: u32 = 22u;
 const COUNTER_COUNT: u32 = 23u;
 
+// Lane coherence, by wavefront kernel (LANE_NEAREST, LANE_SHADE, LANE_SHADOW) and depth
+// (1..=MAX_DEPTH): from slot LANE_BASE + (kernel · MAX_DEPTH + depth − 1) · LANE_WORDS, the
+// invocations that had work, their loop iterations (walk steps; in `shade`, light
+// iterations and inline shadow-walk steps), then for groups of 8 and of 32 neighbouring
+// invocations (lavapipe's SIMD width, a real GPU's warp) the groups with work and the sum
+// of each group's largest count: what a group pays when its lanes run in lockstep.
+const LANE_NEAREST: u32 = 0u;
+const LANE_SHADE: u32 = 1u;
+const LANE_SHADOW: u32 = 2u;
+const LANE_BASE: u32 = 23u;
+const LANE_WORDS: u32 = 6u;
+const LANE_SLOTS: u32 = 288u;
+
 // The largest finite f32: the open end of an unbounded ray (no infinity is used).
 const FAR: f32 = 3.4028235e38;
 
@@ -335,6 +349,9 @@ var<private> blocked_at: f32;
 #if COUNTERS
 var<private> local_counts: array<u32, COUNTER_COUNT>;
 var<workgroup> group_counts: array<atomic<u32>, COUNTER_COUNT>;
+// This invocation's loop iterations, and each group's largest (8 groups of 8, 2 of 32).
+var<private> lane_steps: u32;
+var<workgroup> lane_max: array<atomic<u32>, 10>;
 #endif
 
 fn count(slot: u32) {
@@ -352,6 +369,56 @@ fn count_test(ray_kind: u32, prim_kind: u32) {
 fn count_bound(ray_kind: u32) {
 #if COUNTERS
     local_counts[C_BOUNDS + ray_kind] += 1u;
+#endif
+}
+
+// One loop iteration of this invocation (lane coherence).
+fn count_step() {
+#if COUNTERS
+    lane_steps += 1u;
+#endif
+}
+
+// Adds `v` to the 64-bit counter slot `slot`.
+fn add_slot(slot: u32, v: u32) {
+#if COUNTERS
+    if v != 0u {
+        let old = atomicAdd(&counters[2u * slot], v);
+        if old + v < old {
+            atomicAdd(&counters[2u * slot + 1u], 1u);
+        }
+    }
+#endif
+}
+
+// Adds this workgroup's lane coherence to kernel `kernel`'s slots at the pass's depth;
+// `busy`: the invocation had a job. Called once by every invocation, in uniform control
+// flow. The invocations with work are a prefix of the dispatch, so a group has work when
+// its first lane has.
+fn flush_lanes(lid: u32, busy: bool, kernel: u32) {
+#if COUNTERS
+    if lid < 10u {
+        atomicStore(&lane_max[lid], 0u);
+    }
+    workgroupBarrier();
+    if busy {
+        atomicMax(&lane_max[lid / 8u], lane_steps);
+        atomicMax(&lane_max[8u + lid / 32u], lane_steps);
+    }
+    workgroupBarrier();
+    let base = LANE_BASE + (kernel * MAX_DEPTH + min(max(pass_desc.depth, 1u), MAX_DEPTH) - 1u) * LANE_WORDS;
+    if busy {
+        add_slot(base, 1u);
+        add_slot(base + 1u, lane_steps);
+        if lid % 8u == 0u {
+            add_slot(base + 2u, 1u);
+            add_slot(base + 3u, atomicLoad(&lane_max[lid / 8u]));
+        }
+        if lid % 32u == 0u {
+            add_slot(base + 4u, 1u);
+            add_slot(base + 5u, atomicLoad(&lane_max[8u + lid / 32u]));
+        }
+    }
 #endif
 }
 
@@ -387,13 +454,7 @@ fn flush_counters(lid: u32) {
     }
     workgroupBarrier();
     if lid < COUNTER_COUNT {
-        let v = atomicLoad(&group_counts[lid]);
-        if v != 0u {
-            let old = atomicAdd(&counters[2u * lid], v);
-            if old + v < old {
-                atomicAdd(&counters[2u * lid + 1u], 1u);
-            }
-        }
+        add_slot(lid, atomicLoad(&group_counts[lid]));
     }
 #endif
 }

@@ -102,6 +102,7 @@ fn shade_local(id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>) -> 
 #if SHADOWS
 #else
     for (var i = 0u; i < params.light_count; i++) {
+        count_step();
         l += light_term(i, m, s, n, v, diffuse).c;
     }
 #endif
@@ -119,6 +120,7 @@ fn shade_local(id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>) -> 
 fn push_shadow_rays(id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>, weight: vec3<f32>, point: u32) {
     let diffuse = base_color(m, s) * m.kd;
     for (var i = 0u; i < params.light_count; i++) {
+        count_step();
         let lit = light_term(i, m, s, n, v, diffuse);
         if !lit.ok {
             continue;

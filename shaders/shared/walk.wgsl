@@ -105,6 +105,7 @@ fn walk_nearest(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, 
     var k = 0u;
     var kend = 0u;
     loop {
+        count_step();
         var id: u32;
 #if BEAMS
         if k < kend {
@@ -207,6 +208,7 @@ fn walk_any(w: ptr<function, Walk>, ray: Ray, t_max: f32, skip: u32, budget: u32
     var k = 0u;
     var kend = 0u;
     loop {
+        count_step();
         var id: u32;
 #if BEAMS
         if k < kend {

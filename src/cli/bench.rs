@@ -15,6 +15,7 @@ use serde::Serialize;
 
 use cuberay::gpu::GpuRenderer;
 use cuberay::job::{AccelKind, RenderOptions, Rendered};
+use cuberay::layout::MAX_DEPTH;
 use cuberay::reference;
 use cuberay::sampling::Sampling;
 use cuberay::stats::{Stats, TestsPerRay};
@@ -87,6 +88,18 @@ struct Row {
     ratio_range: Option<(f64, f64)>,
     /// GPU: the longest single dispatch over the timed runs (`null` on the CPU).
     longest_dispatch_s: Option<f64>,
+    /// GPU: the kernel time by depth (index depth − 1; nearest, shade and shadow passes of
+    /// that depth), medians over the timed runs; empty on the CPU.
+    depth_kernel_s: Vec<f64>,
+    /// GPU: the kernel time of depths 2 and deeper (the rays leaving surfaces, their
+    /// shading and shadows), the median over the timed runs.
+    surface_depths_s: Option<f64>,
+    /// GPU: microseconds of `nearest` kernel time per eye ray (depth 1) and per ray leaving
+    /// a surface (reflection and refraction, depths 2 and deeper): what a walk costs.
+    eye_ray_us: Option<f64>,
+    surface_ray_us: Option<f64>,
+    /// GPU: the lane coherence of the counted run ([`cuberay::stats::LaneStats`]).
+    lanes: Option<cuberay::stats::LaneStats>,
 }
 
 #[derive(Serialize)]
@@ -105,6 +118,8 @@ struct Timed {
     kernel_s: f64,
     preprocess_s: f64,
     longest_dispatch_s: Option<f64>,
+    /// Kernel time by depth: all kernels, and `nearest` alone.
+    depths: [(f64, f64); MAX_DEPTH as usize],
 }
 
 impl Timed {
@@ -119,6 +134,13 @@ impl Timed {
             },
             preprocess_s: t.preprocess_s,
             longest_dispatch_s: t.longest_dispatch_s,
+            depths: {
+                let mut d = [(0.0, 0.0); MAX_DEPTH as usize];
+                for k in t.gpu_depth_s.iter().flatten() {
+                    d[k.depth as usize - 1] = (k.all, k.nearest);
+                }
+                d
+            },
         }
     }
 }
@@ -215,6 +237,15 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
                 let timed = &runs[k];
                 let kernel_s = median(kernels[k].clone());
                 let ratios = round_ratios(&kernels, k, bvh);
+                let gpu = backend == BenchBackend::Gpu && s.time.gpu_s.is_some();
+                let by_depth = |f: &dyn Fn(&Timed) -> f64| median(timed.iter().map(f).collect());
+                let ran = s.time.gpu_depth_s.as_ref().map_or(0, |d| d.len());
+                let depth_kernel_s: Vec<f64> =
+                    (0..ran).map(|d| by_depth(&|t: &Timed| t.depths[d].0)).collect();
+                let surface_depths_s = gpu.then(|| depth_kernel_s.iter().skip(1).sum::<f64>());
+                let eye_nearest = by_depth(&|t: &Timed| t.depths[0].1);
+                let surface_nearest = by_depth(&|t: &Timed| t.depths[1..].iter().map(|d| d.1).sum());
+                let per = |secs: f64, rays: u64| (gpu && rays > 0).then(|| secs * 1e6 / rays as f64);
                 rows.push(Row {
                     scene: name.clone(),
                     accel: s.settings.accel.clone(),
@@ -236,6 +267,11 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
                         .reduce(f64::min)
                         .zip(ratios.iter().copied().reduce(f64::max)),
                     longest_dispatch_s: timed.iter().filter_map(|t| t.longest_dispatch_s).reduce(f64::max),
+                    depth_kernel_s,
+                    surface_depths_s,
+                    eye_ray_us: per(eye_nearest, s.rays.eye),
+                    surface_ray_us: per(surface_nearest, s.rays.reflect + s.rays.refract),
+                    lanes: gpu.then(|| s.lanes.clone()),
                 });
             }
         }
@@ -271,18 +307,21 @@ fn table(rows: &[Row], args: &BenchArgs, adapter: Option<&str>) -> String {
         args.runs,
         adapter.map(|a| format!(", GPU: {a}")).unwrap_or_default()
     );
-    out += "| scene | accel | backend | preprocess s | MiB | kernel s | M rays/s | tests/ray eye | shadow | reflect | refract | all | bound/ray all | × BVH (rounds' range) | longest dispatch ms |\n";
-    out += "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+    out += "| scene | accel | backend | preprocess s | MiB | kernel s | depths 2+ s | µs/eye ray | µs/surface ray | M rays/s | tests/ray eye | shadow | reflect | refract | all | bound/ray all | × BVH (rounds' range) | longest dispatch ms |\n";
+    out += "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for r in rows {
         let t = &r.tests_per_ray;
         out += &format!(
-            "| {} | {} | {} | {:.3} | {:.1} | {:.3} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {} |\n",
+            "| {} | {} | {} | {:.3} | {:.1} | {:.3} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {} |\n",
             r.scene,
             r.accel,
             r.backend,
             r.preprocess_s,
             r.accel_bytes as f64 / (1u64 << 20) as f64,
             r.kernel_s,
+            r.surface_depths_s.map_or("–".into(), |x| format!("{x:.3}")),
+            r.eye_ray_us.map_or("–".into(), |x| format!("{x:.3}")),
+            r.surface_ray_us.map_or("–".into(), |x| format!("{x:.3}")),
             r.mrays_per_s,
             t.eye,
             t.shadow,
@@ -341,6 +380,11 @@ mod tests {
             ratio_to_bvh: ratio,
             ratio_range: range,
             longest_dispatch_s: None,
+            depth_kernel_s: Vec::new(),
+            surface_depths_s: None,
+            eye_ray_us: None,
+            surface_ray_us: None,
+            lanes: None,
         }
     }
 

@@ -22,7 +22,7 @@ use crate::coherence::{self, BuildParams, FlatTables, Tables};
 use crate::error::{Error, Result};
 use crate::job::{grid_image, simulated_effects, AccelKind, Precision, RenderOptions, Rendered};
 use crate::layout::budget::{self, check_loop_budget, table_params, MAX_DEPTH, TESTS_PER_DISPATCH};
-use crate::layout::counters::{decode_counters, COUNTER_BYTES};
+use crate::layout::counters::{decode_counters, decode_lanes, COUNTER_BYTES};
 use crate::layout::{job_params, pack, Packed, AOV_DEPTH, AOV_ID, AOV_NORMAL};
 use crate::output::{Aov, Image};
 use crate::sampling::Sampling;
@@ -44,6 +44,10 @@ struct RunOutput {
     counters: Counters,
     gpu_s: Option<f64>,
     kernel_s: Option<[f64; 4]>,
+    /// The wavefront kernels' time by depth (nearest, shade, shadow), when timed.
+    depth_s: Option<[[f64; 3]; crate::layout::MAX_DEPTH as usize]>,
+    /// Lane coherence, when the kernels counted.
+    lanes: Option<stats::LaneStats>,
     compile_s: f64,
     longest_submit_s: f64,
     longest_dispatch_s: Option<f64>,
@@ -66,11 +70,25 @@ impl RunOutput {
                 aov: None,
             }
         };
+        let depths = self.depth_s.filter(|_| !aov).map(|d| {
+            d.iter()
+                .enumerate()
+                .filter(|(_, k)| k.iter().any(|&t| t > 0.0))
+                .map(|(i, k)| stats::DepthTimes {
+                    depth: i as u32 + 1,
+                    nearest: k[0],
+                    shade: k[1],
+                    shadow: k[2],
+                    all: k.iter().sum(),
+                })
+                .collect()
+        });
         stats::Times {
             preprocess_s,
             trace_s,
             gpu_s: self.gpu_s,
             gpu_kernel_s: kernel,
+            gpu_depth_s: depths,
             compile_s: Some(self.compile_s),
             longest_submit_s: Some(self.longest_submit_s),
             longest_dispatch_s: self.longest_dispatch_s,
@@ -402,6 +420,7 @@ impl GpuRenderer {
         );
         stats.accel_bytes = accel_bytes(&packed, tables.as_ref());
         stats.counted = variant.counters;
+        stats.lanes = run.lanes.unwrap_or_default();
         Ok(Rendered { image, stats })
     }
 
@@ -507,12 +526,14 @@ impl GpuRenderer {
                 break;
             }
         }
-        let counters = self.counters(&buffers)?;
+        let (counters, lanes) = self.counters(&buffers)?;
         Ok(RunOutput {
             values,
             counters,
             gpu_s: schedule.gpu_s(),
             kernel_s: schedule.kernel_s(),
+            depth_s: schedule.depth_s(),
+            lanes: (variant.counters && max_depth.is_some()).then_some(lanes),
             compile_s,
             longest_submit_s: schedule.longest_submit().as_secs_f64(),
             longest_dispatch_s: schedule.longest_pass(),
@@ -520,13 +541,14 @@ impl GpuRenderer {
         })
     }
 
-    /// The counters the kernels have added up in `buffers` so far.
-    pub fn counters(&self, buffers: &SceneBuffers) -> Result<Counters> {
+    /// The counters and lane coherence the kernels have added up in `buffers` so far.
+    pub fn counters(&self, buffers: &SceneBuffers) -> Result<(Counters, stats::LaneStats)> {
         let read = self.ctx.readback_buffer("counters readback", COUNTER_BYTES);
         let mut enc = self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
         enc.copy_buffer_to_buffer(&buffers.counters, 0, &read, 0, COUNTER_BYTES);
         self.ctx.queue.submit([enc.finish()]);
-        Ok(decode_counters(&self.ctx.read(&read, COUNTER_BYTES)?))
+        let raw = self.ctx.read(&read, COUNTER_BYTES)?;
+        Ok((decode_counters(&raw), decode_lanes(&raw)))
     }
 }
 

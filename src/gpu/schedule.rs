@@ -35,9 +35,9 @@ use super::shaders::{Kernel, Variant};
 use super::GpuContext;
 use crate::error::{Error, Result};
 use crate::layout::{
-    Params, PassDesc, OVERFLOW_FULL, OVERFLOW_UNFINISHED, QUEUE_ARGS, QUEUE_COUNT, QUEUE_HIT, QUEUE_OVERFLOW,
-    QUEUE_RAY0, QUEUE_RAY1, QUEUE_RETRY0, QUEUE_RETRY1, QUEUE_SHADOW, QUEUE_SRETRY0, QUEUE_SRETRY1,
-    QUEUE_WORDS, SRC_EYE, WORKGROUP,
+    Params, PassDesc, MAX_DEPTH, OVERFLOW_FULL, OVERFLOW_UNFINISHED, QUEUE_ARGS, QUEUE_COUNT, QUEUE_HIT,
+    QUEUE_OVERFLOW, QUEUE_RAY0, QUEUE_RAY1, QUEUE_RETRY0, QUEUE_RETRY1, QUEUE_SHADOW, QUEUE_SRETRY0,
+    QUEUE_SRETRY1, QUEUE_WORDS, SRC_EYE, WORKGROUP,
 };
 
 /// How tiles are sized.
@@ -116,20 +116,21 @@ impl WavePlan {
 
     /// The passes of the wave of sample `sample`.
     pub fn passes(&self, sample: u32) -> Vec<Pass> {
-        let desc = |src, next, shadow, retry| PassDesc {
-            src,
-            next,
-            shadow,
-            retry,
-            sample,
-            hit: NO_QUEUE,
-            ..PassDesc::default()
-        };
         let mut v = Vec::new();
         // Retry queues in turn; the last pass of a depth has none left.
         let retry =
             |r: u32, pair: [u32; 2]| if r == self.retries { NO_QUEUE } else { pair[(r % 2) as usize] };
         for depth in 1..=self.max_depth {
+            let desc = |src, next, shadow, retry| PassDesc {
+                src,
+                next,
+                shadow,
+                retry,
+                sample,
+                hit: NO_QUEUE,
+                depth,
+                ..PassDesc::default()
+            };
             let (src, next) =
                 if depth % 2 == 1 { (QUEUE_RAY0, QUEUE_RAY1) } else { (QUEUE_RAY1, QUEUE_RAY0) };
             let pair = [QUEUE_RETRY0, QUEUE_RETRY1];
@@ -227,6 +228,8 @@ pub struct Schedule {
     gpu_s: f64,
     /// Kernel time by kernel: nearest, shade, shadow, resolve (or the single kernel).
     kernel_s: [f64; 4],
+    /// The wavefront kernels' time by depth (index depth − 1): nearest, shade, shadow.
+    depth_s: [[f64; 3]; MAX_DEPTH as usize],
     last_submit: Duration,
     longest_submit: Duration,
     /// The longest pass so far, seconds (from the timestamps).
@@ -347,6 +350,7 @@ impl Schedule {
             timer: None,
             gpu_s: 0.0,
             kernel_s: [0.0; 4],
+            depth_s: [[0.0; 3]; MAX_DEPTH as usize],
             last_submit: Duration::ZERO,
             longest_submit: Duration::ZERO,
             longest_pass: 0.0,
@@ -419,6 +423,12 @@ impl Schedule {
         self.timer.as_ref().map(|_| self.kernel_s)
     }
 
+    /// The wavefront kernels' time by depth (index depth − 1: nearest, shade, shadow), when
+    /// timed.
+    pub fn depth_s(&self) -> Option<[[f64; 3]; MAX_DEPTH as usize]> {
+        self.timer.as_ref().map(|_| self.depth_s)
+    }
+
     /// How long the last submission took, from submit to its end.
     pub fn last_submit(&self) -> Duration {
         self.last_submit
@@ -473,7 +483,8 @@ impl Schedule {
         queue.write_buffer(&self.table, 0, bytemuck::cast_slice(&descs));
         let last_wave = self.plan.is_none() || sample + 1 >= tile.samples.1;
         let groups = tile.count.div_ceil(WORKGROUP);
-        let mut kernels = Vec::with_capacity(passes.len() + 1);
+        // Each dispatch's kernel and depth (0: none, the resolve pass).
+        let mut kernels: Vec<(Kernel, u32)> = Vec::with_capacity(passes.len() + 1);
         for (i, p) in passes.iter().enumerate() {
             enc.copy_buffer_to_buffer(&self.table, i as u64 * desc_bytes, &buffers.pass_desc, 0, desc_bytes);
             for &q in &p.resets {
@@ -500,7 +511,7 @@ impl Schedule {
                 None => pass.dispatch_workgroups(groups, 1, 1),
             }
             drop(pass);
-            kernels.push(p.kernel);
+            kernels.push((p.kernel, p.desc.depth));
         }
         if last_wave {
             // The tile's colours (`resolve`), or the single kernel's pass.
@@ -512,7 +523,7 @@ impl Schedule {
             pass.set_bind_group(0, &buffers.bind, &[]);
             pass.dispatch_workgroups(groups, 1, 1);
             drop(pass);
-            kernels.push(Kernel::Resolve);
+            kernels.push((Kernel::Resolve, 0));
             enc.copy_buffer_to_buffer(&buffers.queues, 0, &self.queues_read, 0, 4 * QUEUE_WORDS as u64);
         }
         if let Some(t) = &self.timer {
@@ -529,10 +540,14 @@ impl Schedule {
             let n = 2 * kernels.len() as u64;
             let ts = ctx.read(&t.read, 8 * n)?;
             let ts: &[u64] = bytemuck::cast_slice(&ts);
-            for (k, pair) in kernels.iter().zip(ts.chunks_exact(2)) {
+            for (&(k, depth), pair) in kernels.iter().zip(ts.chunks_exact(2)) {
                 let s = pair[1].saturating_sub(pair[0]) as f64 * t.period_s;
                 self.gpu_s += s;
-                self.kernel_s[kernel_slot(*k)] += s;
+                let slot = kernel_slot(k);
+                self.kernel_s[slot] += s;
+                if depth >= 1 && slot < 3 {
+                    self.depth_s[depth as usize - 1][slot] += s;
+                }
                 tile.longest_pass = tile.longest_pass.max(s);
                 self.longest_pass = self.longest_pass.max(s);
             }

@@ -203,8 +203,8 @@ pub struct Job {
 /// One pass of the wavefront kernels (WGSL `PassDesc`, keep in sync with
 /// `shaders/shared/layout.wgsl`): the queue it works through ([`SRC_EYE`]: the tile's eye
 /// rays, made by the pass itself), the queues the jobs it makes go to (`hit`: traced rays to
-/// shade; `next`: secondary rays; `shadow`: shadow rays; `retry`: walks that go on), and the
-/// sample the wave traces.
+/// shade; `next`: secondary rays; `shadow`: shadow rays; `retry`: walks that go on), the
+/// sample the wave traces and the depth of its rays.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
 pub struct PassDesc {
@@ -214,7 +214,8 @@ pub struct PassDesc {
     pub retry: u32,
     pub sample: u32,
     pub hit: u32,
-    pub pad0: u32,
+    /// The depth of the rays the pass works on (the eye's: 1), for the lane counters.
+    pub depth: u32,
     pub pad1: u32,
 }
 

@@ -456,7 +456,7 @@ impl Session {
 
     /// Rays traced since the session started (all kinds).
     pub fn rays(&self) -> Result<u64> {
-        Ok(self.gpu.counters(&self.buffers)?.rays.iter().sum())
+        Ok(self.gpu.counters(&self.buffers)?.0.rays.iter().sum())
     }
 
     /// The average of the passes done as a linear image, computed as the headless

@@ -147,8 +147,24 @@ fn showcase_agrees_with_the_cpu() {
         let parts = [k.nearest, k.shade, k.shadow, k.resolve].map(|t| t.unwrap_or(0.0));
         assert!(k.nearest.is_some() && k.shade.is_some() && k.resolve.is_some(), "{k:?}");
         assert!((parts.iter().sum::<f64>() - total).abs() <= 1e-9 * total.max(1.0), "{k:?} against {total}");
+        // By depth, the same passes: the depths' times add up to nearest + shade + shadow,
+        // and every depth of the render ran.
+        let depths = g.stats.time.gpu_depth_s.as_ref().expect("timed by depth");
+        assert_eq!(depths.iter().map(|d| d.depth).collect::<Vec<_>>(), (1..=5).collect::<Vec<_>>());
+        let by_depth: f64 = depths.iter().map(|d| d.all).sum();
+        assert!((by_depth - parts[..3].iter().sum::<f64>()).abs() <= 1e-9 * total.max(1.0), "{depths:?}");
     }
     assert_eq!(k.aov, None);
+    // Lane coherence: the eye pass had one invocation per grid point, in full groups (96·72
+    // points are whole workgroups), so that a group pays at least its mean and a group of 32
+    // at least one of 8; the CPU has none.
+    let lanes = &g.stats.lanes;
+    let eye = lanes.nearest[0];
+    assert_eq!((eye.depth, eye.invocations), (1, 96 * 72));
+    assert!(eye.steps > 0.0 && eye.max8 >= eye.steps && eye.max32 >= eye.max8, "{eye:?}");
+    assert!(lanes.nearest.len() >= 2 && !lanes.shade.is_empty(), "{lanes:?}");
+    assert!(lanes.nearest.iter().chain(&lanes.shade).all(|l| l.steps > 0.0 && l.max8 > 0.0), "{lanes:?}");
+    assert!(c.stats.lanes.nearest.is_empty());
 }
 
 #[test]
