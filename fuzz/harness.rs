@@ -158,16 +158,13 @@ fn scene(path: &Path) -> Result<(), String> {
     }
     for l in &packed.lights {
         assert!(
-            l.position.iter().chain(&l.direction).chain(&l.radiance).all(|x| x.is_finite()),
+            l.position.iter().chain(&l.direction).chain(&l.radiance).all(|x| x.is_finite())
+                && [l.range, l.cos_outer, l.span].iter().all(|x| x.is_finite()),
             "a non-finite light value reached the packed scene of {}",
             path.display()
         );
     }
     Ok(())
-}
-
-fn bytemuck_f32<T>(_v: &[T]) -> Vec<f32> {
-    Vec::new()
 }
 
 /// A part EXR, read as `cuberay merge` reads it, then merged alone (which a part that

@@ -2,6 +2,7 @@
 #![no_main]
 
 #[path = "../harness.rs"]
+#[allow(dead_code)]
 mod harness;
 
 libfuzzer_sys::fuzz_target!(|data: &[u8]| {

@@ -661,5 +661,44 @@ fn check_f32_range(scene: &Scene) -> Result<()> {
             return Err(too_far(format!("light {i}"), r));
         }
     }
+    // The other numbers the kernels get as f32: finite in f64, they must stay finite there.
+    let beyond = |what: String, x: f64| {
+        Error::Scene(format!(
+            "{what} is {x:.3e}, beyond f32's range ({:.3e}), which the GPU holds it in; render it \
+             with --backend cpu",
+            f32::MAX
+        ))
+    };
+    let fits = |x: f64| x.abs() <= f32::MAX as f64;
+    for (i, m) in scene.materials.iter().enumerate() {
+        let values = [
+            ("colour", m.color.abs().max_element()),
+            ("diffuse weight", m.kd),
+            ("highlight weight", m.ks),
+            ("Phong exponent", m.shine),
+            ("mirror weight", m.mirror.abs().max_element()),
+            ("transmittance", m.transmittance),
+            ("index of refraction", m.ior),
+            ("emission", m.emission.abs().max_element()),
+        ];
+        if let Some((what, x)) = values.into_iter().find(|&(_, x)| !fits(x)) {
+            let named = m.name.as_ref().map(|n| format!(" ({n})")).unwrap_or_default();
+            return Err(beyond(format!("material {i}{named}: its {what}"), x));
+        }
+    }
+    for (i, l) in scene.lights.iter().enumerate() {
+        let radiance = (l.color * l.intensity).abs().max_element();
+        if !fits(radiance) {
+            return Err(beyond(format!("light {i}: its colour times intensity"), radiance));
+        }
+        if let Some(r) = l.range.filter(|&r| !fits(r)) {
+            return Err(beyond(format!("light {i}: its range"), r));
+        }
+    }
+    for (name, v) in [("the ambient light", scene.ambient), ("the background", scene.background)] {
+        if !fits(v.abs().max_element()) {
+            return Err(beyond(name.into(), v.abs().max_element()));
+        }
+    }
     Ok(())
 }

@@ -437,6 +437,7 @@ impl<'a> Parser<'a> {
             ior = 1.0;
         }
         state.materials.push(Material {
+            name: Some(format!("the 'f' on line {}", self.entity.1)),
             color,
             kd,
             ks,

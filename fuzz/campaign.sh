@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# A fuzz campaign over every reader: each target runs for SECONDS (default 720) from the
+# seeds in the repository (fuzz/seeds, scenes/) and, when ../shared/scenes is there, a few
+# third-party sample files as extra seeds (copied into the ignored working corpus, never
+# committed). Crashes, hangs (-timeout) and oversized allocations (-malloc_limit_mb) land in
+# fuzz/artifacts/TARGET/; docs/fuzzing.md says what to do with them. Needs the nightly
+# toolchain and cargo-fuzz (`cargo install cargo-fuzz`). Run from the repository root:
+#   bash fuzz/campaign.sh [SECONDS] [TARGET...]
+set -euo pipefail
+cd "$(dirname "$0")"
+seconds=${1:-720}
+shift || true
+targets=("$@")
+[ ${#targets[@]} -gt 0 ] || targets=(nff gltf glb part_exr tables)
+shared=../../shared/scenes/gltf
+for t in "${targets[@]}"; do
+    corpus=corpus/$t
+    mkdir -p "$corpus"
+    seeds=("seeds/$t")
+    case $t in
+        nff) seeds=(../scenes) ;;
+        gltf)
+            seeds+=(../scenes)
+            [ -f "$shared/Cameras/Cameras.gltf" ] && cp "$shared/Cameras/Cameras.gltf" "$corpus/"
+            ;;
+        glb)
+            for m in Box BoxTextured CornellBox; do
+                [ -f "$shared/$m/$m.glb" ] && cp "$shared/$m/$m.glb" "$corpus/"
+            done
+            ;;
+    esac
+    echo "== $t: ${seconds}s from ${seeds[*]}" >&2
+    cargo +nightly fuzz run -O "$t" "$corpus" "${seeds[@]}" -- \
+        -max_total_time="$seconds" -timeout=10 -rss_limit_mb=4096 -malloc_limit_mb=1024 \
+        -max_len=1048576 -print_final_stats=1 2>&1 | tail -n 40
+done
