@@ -24,13 +24,11 @@ fn trace_job(job: Job) {
     let kind = pending.kind & RAY_KIND_MASK;
     let ray = make_ray(pending.o, pending.d);
     let skip = select(NO_ID, pending.from_prim, (pending.kind & RAY_SKIP_FROM) != 0u);
-    walking = job.walking;
-    walk_state = job.walk;
-    let stepped = closest_step(ray, FAR, kind, pending.from_prim, skip);
+    let stepped = closest_step(ray, FAR, kind, pending.from_prim, skip, job.walking, job.walk);
     var next = job;
     if !stepped.done {
         next.walking = 1u;
-        next.walk = walk_state;
+        next.walk = stepped.state;
         push_job(pass_desc.retry, next);
         return;
     }

@@ -5,11 +5,13 @@
 // and a `skip` index past every subtree. A ray takes the order of its direction and walks it
 // with one index and no stack: a missed box goes on at `skip`, a hit inner node at the next
 // node, a hit leaf tests its primitives and goes on at `skip`. A walk interrupted between
-// passes keeps only that index and the leaf's primitives left. The same queries as walk.wgsl
-// and brute.wgsl, with
-// the same intersection functions and tie rule (`consider`); node tests are counted as
-// bound tests, once per node the walk passes (a leaf's box tested again while it waits for
-// the last leaf's primitives is not counted again).
+// passes keeps only that index and the leaf's primitives left. As an accelerator of its own
+// (`BVH`) it supplies query.wgsl's protocol, with the same intersection functions and tie
+// rule (`consider`) as the others; the table walk (walk.wgsl) walks it for rays leaving
+// surfaces. A walk's `Walk` holds the next node in `i` and the last leaf's primitives left
+// in `j..jend`. Node tests are counted as bound tests, once per node the walk passes (a
+// leaf's box tested again while it waits for the last leaf's primitives is not counted
+// again).
 
 // One node of a threaded order (src/layout/bvh.rs `BvhNode`): `leaf` 0 for an inner node,
 // else `first << BVH_LEAF_SHIFT | count` primitives at bvh_prims[first..first + count].
@@ -62,35 +64,42 @@ fn box_hit(n: BvhNode, r: BoxRay, t_far: f32) -> bool {
     return t0 <= min(t1, t_far);
 }
 
-// A position in a walk: the next node `at`, and the primitives k..kend of the last leaf
-// entered still to test.
-struct BvhWalk {
-    at: u32,
-    k: u32,
-    kend: u32,
+#if BVH
+// A position in a walk: the next node `i`, and the primitives j..jend of the last leaf
+// entered still to test (`iend` unused).
+struct Walk {
+    i: u32,
+    iend: u32,
+    j: u32,
+    jend: u32,
+}
+#endif
+
+fn bvh_walk() -> Walk {
+    return Walk(0u, 0u, 0u, 0u);
 }
 
-fn bvh_done(w: BvhWalk) -> bool {
-    return w.at >= params.bvh_stride && w.k >= w.kend;
+fn bvh_done(w: Walk) -> bool {
+    return w.i >= params.bvh_stride && w.j >= w.jend;
 }
 
 // Enters or skips node `w.at` after its box test `hit`: a hit leaf queues its primitives.
 // A leaf hit while the last leaf's primitives are still queued waits (false): its box is
 // tested again in the next iteration. Counts the tests that move the walk.
-fn bvh_advance(w: ptr<function, BvhWalk>, n: BvhNode, hit: bool, ray_kind: u32) {
-    if hit && n.leaf != 0u && (*w).k < (*w).kend {
+fn bvh_advance(w: ptr<function, Walk>, n: BvhNode, hit: bool, ray_kind: u32) {
+    if hit && n.leaf != 0u && (*w).j < (*w).jend {
         return;
     }
     count_bound(ray_kind);
     if hit && n.leaf == 0u {
-        (*w).at += 1u;
+        (*w).i += 1u;
         return;
     }
     if hit {
-        (*w).k = n.leaf >> BVH_LEAF_SHIFT;
-        (*w).kend = (*w).k + (n.leaf & ((1u << BVH_LEAF_SHIFT) - 1u));
+        (*w).j = n.leaf >> BVH_LEAF_SHIFT;
+        (*w).jend = (*w).j + (n.leaf & ((1u << BVH_LEAF_SHIFT) - 1u));
     }
-    (*w).at = n.skip;
+    (*w).i = n.skip;
 }
 
 // Continues the nearest-hit walk `w` for at most `budget` loop iterations, keeping the
@@ -103,8 +112,9 @@ fn bvh_advance(w: ptr<function, BvhWalk>, n: BvhNode, hit: bool, ray_kind: u32) 
 // walk has boxes instead of boxes and primitives. A box tested before the leaf's last
 // primitives only sees a farther nearest hit, and is entered more often, never less: the
 // hits are those of the walk that tests them in turn.
-fn bvh_nearest(w: ptr<function, BvhWalk>, best: ptr<function, Closest>, ray: Ray, r: BoxRay, t_max: f32, skip: u32,
+fn bvh_nearest(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, t_max: f32, skip: u32,
     ray_kind: u32, budget: u32) -> bool {
+    let r = box_ray(ray);
     var left = budget;
     var best_t = select(t_max, (*best).hit.t, (*best).found);
     loop {
@@ -116,15 +126,15 @@ fn bvh_nearest(w: ptr<function, BvhWalk>, best: ptr<function, Closest>, ray: Ray
             return false;
         }
         left -= 1u;
-        if (*w).k < (*w).kend {
-            let id = bvh_prims[(*w).k];
-            (*w).k += 1u;
+        if (*w).j < (*w).jend {
+            let id = bvh_prims[(*w).j];
+            (*w).j += 1u;
             if id != skip {
                 best_t = consider(id, best, ray, t_max, ray_kind, best_t);
             }
         }
-        if (*w).at < params.bvh_stride {
-            let n = bvh_nodes[r.base + (*w).at];
+        if (*w).i < params.bvh_stride {
+            let n = bvh_nodes[r.base + (*w).i];
             bvh_advance(w, n, box_hit(n, r, best_t), ray_kind);
         }
     }
@@ -132,53 +142,27 @@ fn bvh_nearest(w: ptr<function, BvhWalk>, best: ptr<function, Closest>, ray: Ray
 }
 
 #if BVH
-// The nearest hit with 0 < t < t_max, ties to the lower id; `skip` is never tested (NO_ID:
-// none). The BVH needs neither the ray's origin entity nor `from_prim`.
-fn closest(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) -> Closest {
-    var best = no_closest();
-    if max3(abs(ray.d)) == 0.0 {
-        return best;
-    }
-    var w = BvhWalk(0u, 0u, 0u);
-    bvh_nearest(&w, &best, ray, box_ray(ray), t_max, skip, ray_kind, UNBOUNDED);
-    return best;
+// The protocol of query.wgsl: every ray walks the BVH from its root, in one or many passes.
+fn walk_of_ray(from_prim: u32, ray: Ray) -> Walk {
+    return bvh_walk();
 }
 
-// `closest` for a job, in bounded passes: `done` false when the walk goes on in a later
-// pass (from the position kept in `walk_state`: `i` the node,
-// `j..jend` the leaf's primitives left).
-fn closest_step(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) -> Stepped {
-    var best = no_closest();
-    var w = BvhWalk(0u, 0u, 0u);
-    if walking == 0u {
-        if max3(abs(ray.d)) == 0.0 {
-            return Stepped(true, best);
-        }
-    } else {
-        let s = walk_state;
-        w = BvhWalk(s.i, s.j, s.jend);
-        if s.prim != NO_ID {
-            best = Closest(true, s.prim, PrimHit(true, s.t, s.b1, s.b2));
-        }
-    }
-    if bvh_nearest(&w, &best, ray, box_ray(ray), t_max, skip, ray_kind, WALK_CHUNK) {
-        walking = 0u;
-        return Stepped(true, best);
-    }
-    walking = 1u;
-    walk_state = WalkState(w.at, 0u, w.k, w.kend, best.prim, best.hit.t, best.hit.b1, best.hit.b2);
-    return Stepped(false, best);
+fn walk_nearest(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, t_max: f32, skip: u32,
+    ray_kind: u32, budget: u32) -> bool {
+    return bvh_nearest(w, best, ray, t_max, skip, ray_kind, budget);
 }
 
+fn walk_chunk(w: Walk) -> u32 {
+    return WALK_CHUNK;
+}
 #endif
 
 #if SHADOWS
 // Continues the any-hit walk `w` for at most `budget` loop iterations (as `bvh_nearest`, a
-// primitive and a box an iteration):
-// ANY_BLOCKED when some primitive other than `skip` is hit at 0 < t < t_max (its t noted in
-// `blocker_t`), ANY_CLEAR when the walk ended without one, ANY_UNFINISHED when the budget
-// ran out first.
-fn bvh_any(w: ptr<function, BvhWalk>, ray: Ray, t_max: f32, skip: u32, budget: u32) -> u32 {
+// primitive and a box an iteration): ANY_BLOCKED when some primitive other than `skip` is
+// hit at 0 < t < t_max (with its t), ANY_CLEAR when the walk ended without one,
+// ANY_UNFINISHED when the budget ran out first.
+fn bvh_any(w: ptr<function, Walk>, ray: Ray, t_max: f32, skip: u32, budget: u32) -> AnyHit {
     let r = box_ray(ray);
     var left = budget;
     loop {
@@ -187,65 +171,41 @@ fn bvh_any(w: ptr<function, BvhWalk>, ray: Ray, t_max: f32, skip: u32, budget: u
         }
         count_step();
         if left == 0u {
-            return ANY_UNFINISHED;
+            return any_answer(ANY_UNFINISHED);
         }
         left -= 1u;
-        if (*w).k < (*w).kend {
-            let id = bvh_prims[(*w).k];
-            (*w).k += 1u;
-            if id != skip && blocks(id, ray, t_max) {
-                return ANY_BLOCKED;
+        if (*w).j < (*w).jend {
+            let id = bvh_prims[(*w).j];
+            (*w).j += 1u;
+            if id != skip {
+                let h = test_any(id, ray, t_max);
+                if h.ok {
+                    return AnyHit(ANY_BLOCKED, h.t);
+                }
             }
         }
-        if (*w).at < params.bvh_stride {
-            let n = bvh_nodes[r.base + (*w).at];
+        if (*w).i < params.bvh_stride {
+            let n = bvh_nodes[r.base + (*w).i];
             bvh_advance(w, n, box_hit(n, r, t_max), RAY_SHADOW);
         }
     }
-    return ANY_CLEAR;
+    return any_answer(ANY_CLEAR);
 }
 
 #if BVH
-// `bvh_any`'s verdict on shadow ray `sr`, its blocker's distance from the spawn origin noted
-// in `blocked_at`.
-fn bvh_shadow(w: ptr<function, BvhWalk>, sr: ShadowRay, skip: u32, budget: u32) -> u32 {
-    let r = bvh_any(w, sr.ray, sr.t_max, skip, budget);
-    if r == ANY_BLOCKED {
-        blocked_at = abs(blocker_t - sr.q_t);
-    }
-    return r;
+// The protocol of query.wgsl for shadow rays: the BVH from its root; a walk traced at its
+// hit gets `params.bvh_inline` loop iterations (`layout::budget::bvh_shadow_inline`), and
+// one that outlasts them becomes a job whose walk starts over.
+fn walk_of_shadow(sr: ShadowRay, light: u32, from_prim: u32) -> Walk {
+    return bvh_walk();
 }
 
-// Whether light `light` is blocked from `q`, the spawn origin on primitive `from_prim` (the
-// shadow ray of `shadow_ray`, geometry.wgsl, the one the other queries trace), when its
-// walk ends within `params.bvh_inline` loop iterations (set by the host:
-// `layout::budget::bvh_shadow_inline`); ANY_UNFINISHED when
-// it does not, and the shadow ray becomes a job whose walk starts over.
-fn occluded_short(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> u32 {
-    let sr = shadow_ray(q, to_light, light);
-    if sr.empty {
-        return ANY_CLEAR;
-    }
-    var w = BvhWalk(0u, 0u, 0u);
-    return bvh_shadow(&w, sr, skip, params.bvh_inline);
+fn walk_any(w: ptr<function, Walk>, ray: Ray, t_max: f32, skip: u32, budget: u32) -> AnyHit {
+    return bvh_any(w, ray, t_max, skip, budget);
 }
 
-// Whether light `light` is blocked from `q`, for a shadow job, in bounded passes (the
-// walk's position kept in `walk_state`): ANY_UNFINISHED when it goes on in a later pass.
-fn occluded_step(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> u32 {
-    let sr = shadow_ray(q, to_light, light);
-    if sr.empty {
-        walking = 0u;
-        return ANY_CLEAR;
-    }
-    var w = BvhWalk(0u, 0u, 0u);
-    if walking != 0u {
-        w = BvhWalk(walk_state.i, walk_state.j, walk_state.jend);
-    }
-    let r = bvh_shadow(&w, sr, skip, WALK_CHUNK);
-    walking = select(0u, 1u, r == ANY_UNFINISHED);
-    walk_state = WalkState(w.at, 0u, w.k, w.kend, NO_ID, 0.0, 0.0, 0.0);
-    return r;
+fn walk_inline(w: Walk) -> u32 {
+    return params.bvh_inline;
 }
 #endif
 #endif

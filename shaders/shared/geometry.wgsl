@@ -57,7 +57,7 @@ fn hit_at(t: f32) -> PrimHit {
     return PrimHit(true, t, 0.0, 0.0);
 }
 
-// A nearest-hit answer (`closest` in brute.wgsl or walk.wgsl): the primitive and its hit.
+// A nearest-hit answer (`closest`, query.wgsl): the primitive and its hit.
 struct Closest {
     found: bool,
     prim: u32,
@@ -84,11 +84,6 @@ fn consider(id: u32, best: ptr<function, Closest>, ray: Ray, t_max: f32, ray_kin
     return best_t;
 }
 
-// `closest_step`'s answer: `done` false when the query continues in the next step.
-struct Stepped {
-    done: bool,
-    c: Closest,
-}
 
 #if SPHERES
 // Ray/sphere, Haines' precise form: the discriminant as r² − |f + b·d|².
@@ -292,20 +287,12 @@ fn max3(v: vec3<f32>) -> f32 {
 }
 
 #if SHADOWS
-// The t of the hit that ended the last any-hit walk with ANY_BLOCKED (the self-hit count;
-// the CPU walkers' `hits` closures keep it on that side).
-var<private> blocker_t: f32;
-
-// Tests primitive `id` for an any-hit query (a shadow ray): true when it is hit at
-// 0 < t < t_max, that t noted in `blocker_t`. The any-hit twin of `consider`.
-fn blocks(id: u32, ray: Ray, t_max: f32) -> bool {
+// Tests primitive `id` for an any-hit query (a shadow ray): a hit at 0 < t < t_max, if any.
+// The any-hit twin of `consider`.
+fn test_any(id: u32, ray: Ray, t_max: f32) -> PrimHit {
     let p = prims[id];
     count_test(RAY_SHADOW, p.kind);
-    let h = intersect_prim(p, ray, t_max);
-    if h.ok {
-        blocker_t = h.t;
-    }
-    return h.ok;
+    return intersect_prim(p, ray, t_max);
 }
 
 // The shadow ray towards light `light` from `q`, the spawn origin of a hit (direction

@@ -337,11 +337,6 @@ const NO_ID: u32 = 0xffffffffu;
 // before the point they are cast for (f32; `shadow_ray`, geometry.wgsl).
 const SHADOW_END_REL: f32 = 9.5367431640625e-7;
 
-#if SHADOWS
-// After an `occluded*` call (walk.wgsl or brute.wgsl) answered blocked: how far from the
-// shadow ray's origin its blocker lies (the self-hit count, shade.wgsl).
-var<private> blocked_at: f32;
-#endif
 
 // The statistics counters (`COUNTERS`; `--stats`). Without them the functions below do
 // nothing: on lavapipe the private array, indexed per lane at every test, and the flush's
@@ -459,12 +454,6 @@ fn flush_counters(lid: u32) {
 #endif
 }
 
-// The walk of the job an invocation traces: whether it resumes one a pass ended unfinished
-// (`walking`), and where (`walk_state`); the stepped queries (`closest_step`,
-// `occluded_step`) read and update them, and the kernels store them in the job when the walk
-// goes on in a later pass.
-var<private> walking: u32;
-var<private> walk_state: WalkState;
 
 // Where queue `q`'s jobs start in `jobs`, and how many it holds at most: the ray queues
 // (and the hit queue) take params.ray_queue each, the shadow queues params.shadow_queue.

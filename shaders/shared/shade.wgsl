@@ -129,26 +129,27 @@ fn push_shadow_rays(id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>
         let spawn = spawn_offset(s);
         let skip = leave_skip(id, lit.dir, s.ng);
         let r = occluded_short(o, lit.dir, i, id, skip);
-        if r == ANY_UNFINISHED {
+        if r.answer == ANY_UNFINISHED {
             let flags = select(0u, RAY_SKIP_FROM, skip != NO_ID);
             let ray = Pending(o, RAY_SHADOW | flags | (i << RAY_DEPTH_SHIFT), lit.dir, spawn, weight * lit.c, id);
             push_job(pass_desc.shadow, new_job(ray, point));
             continue;
         }
         count(C_RAYS + RAY_SHADOW);
-        if r == ANY_BLOCKED {
-            count_blocked(spawn);
+        if r.answer == ANY_BLOCKED {
+            count_blocked(spawn, r.blocked_at);
         } else {
             add_radiance(point, weight * lit.c);
         }
     }
 }
 
-// A blocked shadow ray, spawned `spawn` off its surface: a self-hit too when its blocker
-// lies within SELF_HIT_SPAWNS spawn offsets. The walk stops at the first blocker it finds,
-// not the nearest, so a self-hit behind which another blocker was found first is not
-// counted; that point is in shadow either way, so what is missed makes no acne.
-fn count_blocked(spawn: f32) {
+// A blocked shadow ray, spawned `spawn` off its surface, its blocker `blocked_at` from its
+// spawn origin: a self-hit too when that is within SELF_HIT_SPAWNS spawn offsets. The walk
+// stops at the first blocker it finds, not the nearest, so a self-hit behind which another
+// blocker was found first is not counted; that point is in shadow either way, so what is
+// missed makes no acne.
+fn count_blocked(spawn: f32, blocked_at: f32) {
     count(C_SHADOW_BLOCKED);
     if blocked_at < SELF_HIT_SPAWNS * spawn {
         count(C_SELF_HITS);
@@ -160,19 +161,17 @@ fn count_blocked(spawn: f32) {
 fn trace_shadow(job: Job) {
     let ray = job.ray;
     let skip = select(NO_ID, ray.from_prim, (ray.kind & RAY_SKIP_FROM) != 0u);
-    walking = job.walking;
-    walk_state = job.walk;
-    let r = occluded_step(ray.o, ray.d, job_depth(ray), ray.from_prim, skip);
-    if r == ANY_UNFINISHED {
+    let r = occluded_step(ray.o, ray.d, job_depth(ray), ray.from_prim, skip, job.walking, job.walk);
+    if r.answer == ANY_UNFINISHED {
         var next = job;
         next.walking = 1u;
-        next.walk = walk_state;
+        next.walk = r.state;
         push_job(pass_desc.retry, next);
         return;
     }
     count(C_RAYS + RAY_SHADOW);
-    if r == ANY_BLOCKED {
-        count_blocked(ray.spawn);
+    if r.answer == ANY_BLOCKED {
+        count_blocked(ray.spawn, r.blocked_at);
     } else {
         add_radiance(job.point, ray.weight);
     }

@@ -1,9 +1,9 @@
-// The ray queries of a kernel that traces (`closest` and its stepped form, `occluded_short`,
-// `occluded_step`), from the one accelerator the variant holds: the candidate-table walk
-// (`TABLES`: walk.wgsl over tables.wgsl, which brings the BVH walk for rays leaving surfaces),
-// the BVH walk (`BVH`) or brute force (`BRUTE`), over the scene's layout and intersection
-// code. The kernels include this file, not the accelerators', so that which walk a kernel
-// gets is decided in one place.
+// The ray queries of a kernel that traces (query.wgsl: `closest` and its stepped form,
+// `occluded_short`, `occluded_step`), over the walk of the one accelerator the variant
+// holds: the candidate-table walk (`TABLES`: walk.wgsl over tables.wgsl, which brings the
+// BVH walk for rays leaving surfaces), the BVH walk (`BVH`) or brute force (`BRUTE`), over
+// the scene's layout and intersection code. The kernels include this file, not the
+// accelerators', so that which walk a kernel gets is decided in one place.
 #include "shared/layout.wgsl"
 #include "shared/geometry.wgsl"
 #if TABLES
@@ -16,3 +16,4 @@
 #if BRUTE
 #include "shared/brute.wgsl"
 #endif
+#include "shared/query.wgsl"

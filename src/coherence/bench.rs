@@ -10,7 +10,7 @@ use serde::Serialize;
 
 use super::raytree::{Kind, RayTree, TreeRay};
 use super::tables::Tables;
-use super::walk::{cube_walk_any, cube_walk_nearest, OriginKey, WalkCount};
+use super::walk::{table_any, table_nearest, OriginKey, WalkCount};
 use crate::kernel::closest::{brute_nearest, test_prim, Closest};
 use crate::kernel::geometry::{PrimHit, Ray};
 use crate::kernel::{FAR, NO_ID};
@@ -105,7 +105,7 @@ impl Tracer<'_> {
         let (key, ray, skip) = (tr.key(), &tr.ray, tr.skip);
         let prims = &self.tree.prims;
         let mut count = WalkCount::default();
-        let hit = cube_walk_nearest(f, key, ray.o, ray.d, FAR, skip, &mut count, |id| {
+        let hit = table_nearest(f, key, ray.o, ray.d, FAR, skip, &mut count, |id| {
             test_prim(&prims[id as usize], ray, FAR)
         });
         let c = kind_mut(r, tr.kind);
@@ -138,7 +138,7 @@ impl Tracer<'_> {
         let prims = &self.tree.prims;
         let mut count = WalkCount::default();
         let hits = |id: u32| prims[id as usize].intersect(ray, t_max).ok;
-        let blocked = cube_walk_any(f, key, ray.o, ray.d, t_max, skip, &mut count, hits);
+        let blocked = table_any(f, key, ray.o, ray.d, t_max, skip, &mut count, hits);
         r.shadow.untabled += !f.has_table(key) as u64;
         r.shadow.rays += 1;
         r.shadow.tests += count.tests as u64;

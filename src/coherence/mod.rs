@@ -56,7 +56,7 @@
 //! // A primary ray starts at the eye: the origin of the walkers' camera-relative frame.
 //! let at = glam::Vec3::ZERO;
 //! let mut count = WalkCount::default();
-//! let hit: Closest<f32, ()> = walk::cube_walk_nearest(&tables.flat, OriginKey::Eye, at, dir, FAR, NO_ID, &mut count, |id| {
+//! let hit: Closest<f32, ()> = walk::table_nearest(&tables.flat, OriginKey::Eye, at, dir, FAR, NO_ID, &mut count, |id| {
 //!     let _ = id; // intersect primitive `id` here: Some((t, payload)) for a hit before FAR
 //!     None
 //! });

@@ -6,12 +6,14 @@
 //! its members only when the ray meets it in time.
 //!
 //! Line-by-line twin of the walk in `shaders/shared/walk.wgsl` (keep them in sync): the same
-//! names (`walk_start`, `start_walk`, `walk_next`, `walk_done`, `walk_nearest`, `walk_any`,
-//! `cube_walk_nearest`) and the same budget, so that a walk may stop after `budget` loop
-//! iterations and resume where it stopped, as the GPU's wavefront kernels do ([`WALK_CHUNK`]
-//! per pass). The rest of `walk.wgsl` (`closest`, `closest_step`, `shadow_walk`,
-//! `occluded*`) is the kernels' own: it keeps a walk's position in its job between passes
-//! and picks the ray a shadow query walks, which the CPU callers do for themselves. It is generic over the distance type and the hit payload
+//! names (`cell_walk`, `walk_from`, `walk_next`, `walk_done`, `walk_nearest`, `walk_any`) and
+//! the same budget, so that a walk may stop after `budget` loop iterations and resume where
+//! it stopped, as the GPU's wavefront kernels do ([`WALK_CHUNK`] per pass). The queries
+//! over it (`shaders/shared/query.wgsl`: `closest`, `closest_step`, `occluded*`, written
+//! once for every accelerator) are the kernels' own: they keep a walk's position in its job
+//! between passes and pick the ray a shadow query walks, which the CPU callers do for
+//! themselves; [`table_nearest`] and [`table_any`] walk a ray's list to its end. It is
+//! generic over the distance type and the hit payload
 //! ([`Closest`]): the GPU-side tests walk it with the f32 intersection twins, the CPU
 //! reference's `--accel cube` with its own f64 tests. Both look cells up with the f32
 //! direction, as the GPU does; the tables are widened for that.
@@ -104,16 +106,16 @@ impl FlatTables {
     }
 
     /// The walk of a ray from `key` along `d` (not zero): its cell of its direction cube, its
-    /// beam, or the fallback origin (WGSL `start_walk` and, for lights, `walk_start` of
+    /// beam, or the fallback origin (WGSL `walk_from` and, for lights, `cell_walk` of
     /// `light_table`).
-    pub fn start_walk(&self, key: OriginKey, d: Vec3) -> Walk {
+    pub fn walk_from(&self, key: OriginKey, d: Vec3) -> Walk {
         if let OriginKey::Surface(_, at) = key {
             if self.has_table(key) {
                 let [i, iend] = beam_range(self, at, d);
                 return Walk { i, iend, j: 0, jend: 0 };
             }
         }
-        walk_start(self, self.cube_of(key).unwrap_or(self.fallback_origin), d)
+        cell_walk(self, self.cube_of(key).unwrap_or(self.fallback_origin), d)
     }
 }
 
@@ -128,7 +130,7 @@ pub struct Walk {
 }
 
 /// The walk of direction cube `origin`'s cell for direction `d` (not zero).
-pub fn walk_start(t: &FlatTables, origin: u32, d: Vec3) -> Walk {
+pub fn cell_walk(t: &FlatTables, origin: u32, d: Vec3) -> Walk {
     let org = t.origins[origin as usize];
     let range = cube_cell_range(t, origin, d);
     Walk { i: range[0], iend: range[1], j: org.always_start, jend: org.always_start + org.always_count }
@@ -264,11 +266,11 @@ pub fn walk_any<F: Dist>(
     AnyHit::Clear
 }
 
-/// The nearest hit with `0 < t < t_max` of a ray from `key` ([`FlatTables::start_walk`]),
+/// The nearest hit with `0 < t < t_max` of a ray from `key` ([`FlatTables::walk_from`]),
 /// ties to the lower id, walked to its end; `skip` is never tested. A zero direction hits
 /// nothing.
 #[allow(clippy::too_many_arguments)]
-pub fn cube_walk_nearest<F: Dist, H: Default>(
+pub fn table_nearest<F: Dist, H: Default>(
     t: &FlatTables,
     key: OriginKey,
     o: Vec3,
@@ -282,7 +284,7 @@ pub fn cube_walk_nearest<F: Dist, H: Default>(
     if d.abs().max_element() == 0.0 {
         return best;
     }
-    let mut w = t.start_walk(key, d);
+    let mut w = t.walk_from(key, d);
     walk_nearest(t, &mut w, &mut best, o, d, t_max, skip, UNBOUNDED, count, test);
     best
 }
@@ -290,7 +292,7 @@ pub fn cube_walk_nearest<F: Dist, H: Default>(
 /// True when a ray from `key` hits some primitive other than `skip` at `0 < t < t_max`
 /// (walked to its end).
 #[allow(clippy::too_many_arguments)]
-pub fn cube_walk_any<F: Dist>(
+pub fn table_any<F: Dist>(
     t: &FlatTables,
     key: OriginKey,
     o: Vec3,
@@ -303,6 +305,6 @@ pub fn cube_walk_any<F: Dist>(
     if d.abs().max_element() == 0.0 {
         return false;
     }
-    let mut w = t.start_walk(key, d);
+    let mut w = t.walk_from(key, d);
     walk_any(t, &mut w, o, d, t_max, skip, UNBOUNDED, count, hits) == AnyHit::Blocked
 }

@@ -40,6 +40,7 @@ const SOURCES: &[(&str, &str)] = &[
     ("shared/texture.wgsl", include_str!("../../shaders/shared/texture.wgsl")),
     ("shared/shade.wgsl", include_str!("../../shaders/shared/shade.wgsl")),
     ("shared/trace.wgsl", include_str!("../../shaders/shared/trace.wgsl")),
+    ("shared/query.wgsl", include_str!("../../shaders/shared/query.wgsl")),
 ];
 
 /// A kernel: its file `shaders/NAME.wgsl`, its entry point(s) and its pipeline share the name.

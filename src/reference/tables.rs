@@ -91,7 +91,7 @@ impl<'a> TableAccel<'a> {
     ) -> bool {
         let flat = self.flat();
         let mut walked = WalkCount::default();
-        let mut w: Walk = flat.start_walk(key, d);
+        let mut w: Walk = flat.walk_from(key, d);
         let mut hits = |id: u32| {
             let prim = &self.prims[id as usize];
             count(prim, tests);
@@ -135,7 +135,7 @@ impl Accel for TableAccel<'_> {
         let at = self.at(ray.origin);
         let mut walked = WalkCount::default();
         let mut best = no_closest::<f64, Intersection>();
-        let mut w = flat.start_walk(self.key(origin, ray.origin), d);
+        let mut w = flat.walk_from(self.key(origin, ray.origin), d);
         let mut test = |id: u32| {
             let prim = &self.prims[id as usize];
             count(prim, tests);

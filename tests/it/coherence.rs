@@ -139,7 +139,7 @@ impl World {
     /// messages).
     fn candidates(&self, key: OriginKey, d: Vec3) -> Vec<(u32, f32)> {
         let f = &self.tables.flat;
-        let mut w = f.start_walk(key, d);
+        let mut w = f.walk_from(key, d);
         let mut out = Vec::new();
         while !walk::walk_done(&w) {
             let e = walk::walk_next(f, &mut w);
@@ -158,7 +158,7 @@ impl World {
         let ray = make_ray(o, d);
         let test = |id: u32| test_prim(&self.prims[id as usize], &ray, FAR);
         let mut count = WalkCount::default();
-        let h = walk::cube_walk_nearest(f, key, ray.o, ray.d, FAR, NO_ID, &mut count, test);
+        let h = walk::table_nearest(f, key, ray.o, ray.d, FAR, NO_ID, &mut count, test);
         let want = self.brute(&ray, FAR);
         if (h.prim, h.best_t(FAR)) != want {
             return Err(format!(
@@ -169,7 +169,7 @@ impl World {
             ));
         }
         // Stepped, as the GPU walks long lists: three iterations per step, resumed.
-        let mut w = f.start_walk(key, ray.d);
+        let mut w = f.walk_from(key, ray.d);
         let mut best = no_closest::<f32, PrimHit>();
         let mut steps = 0;
         while !walk::walk_nearest(f, &mut w, &mut best, ray.o, ray.d, FAR, NO_ID, 3, &mut count, test) {
@@ -181,7 +181,7 @@ impl World {
                 (best.prim, best.t)
             ));
         }
-        let g64 = walk::cube_walk_nearest(f, key, ray.o, ray.d, f64::MAX, NO_ID, &mut count, |id| {
+        let g64 = walk::table_nearest(f, key, ray.o, ray.d, f64::MAX, NO_ID, &mut count, |id| {
             test(id).map(|(t, _)| (t as f64, ()))
         });
         if g64.prim != want.0 {
@@ -198,12 +198,12 @@ impl World {
         let ray = make_ray(o, d);
         let hits = |id: u32| self.prims[id as usize].intersect(&ray, t_max).ok;
         let mut count = WalkCount::default();
-        let b = walk::cube_walk_any(f, key, ray.o, ray.d, t_max, NO_ID, &mut count, hits);
+        let b = walk::table_any(f, key, ray.o, ray.d, t_max, NO_ID, &mut count, hits);
         let want = self.brute(&ray, t_max).0 != NO_ID;
         if b != want {
             return Err(format!("{key:?} any o={o} d={d} t_max={t_max}: walker {b} brute {want}"));
         }
-        let mut w = f.start_walk(key, ray.d);
+        let mut w = f.walk_from(key, ray.d);
         let stepped = loop {
             match walk::walk_any(f, &mut w, ray.o, ray.d, t_max, NO_ID, 2, &mut count, hits) {
                 AnyHit::Unfinished => continue,
@@ -213,7 +213,7 @@ impl World {
         if stepped != want {
             return Err(format!("{key:?}: stepped any {stepped} brute {want}"));
         }
-        let g = walk::cube_walk_any(f, key, ray.o, ray.d, t_max as f64, NO_ID, &mut count, hits);
+        let g = walk::table_any(f, key, ray.o, ray.d, t_max as f64, NO_ID, &mut count, hits);
         if g != want {
             return Err(format!("{key:?}: f64 any {g} brute {want}"));
         }
@@ -523,14 +523,12 @@ fn zero_direction_is_rejected() {
     let f = &w.tables.flat;
     let eye = OriginKey::Eye;
     let mut count = WalkCount::default();
-    let h =
-        walk::cube_walk_nearest(f, eye, Vec3::ZERO, Vec3::ZERO, FAR, NO_ID, &mut count, |_| Some((0.0, ())));
+    let h = walk::table_nearest(f, eye, Vec3::ZERO, Vec3::ZERO, FAR, NO_ID, &mut count, |_| Some((0.0, ())));
     assert_eq!((h.found, h.prim, count.tests, count.bounds), (false, NO_ID, 0, 0));
-    let h = walk::cube_walk_nearest(f, eye, Vec3::ZERO, Vec3::ZERO, f64::MAX, NO_ID, &mut count, |_| {
-        Some((0.0, ()))
-    });
+    let h =
+        walk::table_nearest(f, eye, Vec3::ZERO, Vec3::ZERO, f64::MAX, NO_ID, &mut count, |_| Some((0.0, ())));
     assert!(!h.found && count.tests == 0);
-    assert!(!walk::cube_walk_any(f, eye, Vec3::ZERO, Vec3::ZERO, FAR, NO_ID, &mut count, |_| true));
+    assert!(!walk::table_any(f, eye, Vec3::ZERO, Vec3::ZERO, FAR, NO_ID, &mut count, |_| true));
 }
 
 /// Rays from many points toward random directions; used by the directed scenes below.

@@ -123,26 +123,30 @@ fn each_kernel_contains_only_its_own_queries() {
         let cube = v.queries == Queries::Tables;
         let bvh = v.queries == Queries::Bvh;
         let brute = v.queries == Queries::Brute;
-        let table_fns = ["cube_walk_nearest", "cube_cell_range", "cube_face_cell", "start_walk"];
+        let table_fns = ["cell_walk", "cube_cell_range", "walk_from"];
         for f in table_fns {
             assert_eq!(has_function(&m, f), cube, "{v:?}: {f}");
         }
+        // One copy of the queries, over whichever walk the variant holds.
+        for f in ["closest", "closest_step", "walk_nearest", "walk_chunk"] {
+            assert!(has_function(&m, f), "{v:?}: {f}");
+        }
+        for f in ["occluded_short", "occluded_step", "walk_inline", "walk_of_shadow"] {
+            assert_eq!(has_function(&m, f), v.shadows, "{v:?}: {f}");
+        }
+
         // The beams only where rays leave surfaces and the tables classify them.
         assert_eq!(has_function(&m, "beam_range"), cube && v.surface_rays && v.beams, "{v:?}: beam_range");
         // The group entries too: only beam lists name them.
         assert_eq!(has_function(&m, "group_hit"), cube && v.beams, "{v:?}: group_hit");
-        assert_eq!(has_function(&m, "walk_any"), cube && v.shadows, "{v:?}");
+        assert_eq!(has_function(&m, "walk_any"), v.shadows, "{v:?}");
         let walks_bvh = bvh || (cube && v.surface_rays);
         assert_eq!(has_function(&m, "bvh_nearest"), walks_bvh, "{v:?}");
         assert_eq!(has_function(&m, "box_hit"), walks_bvh, "{v:?}");
         assert_eq!(has_function(&m, "bvh_any"), walks_bvh && v.shadows, "{v:?}");
-        // The BVH's own queries only with `--accel bvh`.
-        assert_eq!(has_function(&m, "bvh_shadow"), bvh && v.shadows, "{v:?}");
-        assert_eq!(has_function(&m, "brute_nearest"), brute, "{v:?}");
-        assert_eq!(has_function(&m, "brute_any_range"), brute && v.shadows, "{v:?}");
+        assert_eq!(has_function(&m, "bvh_walk"), walks_bvh, "{v:?}");
         // Every accelerator traces the one shadow ray, and only where there are shadows.
         assert_eq!(has_function(&m, "shadow_ray"), v.shadows, "{v:?}");
-        assert_eq!(has_function(&m, "brute_range"), brute, "{v:?}");
         for binding in 11..=19 {
             assert_eq!(binds(&m, binding), cube, "{v:?}: binding {binding}");
         }
@@ -214,7 +218,7 @@ fn a_scene_whose_rays_all_leave_the_eye_or_a_light_has_no_bvh_walk() {
             !has_function(&m, "beam_range") && !has_function(&m, "group_hit"),
             "{name}: no beams with cube"
         );
-        assert!(has_function(&m, "walk_any") && has_function(&m, "cube_walk_nearest"), "{name}");
+        assert!(has_function(&m, "walk_any") && has_function(&m, "cell_walk"), "{name}");
         // With beams, the kernels look rays leaving surfaces up in them.
         let beams = RenderOptions { accel: AccelKind::Beams, ..o.clone() };
         let v = GpuRenderer::job_variant(s, &beams, false);

@@ -336,10 +336,10 @@ const WGSL_ONLY_STRUCTS: &[&str] = &[
     "Lit",
     "Refracted",
     "Walk",
-    "ShadowWalk",
+    "AnyHit",
+    "Occlusion",
     "ShadowRay",
     "BoxRay",
-    "BvhWalk",
     "VertexOut",
 ];
 

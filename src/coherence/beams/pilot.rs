@@ -24,7 +24,7 @@ use crate::coherence::cube::cube_face_cell;
 use crate::coherence::flat::{FlatTables, BEAM_CELLS};
 use crate::coherence::params::BuildParams;
 use crate::coherence::raytree::{RayTree, ShadowQuery, TreeRay};
-use crate::coherence::walk::{cube_walk_nearest, OriginKey, WalkCount};
+use crate::coherence::walk::{table_nearest, OriginKey, WalkCount};
 use crate::kernel::closest::{brute_nearest, consider, no_closest, test_prim, Closest};
 use crate::kernel::geometry::PrimHit;
 use crate::kernel::{FAR, NO_ID};
@@ -118,7 +118,7 @@ pub fn build_beams(
         .map(|r| {
             let ray = &r.ray;
             let mut count = WalkCount::default();
-            cube_walk_nearest(cube, r.key(), ray.o, ray.d, FAR, NO_ID, &mut count, |id| {
+            table_nearest(cube, r.key(), ray.o, ray.d, FAR, NO_ID, &mut count, |id| {
                 test_prim(&tree.prims[id as usize], ray, FAR)
             })
         })
