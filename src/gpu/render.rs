@@ -15,7 +15,7 @@ use indicatif::ProgressBar;
 use super::buffers::{upload, QueueSizes, SceneBuffers};
 use super::kernels::{first_compile_marker, mark_compiled, Kernels};
 use super::schedule::{self, Pacing, Pipelines, Progress, Schedule, WavePlan};
-use super::shaders::{Kernel, Queries, Variant};
+use super::shaders::{Depths, Kernel, Queries, Stage, Variant};
 use super::GpuContext;
 use crate::coherence::reach::WalkBounds;
 use crate::coherence::{self, BuildParams, FlatTables, Tables};
@@ -102,7 +102,7 @@ impl RunOutput {
 struct Prepared {
     variant: Variant,
     /// The kernels the render runs, compiled.
-    pipelines: Vec<(Kernel, std::sync::Arc<wgpu::ComputePipeline>)>,
+    pipelines: Vec<(Stage, std::sync::Arc<wgpu::ComputePipeline>)>,
     packed: Packed,
     tables: Option<TableSet>,
     start: Instant,
@@ -147,6 +147,16 @@ impl GpuRenderer {
     /// How many kernel pipelines have been compiled so far (each kernel and variant once).
     pub fn compiled_kernels(&self) -> usize {
         self.kernels.compiled()
+    }
+
+    /// The pipelines of `stages` for a render of `variant`, each compiled in its own
+    /// variant ([`Stage::variant`]) on first use.
+    pub fn pipelines(
+        &self,
+        stages: &[Stage],
+        variant: Variant,
+    ) -> Result<Vec<(Stage, std::sync::Arc<wgpu::ComputePipeline>)>> {
+        stages.iter().map(|&s| Ok((s, self.kernel(s.kernel, s.variant(variant))?))).collect()
     }
 
     /// The pipeline of `kernel` for `variant`, compiled on first use.
@@ -219,9 +229,12 @@ impl GpuRenderer {
             variant.shapes.contains(scene.shapes()),
             "the kernels lack the intersection code of a kind of primitive the scene holds"
         );
-        let kernels = if aov { vec![Kernel::Aov] } else { Kernel::wavefront(variant) };
-        let pipelines =
-            kernels.into_iter().map(|k| Ok((k, self.kernel(k, variant)?))).collect::<Result<_>>()?;
+        let stages = if aov {
+            vec![Stage { kernel: Kernel::Aov, depths: Depths::All }]
+        } else {
+            Kernel::wavefront(variant)
+        };
+        let pipelines = self.pipelines(&stages, variant)?;
         let start = Instant::now();
         let mut packed = pack(scene, opts.width, opts.height, opts.spawn);
         if variant.queries == Queries::Bvh {
@@ -316,15 +329,17 @@ impl GpuRenderer {
     pub fn warm_up(
         &self,
         variant: Variant,
-        pipelines: &[(Kernel, std::sync::Arc<wgpu::ComputePipeline>)],
+        pipelines: &[(Stage, std::sync::Arc<wgpu::ComputePipeline>)],
         buffers: &SceneBuffers,
         base: &crate::layout::Params,
     ) -> Result<f64> {
-        let cold: Vec<&(Kernel, std::sync::Arc<wgpu::ComputePipeline>)> =
-            pipelines.iter().filter(|(k, _)| self.kernels.first_warm_up(*k, variant)).collect();
+        let cold: Vec<&(Stage, std::sync::Arc<wgpu::ComputePipeline>)> = pipelines
+            .iter()
+            .filter(|(s, _)| self.kernels.first_warm_up(s.kernel, s.variant(variant)))
+            .collect();
         let mut markers = Vec::new();
-        for (k, _) in &cold {
-            markers.extend(first_compile_marker(&self.ctx, *k, variant)?);
+        for (s, _) in &cold {
+            markers.extend(first_compile_marker(&self.ctx, s.kernel, s.variant(variant))?);
         }
         if !markers.is_empty() {
             // Said as a warning once per process (`accuracy` and `bench` compile one variant
@@ -332,7 +347,8 @@ impl GpuRenderer {
             static ANNOUNCED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
             let first = !ANNOUNCED.swap(true, std::sync::atomic::Ordering::Relaxed);
             let level = if first { log::Level::Warn } else { log::Level::Info };
-            let names: Vec<&str> = cold.iter().map(|(k, _)| k.name()).collect();
+            let mut names: Vec<&str> = cold.iter().map(|(s, _)| s.kernel.name()).collect();
+            names.dedup();
             log::log!(
                 level,
                 "compiling the {} kernel{} for {}, {}: the first time on a machine this can take a minute",
@@ -343,9 +359,9 @@ impl GpuRenderer {
             );
         }
         let mut took = 0.0;
-        for (k, p) in cold {
+        for (s, p) in cold {
             let t = schedule::warm_up(&self.ctx, p, buffers, base)?.as_secs_f64();
-            log::info!("{} kernel warmed up in {t:.2} s", k.name());
+            log::info!("{} kernel ({:?} depths) warmed up in {t:.2} s", s.kernel.name(), s.depths);
             took += t;
         }
         for m in markers {
@@ -480,7 +496,7 @@ impl GpuRenderer {
     fn run(
         &self,
         variant: Variant,
-        pipelines: &[(Kernel, std::sync::Arc<wgpu::ComputePipeline>)],
+        pipelines: &[(Stage, std::sync::Arc<wgpu::ComputePipeline>)],
         max_depth: Option<u32>,
         scene: &Scene,
         packed: &Packed,
@@ -498,7 +514,7 @@ impl GpuRenderer {
         buffers.size_queues(&mut params);
         let compile_s = self.warm_up(variant, pipelines, &buffers, &params)?;
         let plan = max_depth.map(|d| WavePlan::new(variant, d, budget::retry_passes(scene, walks.as_ref())));
-        let kernels = match pipelines.iter().find(|p| p.0 == Kernel::Aov) {
+        let kernels = match pipelines.iter().find(|p| p.0.kernel == Kernel::Aov) {
             Some((_, aov)) => Pipelines::Single(aov),
             None => Pipelines::Wavefront(pipelines),
         };

@@ -31,7 +31,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::buffers::SceneBuffers;
-use super::shaders::{Kernel, Variant};
+use super::shaders::{Kernel, Stage, Variant};
 use super::GpuContext;
 use crate::error::{Error, Result};
 use crate::layout::{
@@ -251,20 +251,22 @@ fn kernel_slot(k: Kernel) -> usize {
     }
 }
 
-/// The pipelines a schedule dispatches: the wavefront kernels of a render's variant
-/// ([`Kernel::wavefront`]), or one kernel run once over each tile (the `aov` kernel).
+/// The pipelines a schedule dispatches: the wavefront kernels of a render's variant, each
+/// with the depths it serves ([`Kernel::wavefront`]), or one kernel run once over each tile
+/// (the `aov` kernel).
 pub enum Pipelines<'a> {
-    Wavefront(&'a [(Kernel, Arc<wgpu::ComputePipeline>)]),
+    Wavefront(&'a [(Stage, Arc<wgpu::ComputePipeline>)]),
     Single(&'a wgpu::ComputePipeline),
 }
 
 impl Pipelines<'_> {
-    fn of(&self, k: Kernel) -> &wgpu::ComputePipeline {
+    /// The pipeline of `kernel` for the passes of depth `depth`.
+    fn of(&self, k: Kernel, depth: u32) -> &wgpu::ComputePipeline {
         match self {
             Pipelines::Single(p) => p,
             Pipelines::Wavefront(all) => all
                 .iter()
-                .find(|p| p.0 == k)
+                .find(|p| p.0.kernel == k && p.0.serves(depth))
                 .map(|p| p.1.as_ref())
                 .unwrap_or_else(|| panic!("a pass of the {} kernel, which this variant lacks", k.name())),
         }
@@ -504,7 +506,7 @@ impl Schedule {
                 label: Some(p.kernel.name()),
                 timestamp_writes: self.timestamps(kernels.len()),
             });
-            pass.set_pipeline(pipelines.of(p.kernel));
+            pass.set_pipeline(pipelines.of(p.kernel, p.desc.depth));
             pass.set_bind_group(0, &buffers.bind, &[]);
             match p.over {
                 Some(_) => pass.dispatch_workgroups_indirect(&buffers.indirect, 0),
@@ -519,7 +521,7 @@ impl Schedule {
                 label: Some("resolve"),
                 timestamp_writes: self.timestamps(kernels.len()),
             });
-            pass.set_pipeline(pipelines.of(Kernel::Resolve));
+            pass.set_pipeline(pipelines.of(Kernel::Resolve, 0));
             pass.set_bind_group(0, &buffers.bind, &[]);
             pass.dispatch_workgroups(groups, 1, 1);
             drop(pass);

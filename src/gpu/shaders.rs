@@ -75,13 +75,22 @@ impl Kernel {
     ];
 
     /// The wavefront kernels a render with `variant` runs (the shadow kernel only with
-    /// shadows).
-    pub fn wavefront(variant: Variant) -> Vec<Kernel> {
-        let mut k = vec![Kernel::Nearest, Kernel::Shade];
-        if variant.shadows {
-            k.push(Kernel::Shadow);
+    /// shadows), each with the depths whose passes it serves: `nearest` twice where the
+    /// tables send rays leaving surfaces to the BVH ([`Depths`]).
+    pub fn wavefront(variant: Variant) -> Vec<Stage> {
+        let all = |kernel| Stage { kernel, depths: Depths::All };
+        let mut k = Vec::new();
+        if variant.tables() && variant.surface_rays && !variant.beams {
+            k.push(Stage { kernel: Kernel::Nearest, depths: Depths::Eye });
+            k.push(Stage { kernel: Kernel::Nearest, depths: Depths::Later });
+        } else {
+            k.push(all(Kernel::Nearest));
         }
-        k.push(Kernel::Resolve);
+        k.push(all(Kernel::Shade));
+        if variant.shadows {
+            k.push(all(Kernel::Shadow));
+        }
+        k.push(all(Kernel::Resolve));
         k
     }
 
@@ -110,6 +119,48 @@ impl Kernel {
     /// The kernel's file under `shaders/`.
     pub fn file(self) -> String {
         format!("{}.wgsl", self.name())
+    }
+}
+
+/// The depths of the ray trees whose passes a wavefront kernel's module serves.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Depths {
+    /// Every depth: the render's variant.
+    All,
+    /// The eye's depth only: the eye rays walk the eye's table, and the module holds no BVH
+    /// walk for rays leaving surfaces.
+    Eye,
+    /// The depths past the eye's, whose rays leave surfaces and (with `--accel cube`) walk
+    /// the BVH: the module of `--accel bvh`, without the table walk. On lavapipe a kernel
+    /// pays for code it does not take: the table kernel's walk of these rays cost up to 37 %
+    /// more than the BVH kernel's (mount_s6), and its eye walks carried the BVH loop.
+    Later,
+}
+
+/// A wavefront kernel and the depths it serves ([`Kernel::wavefront`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Stage {
+    pub kernel: Kernel,
+    pub depths: Depths,
+}
+
+impl Stage {
+    /// The variant the stage's module is compiled in for a render of `variant`.
+    pub fn variant(self, variant: Variant) -> Variant {
+        match self.depths {
+            Depths::All => self.kernel.variant_of(variant),
+            Depths::Eye => variant.with_surface_rays(false),
+            Depths::Later => Variant { queries: Queries::Bvh, surface_rays: true, beams: false, ..variant },
+        }
+    }
+
+    /// Whether the stage runs the passes of depth `depth` (the eye's: 1).
+    pub fn serves(self, depth: u32) -> bool {
+        match self.depths {
+            Depths::All => true,
+            Depths::Eye => depth <= 1,
+            Depths::Later => depth > 1,
+        }
     }
 }
 

@@ -22,7 +22,7 @@ use crate::error::{Error, Result};
 use crate::gpu::buffers::check_limits;
 use crate::gpu::kernels::compute_pipeline;
 use crate::gpu::schedule::{Pacing, Pipelines, Progress, Schedule, WavePlan};
-use crate::gpu::shaders::{Kernel, Queries, Variant};
+use crate::gpu::shaders::{Kernel, Queries, Stage, Variant};
 use crate::gpu::{self, GpuRenderer, SceneBuffers};
 use crate::job::{grid_image, RenderOptions};
 use crate::layout::budget::{retry_passes, tile_points, MAX_DEPTH, TESTS_PER_DISPATCH};
@@ -104,7 +104,7 @@ pub struct Session {
     /// Passes after which the session is complete (at most `opts.spp`).
     limit: u32,
     /// The wavefront kernels of the current effects and depth.
-    pipelines: Vec<(Kernel, Arc<wgpu::ComputePipeline>)>,
+    pipelines: Vec<(Stage, Arc<wgpu::ComputePipeline>)>,
     /// The queries the kernels trace: the tables, the BVH, or brute force (also when the
     /// tables could not be rebuilt for a new eye).
     queries: Queries,
@@ -483,9 +483,8 @@ fn compile(
     v: Variant,
     buffers: &SceneBuffers,
     base: &Params,
-) -> Result<Vec<(Kernel, Arc<wgpu::ComputePipeline>)>> {
-    let pipelines =
-        Kernel::wavefront(v).into_iter().map(|k| Ok((k, gpu.kernel(k, v)?))).collect::<Result<Vec<_>>>()?;
+) -> Result<Vec<(Stage, Arc<wgpu::ComputePipeline>)>> {
+    let pipelines = gpu.pipelines(&Kernel::wavefront(v), v)?;
     gpu.warm_up(v, &pipelines, buffers, base)?;
     Ok(pipelines)
 }

@@ -20,7 +20,11 @@ struct Wavefront(Vec<naga::Module>);
 
 fn module(v: Variant) -> Wavefront {
     Wavefront(
-        Kernel::wavefront(v).into_iter().filter(|&k| k != Kernel::Resolve).map(|k| module_of(k, v)).collect(),
+        Kernel::wavefront(v)
+            .into_iter()
+            .filter(|s| s.kernel != Kernel::Resolve)
+            .map(|s| module_of(s.kernel, s.variant(v)))
+            .collect(),
     )
 }
 
@@ -47,8 +51,14 @@ fn every_kernel_and_variant_validates() {
     for v in Variant::all() {
         // A render runs the shadow kernel only with shadows.
         let wavefront = Kernel::wavefront(v);
-        assert_eq!(wavefront.contains(&Kernel::Shadow), v.shadows, "{v:?}");
-        for k in wavefront.into_iter().chain([Kernel::Aov]) {
+        assert_eq!(wavefront.iter().any(|s| s.kernel == Kernel::Shadow), v.shadows, "{v:?}");
+        // Each depth's passes have one `nearest`.
+        for depth in 1..=3 {
+            let n = wavefront.iter().filter(|s| s.kernel == Kernel::Nearest && s.serves(depth)).count();
+            assert_eq!(n, 1, "{v:?}: depth {depth}");
+        }
+        let stages = wavefront.into_iter().map(|s| (s.kernel, s.variant(v)));
+        for (k, v) in stages.chain([(Kernel::Aov, v)]) {
             let m = module_of(k, v);
             let caps = if v.f64 { Capabilities::FLOAT64 } else { Capabilities::default() };
             Validator::new(ValidationFlags::all(), caps)
@@ -155,8 +165,9 @@ fn each_kernel_contains_only_its_own_queries() {
         }
         // Only brute force loops over primitive ids; the table and BVH kernels loop over
         // candidate walks, group members and leaves.
-        for k in Kernel::wavefront(v) {
-            let src = compose(k, v).unwrap();
+        for s in Kernel::wavefront(v) {
+            let (k, sv) = (s.kernel, s.variant(v));
+            let src = compose(k, sv).unwrap();
             let traces = k != Kernel::Resolve;
             assert_eq!(src.contains("; id < end; id++"), brute && traces, "{v:?} {k:?}");
             assert!(!src.contains("< params.prim_count; id++"), "{v:?} {k:?}: an unbounded loop");
@@ -253,5 +264,28 @@ fn a_scene_compiles_the_intersections_of_its_kinds_only() {
             assert_eq!(has_function(&m, "intersect_triangle"), triangles, "{prims}");
             assert_eq!(has_function(&m, "intersect_cylinder"), cylinders, "{prims}");
         }
+    }
+}
+
+/// Where the tables send rays leaving surfaces to the BVH, the eye's depth runs a `nearest`
+/// without the BVH walk and the later depths one without the table walk; with beams (which
+/// the tables walk) and without rays leaving surfaces, one `nearest` serves every depth.
+#[test]
+fn each_depth_runs_a_nearest_with_its_own_walk_only() {
+    for v in Variant::all().into_iter().filter(|v| v.tables()) {
+        let nearest: Vec<_> =
+            Kernel::wavefront(v).into_iter().filter(|s| s.kernel == Kernel::Nearest).collect();
+        if !v.surface_rays || v.beams {
+            assert_eq!(nearest.len(), 1, "{v:?}");
+            continue;
+        }
+        let of = |depth: u32| {
+            let s = nearest.iter().find(|s| s.serves(depth)).unwrap();
+            Wavefront(vec![module_of(s.kernel, s.variant(v))])
+        };
+        let (eye, later) = (of(1), of(2));
+        assert!(has_function(&eye, "cell_walk") && !has_function(&eye, "bvh_nearest"), "{v:?}");
+        assert!(has_function(&later, "bvh_nearest") && !has_function(&later, "cell_walk"), "{v:?}");
+        assert!(!binds(&later, 14) && binds(&later, 20) && binds(&eye, 14) && !binds(&eye, 20), "{v:?}");
     }
 }
