@@ -80,9 +80,17 @@ pub enum Error {
     /// A bug in `shaders/` found while composing a kernel, with its file and line.
     #[error("shaders/{file}:{line}: {message}")]
     Shader { file: String, line: usize, message: String },
-    /// The GPU failed during a render (a lost device, a failed readback).
+    /// The GPU failed during a render (a lost device, a queue overflow too wide to split).
     #[error("the GPU failed: {0}")]
     Gpu(String),
+    /// A call into wgpu failed (`what`: waiting for the queue, mapping a buffer for a
+    /// readback); wgpu's own error is the source.
+    #[error("the GPU failed while {what}")]
+    GpuCall {
+        what: &'static str,
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
     /// The preview found no display to open its window on.
     #[error(
         "cannot open a window ({0}): the preview needs a display (X11 or Wayland). To render \

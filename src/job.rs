@@ -16,7 +16,7 @@ use crate::stats::{self, Stats};
 pub use crate::window::Window;
 
 /// Which acceleration structure to use.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum AccelKind {
     /// GPU: the candidate tables; CPU: brute force for tiny scenes, a BVH above.
     Auto,
@@ -35,7 +35,7 @@ pub enum AccelKind {
 /// The arithmetic of the GPU kernels' intersection tests and hit points (`--precision`):
 /// f32, or f64 where the adapter has `SHADER_F64` (a kernel variant, much slower). The scene,
 /// the rays and the tables stay in f32; the CPU reference always computes in f64.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Precision {
     #[default]
     F32,
@@ -56,7 +56,7 @@ impl Precision {
 pub struct RenderOptions {
     pub width: u32,
     pub height: u32,
-    /// Samples per pixel with [`Sampling::Center`] (1: the pixel centre; N > 1:
+    /// Samples per pixel with [`Sampling::Pixels`] (1: the pixel centre; N > 1:
     /// stratified jitter). Must be 1 with [`Sampling::Corners`].
     pub spp: u32,
     pub seed: u64,
@@ -115,7 +115,7 @@ impl RenderOptions {
             height,
             spp: 1,
             seed: 0,
-            sampling: Sampling::Center,
+            sampling: Sampling::Pixels,
             max_depth: 5,
             accel: AccelKind::Auto,
             spawn: SpawnPolicy::Scaled,
@@ -171,7 +171,7 @@ impl RenderOptions {
     pub fn grid(&self) -> (u32, u32) {
         match self.sampling {
             Sampling::Corners => (self.width + 1, self.height + 1),
-            Sampling::Center => (self.width, self.height),
+            Sampling::Pixels => (self.width, self.height),
         }
     }
 
@@ -185,7 +185,7 @@ impl RenderOptions {
                 size: (ww + 1, wh + 1),
                 owned: (ww + (w.x1 == self.width) as u32, wh + (w.y1 == self.height) as u32),
             },
-            Sampling::Center => GridWindow { origin: (w.x0, w.y0), size: (ww, wh), owned: (ww, wh) },
+            Sampling::Pixels => GridWindow { origin: (w.x0, w.y0), size: (ww, wh), owned: (ww, wh) },
         }
     }
 
@@ -203,8 +203,8 @@ impl RenderOptions {
             spp: self.spp,
             sampling: match self.sampling {
                 Sampling::Corners => "corners".into(),
-                Sampling::Center if self.spp > 1 => "jitter".into(),
-                Sampling::Center => "center".into(),
+                Sampling::Pixels if self.spp > 1 => "jitter".into(),
+                Sampling::Pixels => "center".into(),
             },
             seed: self.seed,
             max_depth: self.max_depth,

@@ -62,7 +62,7 @@ impl Image {
 }
 
 /// Auxiliary outputs (`--aov`), taken from the eye ray through each pixel centre.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Aov {
     /// Distance from the eye ray's origin to the first hit, in scene units, in R, G and B.
     /// Miss: 0 (no hit is at distance 0).

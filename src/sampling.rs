@@ -16,10 +16,11 @@
 //! `pixel = j·W + i`, taking the top 24 bits as a fraction in [0, 1) (exact in f32).
 
 /// How eye rays are placed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Sampling {
-    /// Pixel centres, or stratified jitter with `--spp N` (N > 1).
-    Center,
+    /// Within each pixel: its centre with one sample, stratified jitter with more (`--spp N`,
+    /// N > 1; `--sampling center` on the command line).
+    Pixels,
     /// SPD procedure: rays at the (W+1)×(H+1) pixel corners, four averaged per pixel.
     Corners,
 }

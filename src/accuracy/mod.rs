@@ -35,20 +35,18 @@ use crate::tablefile::StoredTables;
 use metrics::{hit_error, image_error, HitError, ImageError};
 
 /// A setting the sweep varies.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, clap::ValueEnum, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Parameter {
     /// Samples per pixel (stratified jitter).
     Spp,
     /// Maximum ray-tree depth.
-    #[value(alias = "max_depth")]
     MaxDepth,
     /// The kernels' intersection arithmetic: f32, f64 where the adapter has it.
     Precision,
     /// The spawn offset: the scaled policy, fixed epsilons of several sizes.
     Offset,
     /// Cells per face edge of the eye's table: time and memory, never the image.
-    #[value(alias = "table_resolution")]
     TableResolution,
     /// The accelerator: time only, never the image.
     Accel,
@@ -125,7 +123,7 @@ impl Settings {
         RenderOptions {
             spp: self.spp,
             seed: self.seed,
-            sampling: Sampling::Center,
+            sampling: Sampling::Pixels,
             max_depth: self.max_depth,
             accel: AccelKind::Cube,
             ..RenderOptions::new(self.width, self.height)

@@ -10,6 +10,8 @@ use clap::Args;
 use serde::Serialize;
 
 use cuberay::accuracy::{self, plot, Parameter, Row, Settings, Summary};
+
+use super::args::ParameterArg;
 use cuberay::gpu::GpuRenderer;
 use cuberay::output::write_atomically;
 
@@ -35,7 +37,7 @@ pub struct AccuracyArgs {
         value_delimiter = ',',
         default_value = "spp,max-depth,precision,offset,table-resolution,accel"
     )]
-    pub params: Vec<Parameter>,
+    pub params: Vec<ParameterArg>,
     /// Timed runs per row after a warm-up; the median is reported.
     #[arg(long, default_value_t = 3)]
     pub runs: u32,
@@ -97,7 +99,7 @@ pub fn run(args: AccuracyArgs) -> anyhow::Result<()> {
     let scene_bytes =
         std::fs::read(&args.scene).with_context(|| format!("cannot read {}", args.scene.display()))?;
     let mut params: Vec<Parameter> = Vec::new();
-    for &p in &args.params {
+    for p in args.params.iter().map(|&p| Parameter::from(p)) {
         if !params.contains(&p) {
             params.push(p);
         }

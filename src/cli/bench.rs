@@ -17,9 +17,9 @@ use cuberay::gpu::GpuRenderer;
 use cuberay::job::{AccelKind, RenderOptions, Rendered};
 use cuberay::layout::MAX_DEPTH;
 use cuberay::reference;
-use cuberay::sampling::Sampling;
 use cuberay::stats::{Stats, TestsPerRay};
 
+use super::args::{AccelArg, SamplingArg};
 use super::render::progress_bar;
 
 /// The SPD canonical scenes (Haines' sizes of 1987), the default set.
@@ -41,7 +41,7 @@ pub struct BenchArgs {
     pub spd_dir: PathBuf,
     /// Accelerators to compare, comma-separated; the ratio column needs `bvh` among them.
     #[arg(long, value_enum, value_delimiter = ',', default_value = "cube,bvh")]
-    pub accel: Vec<AccelKind>,
+    pub accel: Vec<AccelArg>,
     /// Backends, comma-separated.
     #[arg(long, value_enum, value_delimiter = ',', default_value = "gpu")]
     pub backend: Vec<BenchBackend>,
@@ -55,8 +55,8 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 512)]
     pub height: u32,
     /// Eye-ray placement (default: the SPD procedure's pixel corners).
-    #[arg(long, value_enum, default_value_t = Sampling::Corners)]
-    pub sampling: Sampling,
+    #[arg(long, value_enum, default_value_t = SamplingArg::Corners)]
+    pub sampling: SamplingArg,
     /// Maximum ray-tree depth (SPD: 5).
     #[arg(long, default_value_t = 5)]
     pub max_depth: u32,
@@ -194,7 +194,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         for &backend in &args.backend {
             let render = |accel: AccelKind, count: bool| -> anyhow::Result<Rendered> {
                 let opts = RenderOptions {
-                    sampling: args.sampling,
+                    sampling: args.sampling.into(),
                     max_depth: args.max_depth,
                     accel,
                     count,
@@ -216,7 +216,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             // (on an adapter without timestamps the time is the trace time, compilation
             // included).
             let mut stats: Vec<Stats> = Vec::new();
-            for &accel in &args.accel {
+            for accel in args.accel.iter().map(|&a| AccelKind::from(a)) {
                 stats.push(render(accel, true)?.stats);
                 render(accel, false)?;
             }
@@ -225,7 +225,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             let mut runs: Vec<Vec<Timed>> = vec![Vec::new(); args.accel.len()];
             for _ in 0..args.runs {
                 for (k, &accel) in args.accel.iter().enumerate() {
-                    let r = render(accel, false)?;
+                    let r = render(accel.into(), false)?;
                     runs[k].push(Timed::of(&r, backend));
                 }
             }

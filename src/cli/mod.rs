@@ -10,6 +10,7 @@ use cuberay::info::SceneInfo;
 use cuberay::load::{self, LoadOptions, Loaded};
 
 mod accuracy;
+mod args;
 mod bench;
 mod compare;
 mod merge;

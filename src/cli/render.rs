@@ -9,13 +9,14 @@ use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use cuberay::gpu::GpuRenderer;
-use cuberay::job::{AccelKind, Precision, RenderOptions, Window};
+use cuberay::job::{RenderOptions, Window};
 use cuberay::load::{self, Loaded};
 use cuberay::output::{self, Aov, OutputFormat};
 use cuberay::part::{self, PartInfo, SceneId};
 use cuberay::reference;
-use cuberay::sampling::Sampling;
 use cuberay::scene::Transfer;
+
+use super::args::{AccelArg, AovArg, PrecisionArg, SamplingArg, TransferArg};
 use cuberay::tablefile;
 
 /// Which renderer to run.
@@ -50,7 +51,7 @@ pub struct RenderArgs {
     pub trace: TraceArgs,
     /// Write an auxiliary output to the (.exr) output instead of the image.
     #[arg(long, value_enum)]
-    pub aov: Option<Aov>,
+    pub aov: Option<AovArg>,
     /// Print statistics after the render: text (default) or one JSON object on stdout. The
     /// GPU kernels count rays and tests only then (and for a part), as counting slows them.
     #[arg(long, value_enum, num_args = 0..=1, default_missing_value = "text")]
@@ -125,8 +126,8 @@ pub struct TraceArgs {
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Eye-ray placement: pixel centres, or the SPD procedure's (W+1)×(H+1) pixel corners.
-    #[arg(long, value_enum, default_value_t = Sampling::Center)]
-    pub sampling: Sampling,
+    #[arg(long, value_enum, default_value_t = SamplingArg::Center)]
+    pub sampling: SamplingArg,
     /// Maximum ray-tree depth, the eye ray being depth 1.
     #[arg(long, default_value_t = 5)]
     pub max_depth: u32,
@@ -135,12 +136,12 @@ pub struct TraceArgs {
     /// light rays, the BVH for rays leaving surfaces; beams: the direction cubes and ray
     /// classification's beams; bvh: a bounding volume hierarchy (the baseline); brute: every
     /// primitive for every ray.
-    #[arg(long, value_enum, default_value_t = AccelKind::Auto)]
-    pub accel: AccelKind,
+    #[arg(long, value_enum, default_value_t = AccelArg::Auto)]
+    pub accel: AccelArg,
     /// The GPU kernels' intersection arithmetic: f32, or f64 where the adapter has 64-bit
     /// floats in shaders (lavapipe has; much slower). The CPU reference is always f64.
-    #[arg(long, value_enum, default_value_t = Precision::F32)]
-    pub precision: Precision,
+    #[arg(long, value_enum, default_value_t = PrecisionArg::F32)]
+    pub precision: PrecisionArg,
     /// Cells per face edge of the eye's direction cube (default: about two pixels a cell):
     /// the tables' time and memory, never the image.
     #[arg(long)]
@@ -153,7 +154,7 @@ pub struct TraceArgs {
     /// sRGB-encoded) or display (the values as they are). Default: display for NFF, whose
     /// colours are display values, srgb for glTF.
     #[arg(long, value_enum)]
-    pub transfer: Option<Transfer>,
+    pub transfer: Option<TransferArg>,
 }
 
 impl TraceArgs {
@@ -188,12 +189,12 @@ impl TraceArgs {
             height,
             spp: self.spp.unwrap_or(1),
             seed: self.seed,
-            sampling: self.sampling,
+            sampling: self.sampling.into(),
             max_depth: self.max_depth,
-            accel: self.accel,
-            precision: self.precision,
+            accel: self.accel.into(),
+            precision: self.precision.into(),
             eye_cells: self.eye_cells,
-            transfer: self.transfer,
+            transfer: self.transfer.map(Transfer::from),
             ..RenderOptions::new(1, 1)
         };
         opts.validate()?;
@@ -350,12 +351,12 @@ fn render_one(
     let read_s = read_start.elapsed().as_secs_f64();
     let progress = progress_bar("rendering");
     let rendered = match gpu {
-        None => match args.aov {
+        None => match args.aov.map(Aov::from) {
             Some(aov) => reference::render_aov(scene, &opts, aov, &progress),
             None => reference::render(scene, &opts, &progress),
         }
         .with_context(|| format!("cannot render {}", scene_name.display()))?,
-        Some(gpu) => match args.aov {
+        Some(gpu) => match args.aov.map(Aov::from) {
             Some(aov) => gpu.render_aov_with(scene, &opts, aov, stored, &progress),
             None => gpu.render_with(scene, &opts, stored, &progress),
         }

@@ -7,9 +7,9 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::Args;
 
+use super::args::AovArg;
 use cuberay::coherence::{self, TableStats};
 use cuberay::gpu::GpuRenderer;
-use cuberay::output::Aov;
 use cuberay::tablefile;
 
 use super::render::TraceArgs;
@@ -28,7 +28,7 @@ pub struct TablesArgs {
     /// Build the tables of an auxiliary-output render (`render --aov`), which traces eye
     /// rays only.
     #[arg(long, value_enum)]
-    pub aov: Option<Aov>,
+    pub aov: Option<AovArg>,
     /// Build the tables of this frame of a glTF animation (`render --frames F..F`).
     #[arg(long)]
     pub frame: Option<u32>,

@@ -93,6 +93,11 @@ impl GpuContext {
     }
 }
 
+/// A failed wgpu call, wgpu's error kept as the source.
+fn gpu_call(what: &'static str, e: impl std::error::Error + Send + Sync + 'static) -> Error {
+    Error::GpuCall { what, source: Box::new(e) }
+}
+
 impl GpuContext {
     /// Whether the adapter is Mesa's lavapipe (llvmpipe), whose loop limit the kernels keep to.
     pub fn is_lavapipe(&self) -> bool {
@@ -111,7 +116,7 @@ impl GpuContext {
     pub fn wait(&self) -> Result<()> {
         self.device
             .poll(wgpu::PollType::Wait { submission_index: None, timeout: None })
-            .map_err(|e| Error::Gpu(e.to_string()))?;
+            .map_err(|e| gpu_call("waiting for the queue", e))?;
         self.fault()
     }
 
@@ -124,10 +129,11 @@ impl GpuContext {
         });
         self.device
             .poll(wgpu::PollType::Wait { submission_index: None, timeout: None })
-            .map_err(|e| Error::Gpu(e.to_string()))?;
+            .map_err(|e| gpu_call("waiting for a readback", e))?;
         self.fault()?;
-        rx.recv().map_err(|e| Error::Gpu(e.to_string()))?.map_err(|e| Error::Gpu(e.to_string()))?;
-        let data = buffer.get_mapped_range(0..bytes).map_err(|e| Error::Gpu(format!("{e:?}")))?.to_vec();
+        const MAPPING: &str = "mapping a buffer for a readback";
+        rx.recv().map_err(|e| gpu_call(MAPPING, e))?.map_err(|e| gpu_call(MAPPING, e))?;
+        let data = buffer.get_mapped_range(0..bytes).map_err(|e| gpu_call(MAPPING, e))?.to_vec();
         buffer.unmap();
         Ok(data)
     }

@@ -464,7 +464,7 @@ impl GpuRenderer {
         let (w, h) = (opts.window().width(), opts.window().height());
         let Prepared { variant, pipelines, mut packed, tables, start } =
             self.prepare(scene, opts, true, stored)?;
-        let center = RenderOptions { spp: 1, sampling: Sampling::Center, max_depth: 1, ..opts.clone() };
+        let center = RenderOptions { spp: 1, sampling: Sampling::Pixels, max_depth: 1, ..opts.clone() };
         packed.params = job_params(&center, packed.params);
         packed.params.aov = match aov {
             Aov::Depth => AOV_DEPTH,

@@ -116,7 +116,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions, progress: &ProgressBar) -> Re
                     match opts.sampling {
                         Sampling::Corners if stopped() => DVec3::ZERO,
                         Sampling::Corners => tracer.eye(&eye_ray(i as f64, j as f64), counted),
-                        Sampling::Center => {
+                        Sampling::Pixels => {
                             let mut sum = DVec3::ZERO;
                             for s in 0..opts.spp {
                                 if stopped() {
@@ -145,7 +145,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions, progress: &ProgressBar) -> Re
                     let (top, bottom) = (&rows[j].0, &rows[j + 1].0);
                     (top[i] + top[i + 1] + bottom[i] + bottom[i + 1]) * 0.25
                 }
-                Sampling::Center => rows[j].0[i],
+                Sampling::Pixels => rows[j].0[i],
             };
             image.pixels[j * ww + i] = to_pixel(v);
         }

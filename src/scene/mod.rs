@@ -319,9 +319,7 @@ pub struct Scene {
 
 /// How rendered values become the 8-bit values of a PNG (or a window), after clamping to
 /// [0, 1].
-#[derive(
-    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, clap::ValueEnum, Serialize, serde::Deserialize,
-)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Transfer {
     /// The values are linear radiance: encode them with the sRGB transfer function (glTF).
