@@ -14,8 +14,8 @@
 
 use std::time::Instant;
 
+use cuberay::arith::spawn::SpawnPolicy;
 use cuberay::coherence;
-use cuberay::kernel::spawn::SpawnPolicy;
 use cuberay::layout;
 use cuberay::load::{self, LoadOptions};
 use cuberay::preview::controls::Controller;

@@ -12,9 +12,9 @@
 //! sampling, depth 5, 256×256 unless `--size N`).
 
 use anyhow::{bail, Context};
+use cuberay::arith::spawn::SpawnPolicy;
 use cuberay::gpu::GpuRenderer;
 use cuberay::job::RenderOptions;
-use cuberay::kernel::spawn::SpawnPolicy;
 use cuberay::load::{self, LoadOptions};
 use cuberay::sampling::Sampling;
 use indicatif::ProgressBar;

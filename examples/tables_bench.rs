@@ -9,7 +9,7 @@
 //!  SCENE...` prints one JSON object per scene. `--fixed-offset K` builds for a fixed spawn
 //!  offset of K times the scene's bounding diagonal (as `cuberay accuracy`'s offset rows do).
 
-use cuberay::coherence::{self, bench, BuildParams, ShadowMode, TableStats};
+use cuberay::coherence::{self, audit, BuildParams, ShadowMode, TableStats};
 use cuberay::load::{self, LoadOptions};
 
 fn main() -> anyhow::Result<()> {
@@ -59,7 +59,7 @@ fn main() -> anyhow::Result<()> {
             params.light_cells = c;
         }
         if let Some(k) = fixed_offset {
-            params.spawn = cuberay::kernel::spawn::SpawnPolicy::Fixed((k * scene.bounds().diagonal()) as f32);
+            params.spawn = cuberay::arith::spawn::SpawnPolicy::Fixed((k * scene.bounds().diagonal()) as f32);
         }
         if hit_object {
             params.shadow_mode = ShadowMode::HitObject;
@@ -70,10 +70,10 @@ fn main() -> anyhow::Result<()> {
         let mut out =
             serde_json::json!({ "scene": path, "primitives": scene.primitives.len(), "tables": stats });
         if trace {
-            let b = bench::trace_counts(
+            let b = audit::trace_counts(
                 &scene,
                 &tables,
-                bench::BenchParams {
+                audit::AuditParams {
                     width: size,
                     height: size,
                     corners: true,

@@ -7,13 +7,13 @@
 
 use glam::DVec3;
 
+use crate::arith::spawn::SpawnPolicy;
 use crate::error::{Error, Result};
-use crate::kernel::spawn::SpawnPolicy;
 use crate::output::Image;
+pub use crate::region::Region;
 use crate::sampling::Sampling;
 use crate::scene::{Scene, Transfer};
 use crate::stats::{self, Stats};
-pub use crate::window::Window;
 
 /// Which acceleration structure to use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -75,28 +75,28 @@ pub struct RenderOptions {
     /// How a PNG encodes the values; `None`: the scene's ([`Scene::transfer`]).
     pub transfer: Option<Transfer>,
     /// The part of the image to render (`--tile`, `--crop`); `None`: all of it. The
-    /// window changes which grid points are traced, never how: every pixel of it gets the
+    /// region changes which grid points are traced, never how: every pixel of it gets the
     /// samples, seeds and tables of the whole render.
-    pub window: Option<Window>,
+    pub region: Option<Region>,
     /// Whether the GPU kernels count rays and tests for the statistics (default: yes). They
     /// run faster uncounted (see `Variant::counters`), and the counts of their
     /// [`crate::stats::Stats`] are then zero; the CPU reference always counts.
     pub count: bool,
 }
 
-/// The grid points a windowed render traces: `size` points from grid point `origin`, of
-/// which those with local coordinates below `owned` are its own (counted in its statistics).
-/// With corner sampling a window traces the corners on its right and bottom edges too, to
+/// The grid points the render of a region traces: `size` points from grid point `origin`,
+/// of which those with local coordinates below `owned` are its own (counted in its
+/// statistics). With corner sampling a region traces the corners on its right and bottom edges too, to
 /// average its pixels, but owns them only at the image's edge: the neighbour owns the rest,
 /// so the counts of the parts of an image add up to those of the whole.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct GridWindow {
+pub struct GridRegion {
     pub origin: (u32, u32),
     pub size: (u32, u32),
     pub owned: (u32, u32),
 }
 
-impl GridWindow {
+impl GridRegion {
     pub fn points(&self) -> u64 {
         self.size.0 as u64 * self.size.1 as u64
     }
@@ -122,7 +122,7 @@ impl RenderOptions {
             precision: Precision::F32,
             eye_cells: None,
             transfer: None,
-            window: None,
+            region: None,
             count: true,
         }
     }
@@ -150,10 +150,10 @@ impl RenderOptions {
                 return bad(format!("the eye table's {n} cells per face edge are not within 1..=8192"));
             }
         }
-        if let Some(w) = self.window {
+        if let Some(w) = self.region {
             if w.x0 >= w.x1 || w.y0 >= w.y1 || w.x1 > self.width || w.y1 > self.height {
                 return bad(format!(
-                    "the window {w} (x0,y0,x1,y1) is not a non-empty part of the {}x{} image",
+                    "the region {w} (x0,y0,x1,y1) is not a non-empty part of the {}x{} image",
                     self.width, self.height
                 ));
             }
@@ -161,9 +161,9 @@ impl RenderOptions {
         Ok(())
     }
 
-    /// The pixels this job renders: its window, or the whole image.
-    pub fn window(&self) -> Window {
-        self.window.unwrap_or(Window::full(self.width, self.height))
+    /// The pixels this job renders: its region, or the whole image.
+    pub fn region(&self) -> Region {
+        self.region.unwrap_or(Region::full(self.width, self.height))
     }
 
     /// The grid of eye-ray points of the whole image: the pixels, or the (W+1)×(H+1) pixel
@@ -175,17 +175,17 @@ impl RenderOptions {
         }
     }
 
-    /// The grid points this job traces and owns ([`GridWindow`]).
-    pub fn grid_window(&self) -> GridWindow {
-        let w = self.window();
+    /// The grid points this job traces and owns ([`GridRegion`]).
+    pub fn grid_region(&self) -> GridRegion {
+        let w = self.region();
         let (ww, wh) = (w.width(), w.height());
         match self.sampling {
-            Sampling::Corners => GridWindow {
+            Sampling::Corners => GridRegion {
                 origin: (w.x0, w.y0),
                 size: (ww + 1, wh + 1),
                 owned: (ww + (w.x1 == self.width) as u32, wh + (w.y1 == self.height) as u32),
             },
-            Sampling::Pixels => GridWindow { origin: (w.x0, w.y0), size: (ww, wh), owned: (ww, wh) },
+            Sampling::Pixels => GridRegion { origin: (w.x0, w.y0), size: (ww, wh), owned: (ww, wh) },
         }
     }
 
@@ -210,7 +210,7 @@ impl RenderOptions {
             max_depth: self.max_depth,
             precision: if backend == "cpu" { "f64".into() } else { self.precision.name().into() },
             transfer: self.transfer_for(scene),
-            window: self.window.filter(|w| !w.is_full(self.width, self.height)),
+            window: self.region.filter(|w| !w.is_full(self.width, self.height)),
         }
     }
 
@@ -225,13 +225,13 @@ impl RenderOptions {
 }
 
 /// The image of a render of `scene` from its grid of eye-ray points (one summed RGB per
-/// point of [`RenderOptions::grid_window`], as the kernels leave them): each pixel the mean
+/// point of [`RenderOptions::grid_region`], as the kernels leave them): each pixel the mean
 /// of its four corners with SPD sampling, else its sum over `samples` samples divided by
-/// `samples` (in f64). The image is the window's size.
+/// `samples` (in f64). The image is the region's size.
 pub fn grid_image(opts: &RenderOptions, scene: &Scene, values: &[[f32; 4]], samples: u32) -> Image {
-    let win = opts.window();
+    let win = opts.region();
     let (w, h) = (win.width(), win.height());
-    let gw = opts.grid_window().size.0;
+    let gw = opts.grid_region().size.0;
     let corners = opts.sampling == Sampling::Corners;
     let at = |i: u32, j: u32| {
         let p = values[(j * gw + i) as usize];

@@ -8,7 +8,7 @@
 //!                        └──────────────reference (CPU, f64)──────────────────────────────────▶ image
 //! ```
 //!
-//! Layers, each using only those before it: [`scene`] ← [`load`]; [`scene`] ← [`kernel`] ←
+//! Layers, each using only those before it: [`scene`] ← [`load`]; [`scene`] ← [`arith`] ←
 //! [`coherence`] ← [`layout`] ← [`gpu`] ← [`preview`], [`accuracy`]; the CPU
 //! [`reference`](mod@reference) beside them.
 //! [`job`], [`sampling`], [`bvh`], [`stats`], [`output`], [`window`], [`part`] and [`error`] are
@@ -20,7 +20,7 @@
 //! - [`sampling`]: where eye rays go through the image;
 //! - [`bvh`]: the bounding volume hierarchy both backends can trace (`--accel bvh`), the
 //!   baseline the candidate tables are measured against;
-//! - [`kernel`]: the kernels' f32 arithmetic on the CPU (twins of the WGSL geometry);
+//! - [`arith`]: the kernels' f32 arithmetic on the CPU (twins of the WGSL geometry);
 //! - [`coherence`]: the direction-cube candidate tables, flattened, and their one walker;
 //! - [`layout`]: the `#[repr(C)]` twins of the WGSL structs and constants, the packed scene;
 //! - [`gpu`]: the WGSL kernels through wgpu;
@@ -37,6 +37,7 @@
 //! - [`error`]: the library's one error type.
 
 pub mod accuracy;
+pub mod arith;
 pub mod bvh;
 pub mod coherence;
 pub mod compare;
@@ -45,17 +46,16 @@ pub mod gpu;
 pub mod info;
 pub mod interrupt;
 pub mod job;
-pub mod kernel;
 pub mod layout;
 pub mod load;
 pub mod output;
 pub mod part;
 pub mod preview;
 pub mod reference;
+pub mod region;
 pub mod sampling;
 pub mod scene;
 pub mod stats;
 pub mod tablefile;
-pub mod window;
 
 pub use error::{Error, Result};

@@ -1,7 +1,7 @@
 //! Partial renders and merging them: the EXR file a `--tile` or `--crop` render writes, and
 //! `cuberay merge`, which assembles such parts into the whole image and its statistics.
 //!
-//! A part is an OpenEXR file whose data window is the part's [`Window`] and whose display
+//! A part is an OpenEXR file whose data window is the part's [`Region`] and whose display
 //! window is the whole image, so other EXR tools place it correctly. Its header carries one
 //! text attribute, `cuberay`, holding a JSON [`PartInfo`]: which scene (the file's name,
 //! length and SHA-256), the render's settings (window included), the effects, the raw
@@ -9,7 +9,7 @@
 //!
 //! [`merge`] refuses parts of different scenes or settings, overlapping parts and parts that
 //! leave a pixel uncovered, naming the part; it sums the counters (each grid point is
-//! counted by exactly one part, see [`crate::job::GridWindow`]), so the merged statistics
+//! counted by exactly one part, see [`crate::job::GridRegion`]), so the merged statistics
 //! equal those of a single render, and the merged pixels are those a single render gives.
 
 use std::path::{Path, PathBuf};
@@ -19,9 +19,9 @@ use sha2::{Digest, Sha256};
 
 use crate::error::Error;
 use crate::output::{self, Image};
+use crate::region::Region;
 use crate::scene::Effects;
 use crate::stats::{Counters, Settings, Stats, Times};
-use crate::window::Window;
 
 /// The value of [`PartInfo::format`]: the layout of the attribute, versioned.
 pub const PART_FORMAT: &str = "cuberay-part/1";
@@ -113,9 +113,9 @@ impl PartInfo {
         }
     }
 
-    fn window(&self) -> Window {
+    fn region(&self) -> Region {
         let [w, h] = self.settings.size;
-        self.settings.window.unwrap_or(Window::full(w, h))
+        self.settings.window.unwrap_or(Region::full(w, h))
     }
 }
 
@@ -140,7 +140,7 @@ fn ascii_json(value: &impl Serialize) -> String {
 /// Writes `image` (the window's pixels) as a partial EXR with `info`, atomically.
 pub fn write_part(image: &Image, info: &PartInfo, path: &Path) -> Result<(), Error> {
     use exr::meta::attribute::{AttributeValue, Text};
-    let win = info.window();
+    let win = info.region();
     if (image.width, image.height) != (win.width(), win.height()) {
         return Err(Error::Options(format!(
             "internal: a {}x{} image for the window {win}",
@@ -220,7 +220,7 @@ pub fn read_part(path: &Path) -> Result<Part, Error> {
         )));
     }
     let [full_w, full_h] = info.settings.size;
-    let win = info.window();
+    let win = info.region();
     if full_w == 0
         || full_h == 0
         || win.x0 >= win.x1
@@ -360,7 +360,7 @@ pub fn merge(parts: &[Part]) -> Result<Merged, Error> {
             if a.path == b.path {
                 return Err(bad(b, "it is named twice".into()));
             }
-            let (wa, wb) = (a.info.window(), b.info.window());
+            let (wa, wb) = (a.info.region(), b.info.region());
             if wa.overlaps(&wb) {
                 return Err(bad(
                     b,
@@ -372,9 +372,9 @@ pub fn merge(parts: &[Part]) -> Result<Merged, Error> {
             }
         }
     }
-    let covered: u64 = parts.iter().map(|p| p.info.window().pixels()).sum();
+    let covered: u64 = parts.iter().map(|p| p.info.region().pixels()).sum();
     if covered != w as u64 * h as u64 {
-        let (x, y) = first_gap(parts.iter().map(|p| p.info.window()).collect(), w, h);
+        let (x, y) = first_gap(parts.iter().map(|p| p.info.region()).collect(), w, h);
         return Err(Error::Options(format!(
             "the {} parts cover {covered} of the {w}x{h} image's {} pixels: pixel ({x}, {y}) is in none of them",
             parts.len(),
@@ -387,7 +387,7 @@ pub fn merge(parts: &[Part]) -> Result<Merged, Error> {
     let mut counters = Counters::default();
     let mut time = Times::default();
     for p in parts {
-        let win = p.info.window();
+        let win = p.info.region();
         for y in 0..win.height() {
             let src = &p.image.pixels[(y * win.width()) as usize..((y + 1) * win.width()) as usize];
             let at = ((win.y0 + y) * w + win.x0) as usize;
@@ -409,7 +409,7 @@ pub fn merge(parts: &[Part]) -> Result<Merged, Error> {
 /// The first pixel, in row order, that none of `windows` (which do not overlap and lie in
 /// the `w`×`h` image, but cover less than it) holds: per row, the windows' column ranges
 /// sorted, and the first hole between them.
-fn first_gap(mut windows: Vec<Window>, w: u32, h: u32) -> (u32, u32) {
+fn first_gap(mut windows: Vec<Region>, w: u32, h: u32) -> (u32, u32) {
     windows.sort_by_key(|win| win.x0);
     for y in 0..h {
         let mut x = 0;

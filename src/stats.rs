@@ -254,9 +254,9 @@ pub struct Settings {
     pub transfer: crate::scene::Transfer,
     /// `--tile` or `--crop`: the pixels rendered, `{x0, y0, x1, y1}` (ends exclusive) of the
     /// `size` image; absent for a whole image. The counts are those of the grid points the
-    /// window owns ([`crate::job::GridWindow`]), so the parts' counts add up to the whole's.
+    /// window owns ([`crate::job::GridRegion`]), so the parts' counts add up to the whole's.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub window: Option<crate::window::Window>,
+    pub window: Option<crate::region::Region>,
 }
 
 /// Everything `--stats` reports.

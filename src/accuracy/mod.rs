@@ -22,12 +22,12 @@ use indicatif::ProgressBar;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
+use crate::arith::spawn::SpawnPolicy;
 use crate::coherence::defs::default_eye_cells;
 use crate::coherence::BuildParams;
 use crate::error::{Error, Result};
 use crate::gpu::GpuRenderer;
 use crate::job::{AccelKind, Precision, RenderOptions};
-use crate::kernel::spawn::SpawnPolicy;
 use crate::output::{Aov, Image, Transfer};
 use crate::sampling::Sampling;
 use crate::scene::Scene;

@@ -9,7 +9,7 @@ use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use cuberay::gpu::GpuRenderer;
-use cuberay::job::{RenderOptions, Window};
+use cuberay::job::{Region, RenderOptions};
 use cuberay::load::{self, Loaded};
 use cuberay::output::{self, Aov, OutputFormat};
 use cuberay::part::{self, PartInfo, SceneId};
@@ -62,7 +62,7 @@ pub struct RenderArgs {
     pub tile: Option<(u32, u32)>,
     /// Render only pixels X0..X1 × Y0..Y1 (ends exclusive) of the image, as --tile does.
     #[arg(long, value_parser = parse_crop, value_name = "X0,Y0,X1,Y1")]
-    pub crop: Option<Window>,
+    pub crop: Option<Region>,
     /// Render frames A to B (both included) of a glTF file's animation, sampled at
     /// t = frame / --fps, one file a frame: a run of `#` in the output's name becomes the
     /// frame number (`shot_####.png`), else `_NNNN` goes before the extension.
@@ -93,7 +93,7 @@ fn parse_tile(s: &str) -> Result<(u32, u32), String> {
 }
 
 /// `--crop X0,Y0,X1,Y1`.
-fn parse_crop(s: &str) -> Result<Window, String> {
+fn parse_crop(s: &str) -> Result<Region, String> {
     let v = s
         .split(',')
         .map(|t| t.trim().parse::<u32>().map_err(|_| format!("{t:?} in {s:?} is not a pixel coordinate")))
@@ -104,7 +104,7 @@ fn parse_crop(s: &str) -> Result<Window, String> {
     if x0 >= x1 || y0 >= y1 {
         return Err(format!("{s:?}: the window is empty (it needs X0 < X1 and Y0 < Y1)"));
     }
-    Ok(Window { x0, y0, x1, y1 })
+    Ok(Region { x0, y0, x1, y1 })
 }
 
 /// The options shared by `render` and `compare`: which scene camera, image size and
@@ -321,12 +321,12 @@ fn render_one(
 ) -> anyhow::Result<()> {
     let time = frame.map(|f| f as f64 / args.fps);
     let (scene_name, loaded, mut opts) = args.trace.load_at(&args.scene, time)?;
-    opts.window = match (args.tile, args.crop) {
-        (Some((i, n)), _) => Some(Window::band(i, n, opts.width, opts.height)?),
+    opts.region = match (args.tile, args.crop) {
+        (Some((i, n)), _) => Some(Region::band(i, n, opts.width, opts.height)?),
         (None, crop) => crop,
     };
     opts.validate()?;
-    let part = opts.window.is_some() && format == OutputFormat::Exr;
+    let part = opts.region.is_some() && format == OutputFormat::Exr;
     // The kernels count rays and tests only for a report or a part (whose counts `merge`
     // adds up): uncounted they run faster.
     opts.count = args.stats.is_some() || part;

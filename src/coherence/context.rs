@@ -2,14 +2,14 @@
 //! the spawn offset and angular widening, the primitive groups.
 
 use super::groups::{Groups, GROUP_SIZE};
-use super::hierarchy::Bvh;
+use super::hierarchy::SphereTree;
 use super::params::BuildParams;
 use super::targets::Target;
 
 /// Shared, read-only inputs of the per-origin builds.
 pub struct Ctx<'a> {
     pub targets: &'a [Target],
-    pub bvh: &'a Bvh,
+    pub bvh: &'a SphereTree,
     pub eps: f64,
     pub delta: f64,
     /// The primitive groups, and the list length from which lists name them.
@@ -18,7 +18,7 @@ pub struct Ctx<'a> {
 }
 
 impl<'a> Ctx<'a> {
-    pub fn new(targets: &'a [Target], bvh: &'a Bvh, eps: f64, params: &BuildParams) -> Self {
+    pub fn new(targets: &'a [Target], bvh: &'a SphereTree, eps: f64, params: &BuildParams) -> Self {
         Ctx {
             targets,
             bvh,

@@ -10,7 +10,7 @@
 //! by `d_min`, so the early exit is unchanged, and a group entry tests a superset of the
 //! members it replaced, so the hits are the same as testing every object.
 //!
-//! Groups are the subtrees of the bounding-sphere hierarchy ([`Bvh`]) holding at most
+//! Groups are the subtrees of the bounding-sphere hierarchy ([`SphereTree`]) holding at most
 //! [`GROUP_SIZE`] targets, in the hierarchy's order; the GPU copy of their spheres is in the
 //! camera-relative f32 frame of the rays ([`Groups::gpu`]) and widened so that the f32 sphere
 //! test ([`group_hit`]) never drops a member that the exact test would hit.
@@ -18,7 +18,7 @@
 use glam::{DVec3, Vec3};
 
 use super::flat::{GpuEntry, GpuGroup, GROUP_BIT};
-use super::hierarchy::Bvh;
+use super::hierarchy::SphereTree;
 
 /// Most targets in one group.
 pub const GROUP_SIZE: usize = 16;
@@ -42,7 +42,7 @@ pub struct Groups {
 
 impl Groups {
     /// Groups of at most `max` targets: the largest hierarchy subtrees that small.
-    pub fn of_bvh(bvh: &Bvh, targets: usize, max: usize) -> Groups {
+    pub fn of_bvh(bvh: &SphereTree, targets: usize, max: usize) -> Groups {
         let mut g = Groups { of: vec![0; targets], ..Groups::default() };
         if bvh.nodes.is_empty() {
             return g;
@@ -165,7 +165,7 @@ mod tests {
     #[test]
     fn groups_partition_the_targets_and_bound_them() {
         let t = targets(1000);
-        let bvh = Bvh::build(&t);
+        let bvh = SphereTree::build(&t);
         let g = Groups::of_bvh(&bvh, t.len(), GROUP_SIZE);
         let mut seen = vec![0u32; t.len()];
         for (gi, &(first, count)) in g.spans.iter().enumerate() {
@@ -189,7 +189,7 @@ mod tests {
     fn group_test_never_drops_a_member_the_ray_meets() {
         // Far from the origin (x = 1e4), so the f32 frame's rounding matters.
         let t = targets(400);
-        let bvh = Bvh::build(&t);
+        let bvh = SphereTree::build(&t);
         let g = Groups::of_bvh(&bvh, t.len(), GROUP_SIZE);
         let eye = DVec3::new(1e4 - 60.0, 3.0, 1.0);
         let gpu = g.gpu(eye);

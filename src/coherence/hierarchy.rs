@@ -31,7 +31,7 @@ pub fn bounding_sphere(ids: &[u32], targets: &[Target]) -> (DVec3, f64) {
 pub struct Node {
     pub center: DVec3,
     pub radius: f64,
-    /// Leaf: `first..first+count` of [`Bvh::order`]; inner: `count == 0`, children at
+    /// Leaf: `first..first+count` of [`SphereTree::order`]; inner: `count == 0`, children at
     /// `first` and `first + 1`.
     pub first: u32,
     pub count: u32,
@@ -39,18 +39,18 @@ pub struct Node {
 
 /// Bounding-sphere hierarchy (median splits, leaves of at most 4 targets).
 #[derive(Clone, Debug)]
-pub struct Bvh {
+pub struct SphereTree {
     pub nodes: Vec<Node>,
     pub order: Vec<u32>,
 }
 
-impl Bvh {
-    pub fn build(targets: &[Target]) -> Bvh {
+impl SphereTree {
+    pub fn build(targets: &[Target]) -> SphereTree {
         const LEAF: usize = 4;
         let mut order: Vec<u32> = (0..targets.len() as u32).collect();
         let mut nodes = Vec::with_capacity(2 * targets.len() / LEAF + 1);
         if targets.is_empty() {
-            return Bvh { nodes, order };
+            return SphereTree { nodes, order };
         }
         nodes.push(Node { center: DVec3::ZERO, radius: 0.0, first: 0, count: 0 });
         // (node index, range start, range end)
@@ -83,7 +83,7 @@ impl Bvh {
             stack.push((left, a, a + mid));
             stack.push((left + 1, a + mid, b));
         }
-        Bvh { nodes, order }
+        SphereTree { nodes, order }
     }
 }
 
@@ -99,9 +99,9 @@ mod tests {
                 Target { shape: Shape::Sphere { c, r: 0.5 }, center: c, radius: 0.5, occluder: true }
             })
             .collect();
-        let bvh = Bvh::build(&targets);
+        let bvh = SphereTree::build(&targets);
         // Every target of a subtree lies inside the subtree's root sphere.
-        fn subtree(bvh: &Bvh, n: usize, out: &mut Vec<u32>) {
+        fn subtree(bvh: &SphereTree, n: usize, out: &mut Vec<u32>) {
             let node = bvh.nodes[n];
             if node.count == 0 {
                 subtree(bvh, node.first as usize, out);

@@ -15,7 +15,7 @@
 //! - [`raster`]: rasterising a bound into an origin's cells;
 //! - [`origin`]: building one direction cube (rayon-parallel over origins);
 //! - [`lists`]: finishing one cube's lists (sorting, window cropping);
-//! - [`raytree`]: the kernels' ray trees in f32, which the pilot and the bench trace;
+//! - [`raytree`]: the kernels' ray trees in f32, which the pilot and the audit trace;
 //! - [`beams`]: ray classification for the rays leaving surfaces: the beam tree, its pilot
 //!   pass and its lookup;
 //! - [`groups`]: primitive groups, which long candidate lists name instead of their members;
@@ -26,7 +26,8 @@
 //! - [`cube`]: the direction-cube lookup (face, cell, candidate range);
 //! - [`walk`]: the walker (twin of `shaders/shared/walk.wgsl`);
 //! - [`stats`]: what `cuberay info --tables` prints;
-//! - [`bench`](mod@bench): test counts per ray kind over a scene's primary rays and their ray trees.
+//! - [`audit`]: a checking tracer for the tests and examples: test counts per ray kind over
+//!   a scene's primary rays and their ray trees, checked against brute force.
 //!
 //! # The method
 //! Each origin entity rays leave from (the eye, each point light) has a direction cube of
@@ -42,14 +43,14 @@
 //! # Conservative in f32
 //! Bounds are computed in f64 and widened by an angle `delta` (the GPU's f32 lookup may put a
 //! direction in a neighbouring cell or face); origins are spheres inflated by the largest
-//! spawn offset of the kernels' model ([`crate::kernel::spawn`]) plus f32 rounding of the
+//! spawn offset of the kernels' model ([`crate::arith::spawn`]) plus f32 rounding of the
 //! geometry; `d_min` is lowered by the same amount and rounded down to f32. Correctness never
 //! depends on how a lookup resolves a tie at a cell boundary, cube edge or corner.
 //!
 //! # Usage
 //! ```no_run
 //! # use cuberay::coherence::{build, walk, BuildParams, OriginKey, WalkCount};
-//! # use cuberay::kernel::{closest::Closest, FAR, NO_ID};
+//! # use cuberay::arith::{closest::Closest, FAR, NO_ID};
 //! # fn f(scene: &cuberay::scene::Scene) {
 //! let tables = build(scene, &BuildParams::default()).unwrap();
 //! let dir = glam::Vec3::new(0.0, 0.0, -1.0);
@@ -63,8 +64,8 @@
 //! # let _ = hit; }
 //! ```
 
+pub mod audit;
 pub mod beams;
-pub mod bench;
 pub mod bounds;
 pub mod cells;
 pub mod context;

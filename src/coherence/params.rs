@@ -2,7 +2,7 @@
 //! spawn-offset policy the tables must be conservative for, and the effects they serve.
 
 use super::groups::GROUP_MIN_LIST;
-use crate::kernel::spawn::{offset_bound, SpawnPolicy};
+use crate::arith::spawn::{offset_bound, SpawnPolicy};
 use crate::scene::{Effects, Scene};
 
 /// Where shadow rays are looked up.

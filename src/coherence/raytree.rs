@@ -2,16 +2,16 @@
 //! shadow query per light the surface faces, a reflection ray on surfaces that reflect or
 //! transmit, a refraction ray on transmitting ones by Snell's law unless totally internally
 //! reflected), up to a maximum depth (the eye ray is depth 1), with the kernels' spawn
-//! offset and skip rule. No shading. Two tracers share it: [`super::bench`] (tests per
+//! offset and skip rule. No shading. Two tracers share it: [`super::audit`] (tests per
 //! ray over a whole image) and the beams' pilot pass ([`super::beams::pilot`]).
 
 use glam::{DVec3, Vec3};
 
 use super::walk::OriginKey;
-use crate::kernel::closest::Closest;
-use crate::kernel::geometry::{make_ray, surface, Prim32, PrimHit, Ray};
-use crate::kernel::spawn::{spawn_origin, SpawnPolicy};
-use crate::kernel::{FAR, NO_ID, SHADOW_END_REL};
+use crate::arith::closest::Closest;
+use crate::arith::geometry::{make_ray, surface, Prim32, PrimHit, Ray};
+use crate::arith::spawn::{spawn_origin, SpawnPolicy};
+use crate::arith::{FAR, NO_ID, SHADOW_END_REL};
 use crate::scene::{LightKind, Scene};
 
 /// What a ray of the tree is.
@@ -46,7 +46,7 @@ impl TreeRay {
 
 /// A shadow query: is light `light` blocked from spawn point `q` on primitive `from`?
 #[derive(Clone, Copy, Debug)]
-pub struct ShadowQuery {
+pub struct TreeShadow {
     pub light: usize,
     pub from: u32,
     pub q: Vec3,
@@ -103,7 +103,7 @@ impl<'a> RayTree<'a> {
         ray: &TreeRay,
         hit: &Closest<f32, PrimHit>,
         max_depth: u32,
-        shadows: &mut Vec<ShadowQuery>,
+        shadows: &mut Vec<TreeShadow>,
         rays: &mut Vec<TreeRay>,
     ) {
         if !hit.found {
@@ -124,7 +124,7 @@ impl<'a> RayTree<'a> {
                 continue;
             }
             let skip = self.leave_skip(id, to_light, ng);
-            shadows.push(ShadowQuery { light, from: id, q: spawn(to_light), to_light, skip });
+            shadows.push(TreeShadow { light, from: id, q: spawn(to_light), to_light, skip });
         }
         if ray.depth >= max_depth {
             return;
@@ -154,7 +154,7 @@ impl<'a> RayTree<'a> {
     /// The ray query `s` walks, as the kernels choose (`shadow_walk`): with a table of its
     /// own (`light_table`), a light is traced from itself towards the point; any other
     /// from the point towards the light. `None` when the point is the light.
-    pub fn shadow_ray(&self, s: &ShadowQuery, light_table: bool) -> Option<(OriginKey, Ray, f32)> {
+    pub fn shadow_ray(&self, s: &TreeShadow, light_table: bool) -> Option<(OriginKey, Ray, f32)> {
         let (lp, lk, _) = self.lights[s.light];
         if light_table {
             let v = s.q - lp;

@@ -13,14 +13,14 @@ use super::context::Ctx;
 use super::defs::{eye_def, light_def, OriginDef};
 use super::flat::{FlatTables, OriginKind, MAX_BINDING_BYTES};
 use super::flatten::flatten;
-use super::hierarchy::Bvh;
+use super::hierarchy::SphereTree;
 use super::lists::OriginTable;
 use super::origin::build_origin;
 use super::params::{BuildParams, ShadowMode};
 use super::reach::WalkBounds;
 use super::targets::Target;
+use crate::arith::spawn::SpawnPolicy;
 use crate::error::{Error, Result};
-use crate::kernel::spawn::SpawnPolicy;
 use crate::scene::{LightKind, Scene};
 
 /// The candidate tables of a scene, flattened, with what was built and how long it took.
@@ -51,9 +51,9 @@ pub struct Tables {
 const EYE_SLACK: f64 = 1.5;
 
 /// The scene's targets and their hierarchy.
-fn targets(scene: &Scene) -> (Vec<Target>, Bvh) {
+fn targets(scene: &Scene) -> (Vec<Target>, SphereTree) {
     let targets: Vec<Target> = scene.primitives.iter().map(|p| Target::of(p, scene)).collect();
-    let bvh = Bvh::build(&targets);
+    let bvh = SphereTree::build(&targets);
     (targets, bvh)
 }
 

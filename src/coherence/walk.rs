@@ -24,7 +24,7 @@ use super::beams::{beam_range, in_beams};
 use super::cube::cube_cell_range;
 use super::flat::{FlatTables, GpuEntry, GROUP_BIT, NO_ORIGIN};
 use super::groups::group_hit;
-use crate::kernel::closest::{consider, no_closest, Closest, Dist};
+use crate::arith::closest::{consider, no_closest, Closest, Dist};
 
 /// Loop iterations one kernel pass spends on a walk, at most (plus the members of the last
 /// group entry): lavapipe ends an invocation's loops after 65535 iterations in all (WGSL

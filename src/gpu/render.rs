@@ -422,7 +422,7 @@ impl GpuRenderer {
             scene,
             &packed,
             tables.as_ref(),
-            opts.grid_window().size,
+            opts.grid_region().size,
             progress,
         )?;
         let trace_s = start.elapsed().as_secs_f64();
@@ -461,7 +461,7 @@ impl GpuRenderer {
         stored: Option<StoredTables>,
         progress: &ProgressBar,
     ) -> Result<Rendered> {
-        let (w, h) = (opts.window().width(), opts.window().height());
+        let (w, h) = (opts.region().width(), opts.region().height());
         let Prepared { variant, pipelines, mut packed, tables, start } =
             self.prepare(scene, opts, true, stored)?;
         let center = RenderOptions { spp: 1, sampling: Sampling::Pixels, max_depth: 1, ..opts.clone() };

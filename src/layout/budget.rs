@@ -6,12 +6,12 @@
 //! ([`tile_points`]). [`check_loop_budget`] refuses a render whose passes could still pass
 //! the limit, rather than letting it come out silently wrong.
 
+use crate::arith::spawn::SpawnPolicy;
 use crate::coherence::groups::GROUP_SIZE;
 use crate::coherence::reach::WalkBounds;
 use crate::coherence::walk::WALK_CHUNK;
 use crate::coherence::BuildParams;
 use crate::error::{Error, Result};
-use crate::kernel::spawn::SpawnPolicy;
 use crate::scene::{Effects, Scene};
 
 use super::counters::COUNTER_COUNT;

@@ -8,8 +8,8 @@ use glam::DVec3;
 use super::budget::shadow_inline;
 use super::bvh::{pack_bvh, GpuBvh};
 use super::structs::*;
+use crate::arith::spawn::SpawnPolicy;
 use crate::job::RenderOptions;
-use crate::kernel::spawn::SpawnPolicy;
 use crate::sampling::{self, Sampling};
 use crate::scene::{LightKind, Primitive, Projection, Scene, Wrap};
 
@@ -200,7 +200,7 @@ pub fn pack(scene: &Scene, width: u32, height: u32, spawn: SpawnPolicy) -> Packe
 /// grid of eye-ray points, the sample lattice and seed, the depth, and samples `0..spp`.
 pub fn job_params(opts: &RenderOptions, base: Params) -> Params {
     let (grid_w, grid_h) = opts.grid();
-    let win = opts.grid_window();
+    let win = opts.grid_region();
     Params {
         grid_w,
         grid_h,

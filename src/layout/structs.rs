@@ -43,12 +43,12 @@ pub struct Params {
     /// Shadow walks of at most this many entries are traced by the `shade` invocation of the
     /// hit; longer ones become jobs of the shadow queue ([`super::budget::shadow_inline`]).
     pub shadow_inline: u32,
-    /// The spawn offset is `scale·spawn_rel + spawn_abs` ([`crate::kernel::spawn`]).
+    /// The spawn offset is `scale·spawn_rel + spawn_abs` ([`crate::arith::spawn`]).
     pub spawn_rel: f32,
     pub spawn_abs: f32,
     /// The grid points traced (`--tile`, `--crop`): `win_w` points a row from grid point
     /// (`win_x`, `win_y`); those with local coordinates below (`own_w`, `own_h`) are counted
-    /// ([`crate::job::GridWindow`]). `grid_w` stays the whole image's, for the sample hash.
+    /// ([`crate::job::GridRegion`]). `grid_w` stays the whole image's, for the sample hash.
     pub win_x: u32,
     pub win_y: u32,
     pub win_w: u32,

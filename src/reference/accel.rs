@@ -12,7 +12,7 @@ use crate::stats::TestCounts;
 
 /// The entity a ray starts from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum RayOrigin {
+pub enum OriginKey {
     /// A primary ray from the camera.
     Eye,
     /// A ray from light `i` (index into [`Scene::lights`](crate::scene::Scene::lights)).
@@ -51,7 +51,7 @@ pub trait Accel: Sync {
     fn name(&self) -> &'static str;
 
     /// The nearest hit with `0 < t < t_max`, ties to the lower primitive id.
-    fn closest(&self, ray: &Ray, origin: RayOrigin, t_max: f64, tests: &mut TestCounts)
+    fn closest(&self, ray: &Ray, origin: OriginKey, t_max: f64, tests: &mut TestCounts)
         -> Option<NearestHit>;
 
     /// True when some primitive is hit by the shadow ray before `t_max`.

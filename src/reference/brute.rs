@@ -1,6 +1,6 @@
 //! Brute force: every primitive for every ray.
 
-use super::accel::{count, test_closest, Accel, NearestHit, RayOrigin, ShadowQuery};
+use super::accel::{count, test_closest, Accel, NearestHit, OriginKey, ShadowQuery};
 use super::geometry::{intersect, Ray};
 use crate::scene::Primitive;
 use crate::stats::TestCounts;
@@ -24,7 +24,7 @@ impl Accel for Brute<'_> {
     fn closest(
         &self,
         ray: &Ray,
-        _origin: RayOrigin,
+        _origin: OriginKey,
         t_max: f64,
         tests: &mut TestCounts,
     ) -> Option<NearestHit> {

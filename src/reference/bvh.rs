@@ -2,7 +2,7 @@
 
 use glam::DVec3;
 
-use super::accel::{count, test_closest, Accel, NearestHit, RayOrigin, ShadowQuery};
+use super::accel::{count, test_closest, Accel, NearestHit, OriginKey, ShadowQuery};
 use super::geometry::{intersect, Ray};
 use crate::bvh::{build, outward_box};
 use crate::scene::Primitive;
@@ -31,7 +31,7 @@ struct Node {
 
 /// A binary BVH: built by `obvhs` (PLOC with reinsertion, leaves collapsed by SAH),
 /// traversed here in f64, nearest child first.
-pub struct Bvh<'a> {
+pub struct BvhAccel<'a> {
     prims: &'a [Primitive],
     nodes: Vec<Node>,
     /// Primitive ids in leaf order.
@@ -80,10 +80,10 @@ impl SlabRay {
     }
 }
 
-impl<'a> Bvh<'a> {
+impl<'a> BvhAccel<'a> {
     pub fn new(prims: &'a [Primitive]) -> Self {
         if prims.is_empty() {
-            return Bvh { prims, nodes: Vec::new(), order: Vec::new() };
+            return BvhAccel { prims, nodes: Vec::new(), order: Vec::new() };
         }
         let boxes: Vec<_> = prims.iter().map(prim_box).collect();
         let tree = build(&boxes);
@@ -93,7 +93,7 @@ impl<'a> Bvh<'a> {
             .iter()
             .map(|n| Node { min: d(n.min), max: d(n.max), count: n.count, first: n.first })
             .collect();
-        Bvh { prims, nodes, order: tree.order }
+        BvhAccel { prims, nodes, order: tree.order }
     }
 
     /// Visits the leaves the ray may reach, nearest box first, while `t_max()` bounds the
@@ -145,7 +145,7 @@ impl<'a> Bvh<'a> {
     }
 }
 
-impl Accel for Bvh<'_> {
+impl Accel for BvhAccel<'_> {
     fn name(&self) -> &'static str {
         "bvh"
     }
@@ -153,7 +153,7 @@ impl Accel for Bvh<'_> {
     fn closest(
         &self,
         ray: &Ray,
-        _origin: RayOrigin,
+        _origin: OriginKey,
         t_max: f64,
         tests: &mut TestCounts,
     ) -> Option<NearestHit> {

@@ -38,7 +38,7 @@ pub mod texture;
 
 use accel::{Accel, AUTO_BRUTE_MAX};
 use brute::Brute;
-use bvh::Bvh;
+use bvh::BvhAccel;
 use geometry::Ray;
 use shade::Tracer;
 use tables::TableAccel;
@@ -57,7 +57,7 @@ pub fn build_accel<'a>(
             Box::new(Brute::new(&scene.primitives))
         }
         AccelKind::Brute => Box::new(Brute::new(&scene.primitives)),
-        AccelKind::Auto | AccelKind::Bvh => Box::new(Bvh::new(&scene.primitives)),
+        AccelKind::Auto | AccelKind::Bvh => Box::new(BvhAccel::new(&scene.primitives)),
         AccelKind::Cube => Box::new(TableAccel::new(scene, width, height, max_depth, false)?),
         AccelKind::Beams => Box::new(TableAccel::new(scene, width, height, max_depth, true)?),
     })
@@ -93,8 +93,8 @@ pub fn render(scene: &Scene, opts: &RenderOptions, progress: &ProgressBar) -> Re
     };
 
     let start = Instant::now();
-    let win = opts.window();
-    let grid = opts.grid_window();
+    let win = opts.region();
+    let grid = opts.grid_region();
     let (x0, y0) = grid.origin;
     let (gw, gh) = grid.size;
     let (ww, wh) = (win.width() as usize, win.height() as usize);
@@ -171,7 +171,7 @@ pub fn render_aov(scene: &Scene, opts: &RenderOptions, aov: Aov, progress: &Prog
     let preprocess_s = start.elapsed().as_secs_f64();
     let tracer = Tracer { scene, accel: accel.as_ref(), max_depth: 1 };
     let start = Instant::now();
-    let win = opts.window();
+    let win = opts.region();
     progress.set_length(win.height() as u64);
     let rows: Vec<(Vec<[f32; 4]>, Counters)> = (win.y0..win.y1)
         .into_par_iter()

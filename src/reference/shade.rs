@@ -35,7 +35,7 @@
 
 use glam::DVec3;
 
-use super::accel::{Accel, NearestHit, RayOrigin, ShadowQuery};
+use super::accel::{Accel, NearestHit, OriginKey, ShadowQuery};
 use super::geometry::{spawn_offset, spawn_origin, surface, Ray};
 use super::texture;
 use crate::scene::{Light, LightKind, Material, Scene};
@@ -123,13 +123,13 @@ pub struct Tracer<'a> {
 impl Tracer<'_> {
     /// Radiance along an eye ray.
     pub fn eye(&self, ray: &Ray, c: &mut Counters) -> DVec3 {
-        self.trace(ray, RayOrigin::Eye, RayKind::Eye, 1, 0.0, c)
+        self.trace(ray, OriginKey::Eye, RayKind::Eye, 1, 0.0, c)
     }
 
     /// The first hit of an eye ray (for AOVs), counted as an eye ray.
     pub fn first_hit(&self, ray: &Ray, c: &mut Counters) -> Option<FirstHit> {
         c.count_ray(RayKind::Eye);
-        let h = self.accel.closest(ray, RayOrigin::Eye, f64::INFINITY, c.tests_mut(RayKind::Eye))?;
+        let h = self.accel.closest(ray, OriginKey::Eye, f64::INFINITY, c.tests_mut(RayKind::Eye))?;
         c.eye_hit += 1;
         let s = surface(&self.scene.primitives[h.prim as usize], ray, &h.hit);
         let normal = if ray.dir.dot(s.ng) < 0.0 { s.ns } else { -s.ns };
@@ -142,7 +142,7 @@ impl Tracer<'_> {
     fn trace(
         &self,
         ray: &Ray,
-        origin: RayOrigin,
+        origin: OriginKey,
         kind: RayKind,
         depth: u32,
         spawn: f64,
@@ -246,13 +246,13 @@ impl Tracer<'_> {
             };
             let rr = Ray::new(spawn_origin(&s, r), r);
             let spawn = spawn_offset(&s);
-            l += weight * self.trace(&rr, RayOrigin::Surface(h.prim), RayKind::Reflect, depth + 1, spawn, c);
+            l += weight * self.trace(&rr, OriginKey::Surface(h.prim), RayKind::Reflect, depth + 1, spawn, c);
         }
         if let Some(t) = refracted {
             let rt = Ray::new(spawn_origin(&s, t), t);
             let spawn = spawn_offset(&s);
             l += transmitted
-                * self.trace(&rt, RayOrigin::Surface(h.prim), RayKind::Refract, depth + 1, spawn, c);
+                * self.trace(&rt, OriginKey::Surface(h.prim), RayKind::Refract, depth + 1, spawn, c);
         }
         l
     }

@@ -17,13 +17,13 @@
 
 use glam::{DVec3, Vec3};
 
-use super::accel::{count, Accel, NearestHit, RayOrigin, ShadowQuery};
-use super::bvh::Bvh;
+use super::accel::{count, Accel, NearestHit, OriginKey, ShadowQuery};
+use super::bvh::BvhAccel;
 use super::geometry::{intersect, Intersection, Ray};
+use crate::arith::closest::no_closest;
 use crate::coherence::walk::{walk_any, walk_nearest, AnyHit, Walk, WALK_CHUNK};
-use crate::coherence::{self, BuildParams, FlatTables, OriginKey, Tables, WalkCount};
+use crate::coherence::{self, BuildParams, FlatTables, Tables, WalkCount};
 use crate::error::Result;
-use crate::kernel::closest::no_closest;
 use crate::scene::{Primitive, Scene};
 use crate::stats::TestCounts;
 
@@ -34,7 +34,7 @@ pub struct TableAccel<'a> {
     /// The camera's eye: table lookups take points relative to it.
     eye: DVec3,
     /// What rays leaving surfaces walk when the tables have no beams.
-    surface_bvh: Option<Bvh<'a>>,
+    surface_bvh: Option<BvhAccel<'a>>,
     /// Whether the beams were asked for (`--accel beams`).
     beams: bool,
 }
@@ -51,7 +51,7 @@ impl<'a> TableAccel<'a> {
     ) -> Result<TableAccel<'a>> {
         let params = BuildParams { image: Some((width, height)), max_depth, beams, ..BuildParams::default() };
         let tables = coherence::build(scene, &params)?;
-        let surface_bvh = tables.flat.surface_bvh().then(|| Bvh::new(&scene.primitives));
+        let surface_bvh = tables.flat.surface_bvh().then(|| BvhAccel::new(&scene.primitives));
         Ok(TableAccel { prims: &scene.primitives, tables, eye: scene.camera.eye, surface_bvh, beams })
     }
 
@@ -70,11 +70,11 @@ impl<'a> TableAccel<'a> {
     }
 
     /// The table key of a ray from `origin` starting at `p`.
-    fn key(&self, origin: RayOrigin, p: DVec3) -> OriginKey {
+    fn key(&self, origin: OriginKey, p: DVec3) -> coherence::OriginKey {
         match origin {
-            RayOrigin::Eye => OriginKey::Eye,
-            RayOrigin::Light(i) => OriginKey::Light(i as usize),
-            RayOrigin::Surface(id) => OriginKey::Surface(id, self.at(p)),
+            OriginKey::Eye => coherence::OriginKey::Eye,
+            OriginKey::Light(i) => coherence::OriginKey::Light(i as usize),
+            OriginKey::Surface(id) => coherence::OriginKey::Surface(id, self.at(p)),
         }
     }
 
@@ -82,7 +82,7 @@ impl<'a> TableAccel<'a> {
     /// `reach`, each candidate tested with the reference's shadow ray `test_ray`.
     fn any_hit(
         &self,
-        key: OriginKey,
+        key: coherence::OriginKey,
         at: Vec3,
         d: Vec3,
         reach: f64,
@@ -120,12 +120,12 @@ impl Accel for TableAccel<'_> {
     fn closest(
         &self,
         ray: &Ray,
-        origin: RayOrigin,
+        origin: OriginKey,
         t_max: f64,
         tests: &mut TestCounts,
     ) -> Option<NearestHit> {
         let flat = self.flat();
-        if let (RayOrigin::Surface(_), Some(bvh)) = (origin, &self.surface_bvh) {
+        if let (OriginKey::Surface(_), Some(bvh)) = (origin, &self.surface_bvh) {
             return bvh.closest(ray, origin, t_max, tests);
         }
         if ray.dir.abs().max_element() == 0.0 {
@@ -160,7 +160,7 @@ impl Accel for TableAccel<'_> {
 
     fn occluded(&self, q: &ShadowQuery, tests: &mut TestCounts) -> bool {
         let flat = self.flat();
-        let light = OriginKey::Light(q.light as usize);
+        let light = coherence::OriginKey::Light(q.light as usize);
         if let (true, Some(lp)) = (flat.has_table(light), q.light_position) {
             // From the light through the point: candidates nearer than the point.
             let to_point = q.ray.origin - lp;
@@ -173,7 +173,7 @@ impl Accel for TableAccel<'_> {
         if let Some(bvh) = &self.surface_bvh {
             return bvh.occluded(q, tests);
         }
-        let key = self.key(RayOrigin::Surface(q.object), q.ray.origin);
+        let key = self.key(OriginKey::Surface(q.object), q.ray.origin);
         let d = q.ray.dir.as_vec3().normalize();
         self.any_hit(key, self.at(q.ray.origin), d, q.t_max, q, tests)
     }

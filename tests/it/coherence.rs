@@ -7,12 +7,12 @@
 use glam::{DVec3, Vec3};
 use proptest::prelude::*;
 
+use cuberay::arith::closest::{brute_nearest, no_closest, test_prim};
+use cuberay::arith::geometry::{make_ray, Prim32, PrimHit, Ray, Surface};
+use cuberay::arith::spawn::{recentred_magnitude, spawn_origin, SpawnPolicy};
+use cuberay::arith::{FAR, NO_ID};
 use cuberay::coherence::walk::{self, AnyHit};
-use cuberay::coherence::{self, bench, BuildParams, OriginKey, ShadowMode, Tables, WalkCount};
-use cuberay::kernel::closest::{brute_nearest, no_closest, test_prim};
-use cuberay::kernel::geometry::{make_ray, Prim32, PrimHit, Ray, Surface};
-use cuberay::kernel::spawn::{recentred_magnitude, spawn_origin, SpawnPolicy};
-use cuberay::kernel::{FAR, NO_ID};
+use cuberay::coherence::{self, audit, BuildParams, OriginKey, ShadowMode, Tables, WalkCount};
 use cuberay::scene::{
     Camera, Cylinder, FovSpan, Light, Material, Primitive, Projection, Scene, Sphere, Triangle,
 };
@@ -766,10 +766,10 @@ fn spd_every_ray_agrees_with_brute_force(name: &str, group_min_list: usize) {
         assert!(named > 0 && !tables.flat.groups.is_empty(), "{name}: no list names a group");
     }
     tables.flat.check(scene.primitives.len()).unwrap();
-    let r = bench::trace_counts(
+    let r = audit::trace_counts(
         &scene,
         &tables,
-        bench::BenchParams { width: 24, height: 24, corners: true, max_depth: 5, verify_every: 1 },
+        audit::AuditParams { width: 24, height: 24, corners: true, max_depth: 5, verify_every: 1 },
     );
     assert_eq!(r.mismatches, 0, "{name}: {r:?}");
     assert!(r.verified >= 625, "{name}: {r:?}");

@@ -5,11 +5,11 @@
 //! naming the files in its message.
 
 use crate::common::renderer;
+use cuberay::arith::spawn::SpawnPolicy;
 use cuberay::coherence::walk::WALK_CHUNK;
 use cuberay::compare::compare;
 use cuberay::gpu::GpuRenderer;
 use cuberay::job::{AccelKind, RenderOptions, Rendered};
-use cuberay::kernel::spawn::SpawnPolicy;
 use cuberay::load;
 use cuberay::output::Aov;
 use cuberay::reference;

@@ -17,10 +17,10 @@
 //! Every test prints a `hard-case NAME:` line with its measured worst values.
 
 use crate::common::{hard, renderer};
+use cuberay::arith::geometry::{make_ray, Prim32};
+use cuberay::arith::FAR;
 use cuberay::compare::compare;
 use cuberay::job::{AccelKind, RenderOptions, Rendered};
-use cuberay::kernel::geometry::{make_ray, Prim32};
-use cuberay::kernel::FAR;
 use cuberay::load::{self, Loaded};
 use cuberay::output::{Aov, Image};
 use cuberay::reference;

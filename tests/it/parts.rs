@@ -7,7 +7,7 @@
 
 use std::path::{Path, PathBuf};
 
-use cuberay::job::{RenderOptions, Rendered, Window};
+use cuberay::job::{Region, RenderOptions, Rendered};
 use cuberay::load;
 use cuberay::output::Aov;
 use cuberay::part::{self, PartInfo, SceneId};
@@ -44,7 +44,7 @@ fn check_split(
     scene: &Scene,
     opts: &RenderOptions,
     aov: Option<Aov>,
-    windows: &[Window],
+    windows: &[Region],
 ) {
     let whole = render(backend, scene, opts, aov);
     let dir = tempfile::tempdir().unwrap();
@@ -54,7 +54,7 @@ fn check_split(
         .iter()
         .enumerate()
         .map(|(k, w)| {
-            let o = RenderOptions { window: Some(*w), ..opts.clone() };
+            let o = RenderOptions { region: Some(*w), ..opts.clone() };
             let r = render(backend, scene, &o, aov);
             assert_eq!((r.image.width, r.image.height), (w.width(), w.height()), "{name}: part {w}");
             let path = dir.path().join(format!("part{k}.exr"));
@@ -87,18 +87,18 @@ fn check_split(
     assert_eq!(merged.stats.effects, whole.stats.effects);
 }
 
-fn bands(n: u32, w: u32, h: u32) -> Vec<Window> {
-    (0..n).map(|i| Window::band(i, n, w, h).unwrap()).collect()
+fn bands(n: u32, w: u32, h: u32) -> Vec<Region> {
+    (0..n).map(|i| Region::band(i, n, w, h).unwrap()).collect()
 }
 
 /// A 2×2 split at an uneven point, so that parts meet in both directions.
-fn quarters(w: u32, h: u32) -> Vec<Window> {
+fn quarters(w: u32, h: u32) -> Vec<Region> {
     let (x, y) = (w * 3 / 7, h * 4 / 9);
     vec![
-        Window { x0: 0, y0: 0, x1: x, y1: y },
-        Window { x0: x, y0: 0, x1: w, y1: y },
-        Window { x0: 0, y0: y, x1: x, y1: h },
-        Window { x0: x, y0: y, x1: w, y1: h },
+        Region { x0: 0, y0: 0, x1: x, y1: y },
+        Region { x0: x, y0: 0, x1: w, y1: y },
+        Region { x0: 0, y0: y, x1: x, y1: h },
+        Region { x0: x, y0: y, x1: w, y1: h },
     ]
 }
 
@@ -151,13 +151,13 @@ fn parts_whose_record_does_not_fit_their_image_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     let scene = load::showcase().unwrap().scene;
     let opts =
-        RenderOptions { window: Some(Window { x0: 0, y0: 0, x1: 8, y1: 4 }), ..RenderOptions::new(8, 8) };
+        RenderOptions { region: Some(Region { x0: 0, y0: 0, x1: 8, y1: 4 }), ..RenderOptions::new(8, 8) };
     let r = render(Backend::Cpu, &scene, &opts, None);
     let id = SceneId::of("showcase", b"showcase", None);
     let good = PartInfo::new(id, &r.stats, None, "cpu");
     // A window that reaches past the image (it would wrap into the next row when merged).
     let mut past = good.clone();
-    past.settings.window = Some(Window { x0: 4, y0: 0, x1: 12, y1: 4 });
+    past.settings.window = Some(Region { x0: 4, y0: 0, x1: 12, y1: 4 });
     let path = dir.path().join("past.exr");
     part::write_part(&r.image, &past, &path).unwrap();
     let err = part::read_part(&path).err().expect("a window past the image is refused").to_string();
@@ -170,7 +170,7 @@ fn parts_whose_record_does_not_fit_their_image_are_refused() {
     // Parts of two renderers are not merged.
     let mut other = good.clone();
     other.renderer = "cuberay 0.0.0 on something else".into();
-    other.settings.window = Some(Window { x0: 0, y0: 4, x1: 8, y1: 8 });
+    other.settings.window = Some(Region { x0: 0, y0: 4, x1: 8, y1: 8 });
     let (a, b) = (dir.path().join("a.exr"), dir.path().join("b.exr"));
     part::write_part(&r.image, &good, &a).unwrap();
     part::write_part(&r.image, &other, &b).unwrap();
@@ -221,14 +221,14 @@ fn bands_cover_the_rows_once() {
     }
     // More bands than rows, bands of ⌈8/7⌉ = 2 rows of which the last three would be empty,
     // and an index out of range.
-    assert!(Window::band(0, 9, 10, 8).is_err());
-    let err = Window::band(0, 7, 10, 8).unwrap_err().to_string();
+    assert!(Region::band(0, 9, 10, 8).is_err());
+    let err = Region::band(0, 7, 10, 8).unwrap_err().to_string();
     assert!(err.contains("4 or 8 would not"), "{err}");
     // 6 bands of 10 rows: 2 rows each, band 5 empty; every index is refused.
-    assert!((0..6).all(|i| Window::band(i, 6, 10, 10).is_err()));
-    assert!(Window::band(3, 3, 10, 8).is_err());
+    assert!((0..6).all(|i| Region::band(i, 6, 10, 10).is_err()));
+    assert!(Region::band(3, 3, 10, 8).is_err());
     // 4 bands of 10 rows: 3, 3, 3, 1.
-    assert_eq!(Window::band(3, 4, 10, 10).unwrap(), Window { x0: 0, y0: 9, x1: 10, y1: 10 });
+    assert_eq!(Region::band(3, 4, 10, 10).unwrap(), Region { x0: 0, y0: 9, x1: 10, y1: 10 });
 }
 
 // ---- The command line: render parts, merge, bad parts. ----
@@ -288,7 +288,7 @@ fn merged_tiles_are_the_render_byte_for_byte_on_the_command_line() {
     // The part is an EXR of its window (rows 14..28, ⌈41/3⌉ = 14 a band), placed in the whole
     // image (read_part checks the data and display windows against its record).
     let t1 = part::read_part(&d.join("t1.exr")).unwrap();
-    assert_eq!(t1.info.settings.window, Some(Window { x0: 0, y0: 14, x1: 50, y1: 28 }));
+    assert_eq!(t1.info.settings.window, Some(Region { x0: 0, y0: 14, x1: 50, y1: 28 }));
     assert_eq!(t1.info.settings.size, [50, 41]);
     assert_eq!((t1.image.width, t1.image.height), (50, 14));
     assert!(t1.info.renderer.contains("CPU reference"), "{}", t1.info.renderer);

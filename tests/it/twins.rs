@@ -8,6 +8,7 @@ use std::any::type_name;
 use std::collections::BTreeMap;
 use std::mem::{offset_of, size_of};
 
+use cuberay::arith::{FAR, NO_ID, SHADOW_END_REL};
 use cuberay::coherence::flat::{
     GpuBeamNode, GpuEntry, GpuFace, GpuGroup, GpuOrigin, BEAM_CELLS, BEAM_DEPTH, BEAM_FACE, BEAM_LEAF,
     GROUP_BIT, NO_ORIGIN,
@@ -15,7 +16,6 @@ use cuberay::coherence::flat::{
 use cuberay::coherence::groups::GROUP_SLACK;
 use cuberay::coherence::walk::{AnyHit, BVH_WALK, UNBOUNDED, WALK_CHUNK};
 use cuberay::gpu::shaders::{compose, Kernel, Queries, Variant};
-use cuberay::kernel::{FAR, NO_ID, SHADOW_END_REL};
 use cuberay::layout::bvh::{BvhNode, BVH_LEAF_SHIFT, BVH_SLACK};
 use cuberay::layout::counters::*;
 use cuberay::layout::*;

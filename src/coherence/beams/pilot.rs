@@ -19,15 +19,15 @@ use rayon::prelude::*;
 
 use super::build::{Builder, PilotRay};
 use super::BeamTree;
+use crate::arith::closest::{brute_nearest, consider, no_closest, test_prim, Closest};
+use crate::arith::geometry::PrimHit;
+use crate::arith::{FAR, NO_ID};
 use crate::coherence::context::Ctx;
 use crate::coherence::cube::cube_face_cell;
 use crate::coherence::flat::{FlatTables, BEAM_CELLS};
 use crate::coherence::params::BuildParams;
-use crate::coherence::raytree::{RayTree, ShadowQuery, TreeRay};
+use crate::coherence::raytree::{RayTree, TreeRay, TreeShadow};
 use crate::coherence::walk::{table_nearest, OriginKey, WalkCount};
-use crate::kernel::closest::{brute_nearest, consider, no_closest, test_prim, Closest};
-use crate::kernel::geometry::PrimHit;
-use crate::kernel::{FAR, NO_ID};
 use crate::scene::Scene;
 
 /// Leaves whose rays would walk more candidates than this to the end are split before the
@@ -73,7 +73,7 @@ fn spawn_all(
     rays: &[TreeRay],
     hits: &[Closest<f32, PrimHit>],
     max_depth: u32,
-) -> (Vec<TreeRay>, Vec<ShadowQuery>) {
+) -> (Vec<TreeRay>, Vec<TreeShadow>) {
     let (mut next, mut shadows) = (Vec::new(), Vec::new());
     for (r, h) in rays.iter().zip(hits) {
         tree.spawn(r, h, max_depth, &mut shadows, &mut next);

@@ -1,6 +1,6 @@
-//! Measuring the tables: primitive tests per ray, by ray kind, over a scene's primary rays and
+//! Auditing the tables: primitive tests per ray, by ray kind, over a scene's primary rays and
 //! the Whitted ray trees they spawn, traced in f32 with the kernels' intersection and spawn
-//! twins ([`crate::kernel`]) and the table walker. Optionally checks a share of the rays
+//! twins ([`crate::arith`]) and the table walker. Optionally checks a share of the rays
 //! against testing every primitive.
 //!
 //! This is a geometric tracer only (no shading): the ray trees are [`super::raytree`]'s.
@@ -11,14 +11,14 @@ use serde::Serialize;
 use super::raytree::{Kind, RayTree, TreeRay};
 use super::tables::Tables;
 use super::walk::{table_any, table_nearest, OriginKey, WalkCount};
-use crate::kernel::closest::{brute_nearest, test_prim, Closest};
-use crate::kernel::geometry::{PrimHit, Ray};
-use crate::kernel::{FAR, NO_ID};
+use crate::arith::closest::{brute_nearest, test_prim, Closest};
+use crate::arith::geometry::{PrimHit, Ray};
+use crate::arith::{FAR, NO_ID};
 use crate::scene::Scene;
 
 /// What to trace.
 #[derive(Clone, Copy, Debug)]
-pub struct BenchParams {
+pub struct AuditParams {
     pub width: u32,
     pub height: u32,
     /// SPD corner sampling: (W+1)×(H+1) eye rays at pixel corners; otherwise pixel centres.
@@ -43,7 +43,7 @@ pub struct KindCount {
 
 /// The measurement.
 #[derive(Clone, Debug, Default, Serialize)]
-pub struct BenchResult {
+pub struct AuditResult {
     pub eye: KindCount,
     pub shadow: KindCount,
     pub reflect: KindCount,
@@ -69,7 +69,7 @@ impl std::ops::AddAssign for KindCount {
     }
 }
 
-impl std::ops::AddAssign for BenchResult {
+impl std::ops::AddAssign for AuditResult {
     fn add_assign(&mut self, o: Self) {
         self.eye += o.eye;
         self.shadow += o.shadow;
@@ -85,7 +85,7 @@ impl std::ops::AddAssign for BenchResult {
     }
 }
 
-fn kind_mut(r: &mut BenchResult, kind: Kind) -> &mut KindCount {
+fn kind_mut(r: &mut AuditResult, kind: Kind) -> &mut KindCount {
     match kind {
         Kind::Eye => &mut r.eye,
         Kind::Reflect => &mut r.reflect,
@@ -96,11 +96,11 @@ fn kind_mut(r: &mut BenchResult, kind: Kind) -> &mut KindCount {
 struct Tracer<'a> {
     tree: RayTree<'a>,
     tables: &'a Tables,
-    params: BenchParams,
+    params: AuditParams,
 }
 
 impl Tracer<'_> {
-    fn nearest(&self, r: &mut BenchResult, tr: &TreeRay, n: u64) -> Closest<f32, PrimHit> {
+    fn nearest(&self, r: &mut AuditResult, tr: &TreeRay, n: u64) -> Closest<f32, PrimHit> {
         let f = &self.tables.flat;
         let (key, ray, skip) = (tr.key(), &tr.ray, tr.skip);
         let prims = &self.tree.prims;
@@ -133,7 +133,7 @@ impl Tracer<'_> {
         hit
     }
 
-    fn any(&self, r: &mut BenchResult, key: OriginKey, ray: &Ray, t_max: f32, skip: u32, n: u64) -> bool {
+    fn any(&self, r: &mut AuditResult, key: OriginKey, ray: &Ray, t_max: f32, skip: u32, n: u64) -> bool {
         let f = &self.tables.flat;
         let prims = &self.tree.prims;
         let mut count = WalkCount::default();
@@ -159,7 +159,7 @@ impl Tracer<'_> {
     }
 
     /// Traces `tr` and, depth first, everything its hit spawns.
-    fn trace(&self, r: &mut BenchResult, tr: TreeRay, n: u64) {
+    fn trace(&self, r: &mut AuditResult, tr: TreeRay, n: u64) {
         let hit = self.nearest(r, &tr, n);
         let (mut shadows, mut rays) = (Vec::new(), Vec::new());
         self.tree.spawn(&tr, &hit, self.params.max_depth, &mut shadows, &mut rays);
@@ -177,7 +177,7 @@ impl Tracer<'_> {
 }
 
 /// Traces the primary rays of `params` and their ray trees and counts tests per ray kind.
-pub fn trace_counts(scene: &Scene, tables: &Tables, params: BenchParams) -> BenchResult {
+pub fn trace_counts(scene: &Scene, tables: &Tables, params: AuditParams) -> AuditResult {
     let start = std::time::Instant::now();
     let tracer = Tracer { tree: RayTree::new(scene, tables.spawn, scene.effects().shadows), tables, params };
     let (w, h) = (params.width, params.height);
@@ -185,14 +185,14 @@ pub fn trace_counts(scene: &Scene, tables: &Tables, params: BenchParams) -> Benc
     let mut total = (0..rows)
         .into_par_iter()
         .map(|j| {
-            let mut r = BenchResult::default();
+            let mut r = AuditResult::default();
             for i in 0..cols {
                 let n = (j * cols + i) as u64;
                 tracer.trace(&mut r, tracer.tree.eye_ray(i as f64 + off, j as f64 + off, w, h), n);
             }
             r
         })
-        .reduce(BenchResult::default, |mut a, b| {
+        .reduce(AuditResult::default, |mut a, b| {
             a += b;
             a
         });

@@ -325,7 +325,7 @@ mod tests {
 
     #[test]
     fn sphere_hits_inside_and_misses() {
-        let far = crate::kernel::FAR;
+        let far = crate::arith::FAR;
         let ray = make_ray(Vec3::ZERO, Vec3::X);
         assert!((intersect_sphere(Vec3::new(5.0, 0.0, 0.0), 1.0, false, &ray, far).t - 4.0).abs() < 1e-6);
         assert!((intersect_sphere(Vec3::ZERO, 2.0, false, &ray, far).t - 2.0).abs() < 1e-6);
@@ -349,13 +349,13 @@ mod tests {
         for k in -20..=20 {
             let s = k as f32 * 0.037;
             let ray = make_ray(Vec3::ZERO, Vec3::new(s, s, 2.0));
-            let a = intersect_triangle(p[0], p[1], p[2], &ray, crate::kernel::FAR);
-            let b = intersect_triangle(q[0], q[1], q[2], &ray, crate::kernel::FAR);
+            let a = intersect_triangle(p[0], p[1], p[2], &ray, crate::arith::FAR);
+            let b = intersect_triangle(q[0], q[1], q[2], &ray, crate::arith::FAR);
             assert!(a.ok || b.ok, "crack at s = {s}");
         }
         // Parallel ray: a finite miss.
         let ray = make_ray(Vec3::new(0.0, 0.0, 2.0), Vec3::X);
-        assert!(!intersect_triangle(p[0], p[1], p[2], &ray, crate::kernel::FAR).ok);
+        assert!(!intersect_triangle(p[0], p[1], p[2], &ray, crate::arith::FAR).ok);
     }
 
     /// The hit points behind the spawn offset lie on their surface to a few ulps of the
@@ -363,7 +363,7 @@ mod tests {
     /// `o + t·d` would be off by ulps of 1e4.
     #[test]
     fn surface_points_are_on_the_surface_however_far_the_ray_came() {
-        let far = crate::kernel::FAR;
+        let far = crate::arith::FAR;
         let (c, r) = (Vec3::new(0.3, -0.2, 0.1), 0.7);
         let sphere = Prim32::Sphere { c, r, inside_only: false };
         let (base, apex) = ([0.1, 0.2, -0.5, 0.4], [0.3, -0.1, 0.6, 0.2]);
@@ -404,7 +404,7 @@ mod tests {
 
     #[test]
     fn cylinder_and_cone() {
-        let far = crate::kernel::FAR;
+        let far = crate::arith::FAR;
         let (base, apex) = ([0.0, 0.0, 0.0, 1.0], [0.0, 0.0, 1.0, 1.0]);
         let t = intersect_cylinder(base, apex, false, &make_ray(Vec3::new(-5.0, 0.0, 0.5), Vec3::X), far);
         assert!((t.t - 4.0).abs() < 1e-5);

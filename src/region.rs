@@ -1,4 +1,4 @@
-//! The part of an image a render covers: a [`Window`] of pixels, from `--crop` or from the
+//! The part of an image a render covers: a [`Region`] of pixels, from `--crop` or from the
 //! bands of `--tile I/N`. It is plain data that the job, the statistics and the partial
 //! images of `cuberay merge` share, and imports nothing but the error type.
 
@@ -6,24 +6,24 @@ use crate::error::{Error, Result};
 
 /// A rectangle of pixels `x0..x1` × `y0..y1` (ends exclusive) of a `width`×`height` image.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub struct Window {
+pub struct Region {
     pub x0: u32,
     pub y0: u32,
     pub x1: u32,
     pub y1: u32,
 }
 
-impl Window {
+impl Region {
     /// The whole `width`×`height` image.
-    pub fn full(width: u32, height: u32) -> Window {
-        Window { x0: 0, y0: 0, x1: width, y1: height }
+    pub fn full(width: u32, height: u32) -> Region {
+        Region { x0: 0, y0: 0, x1: width, y1: height }
     }
 
     /// Band `index` of `count` (0-based) of a `height`-row image: rows
     /// `index·⌈H/N⌉ .. min((index+1)·⌈H/N⌉, H)`. A count that would leave any band empty
     /// is refused for every index (so that no task of a split render starts in vain), with
     /// the nearest counts that work.
-    pub fn band(index: u32, count: u32, width: u32, height: u32) -> Result<Window> {
+    pub fn band(index: u32, count: u32, width: u32, height: u32) -> Result<Region> {
         if count == 0 || index >= count {
             return Err(Error::Options(format!("--tile {index}/{count}: the index must be in 0..{count}")));
         }
@@ -40,7 +40,7 @@ impl Window {
         }
         let rows = height.div_ceil(count);
         let y0 = index * rows;
-        Ok(Window { x0: 0, y0, x1: width, y1: ((index + 1) * rows).min(height) })
+        Ok(Region { x0: 0, y0, x1: width, y1: ((index + 1) * rows).min(height) })
     }
 
     /// Whether `count` bands of ⌈H/N⌉ rows leave none of a `height`-row image's bands empty.
@@ -61,16 +61,16 @@ impl Window {
     }
 
     pub fn is_full(&self, width: u32, height: u32) -> bool {
-        *self == Window::full(width, height)
+        *self == Region::full(width, height)
     }
 
     /// Whether `other` shares a pixel with this window.
-    pub fn overlaps(&self, other: &Window) -> bool {
+    pub fn overlaps(&self, other: &Region) -> bool {
         self.x0 < other.x1 && other.x0 < self.x1 && self.y0 < other.y1 && other.y0 < self.y1
     }
 }
 
-impl std::fmt::Display for Window {
+impl std::fmt::Display for Region {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "{},{},{},{}", self.x0, self.y0, self.x1, self.y1)
     }
