@@ -63,7 +63,7 @@ enum Command {
 
 pub fn main() -> ExitCode {
     quiet_device_selection();
-    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    init_logging();
     stop_on_signals();
     let cli = Cli::parse();
     match run(cli) {
@@ -77,6 +77,37 @@ pub fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// What a user sees on stderr: cuberay's warnings as a command-line tool prints them
+/// (`warning: …`, each message once, as cargo and ripgrep do) and errors from anywhere,
+/// without timestamps or module paths. `RUST_LOG` (e.g. `RUST_LOG=info`,
+/// `RUST_LOG=cuberay=debug`) gives env_logger's full records instead.
+fn init_logging() {
+    if std::env::var_os("RUST_LOG").is_some() {
+        env_logger::Builder::from_env(env_logger::Env::default()).init();
+        return;
+    }
+    use std::io::Write;
+    let said = std::sync::Mutex::new(std::collections::HashSet::new());
+    env_logger::Builder::new()
+        .filter_level(log::LevelFilter::Error)
+        .filter_module("cuberay", log::LevelFilter::Warn)
+        .format(move |out, record| {
+            let message = record.args().to_string();
+            if !said.lock().map(|mut s| s.insert(message.clone())).unwrap_or(true) {
+                return Ok(());
+            }
+            let level = match record.level() {
+                log::Level::Error => "error",
+                log::Level::Warn => "warning",
+                log::Level::Info => "info",
+                log::Level::Debug => "debug",
+                log::Level::Trace => "trace",
+            };
+            writeln!(out, "{level}: {message}")
+        })
+        .init();
 }
 
 /// SIGINT and SIGTERM ask the render to stop ([`cuberay::interrupt`]): it ends within a kernel
