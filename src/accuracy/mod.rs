@@ -11,16 +11,18 @@
 //! counted (acne and light leaks). The reference is rendered once per scene, size and
 //! settings and kept in a cache file ([`reference`]).
 
+mod cache;
 pub mod metrics;
 pub mod plot;
+mod report;
+
+pub use cache::{reference, reference_cache, Reference};
+pub use report::{csv, pareto, summary, table, Pick, Summary};
 
 use std::collections::HashMap;
-use std::io::{Read, Write};
-use std::path::{Path, PathBuf};
 
 use indicatif::ProgressBar;
 use serde::{Deserialize, Serialize};
-use sha2::{Digest, Sha256};
 
 use crate::arith::spawn::SpawnPolicy;
 use crate::coherence::defs::default_eye_cells;
@@ -28,7 +30,7 @@ use crate::coherence::BuildParams;
 use crate::error::{Error, Result};
 use crate::gpu::GpuRenderer;
 use crate::job::{AccelKind, Precision, RenderOptions};
-use crate::output::{Aov, Image, Transfer};
+use crate::output::{Aov, Image};
 use crate::sampling::Sampling;
 use crate::scene::Scene;
 use crate::tablefile::StoredTables;
@@ -229,104 +231,6 @@ pub struct Row {
     pub image: Image,
 }
 
-/// The converged reference: the CPU's f64 render at many samples and full depth, and its
-/// eye rays' object ids and distances through the pixel centres.
-#[derive(Clone, Debug)]
-pub struct Reference {
-    pub image: Image,
-    pub id: Image,
-    pub depth: Image,
-    /// Seconds it took to render (0 when read from the cache).
-    pub seconds: f64,
-    pub cache: PathBuf,
-    pub cached: bool,
-}
-
-/// The first line of a reference cache file.
-const CACHE_MAGIC: &[u8] = b"cuberay accuracy reference 2\n";
-
-/// The cache file of the reference of the scene whose file holds `scene_bytes`, for
-/// `settings`, in `dir`: named by a hash of the bytes, the reference's options and the
-/// cuberay version.
-pub fn reference_cache(dir: &Path, scene_bytes: &[u8], settings: &Settings) -> PathBuf {
-    let o = settings.reference_options();
-    let mut h = Sha256::new();
-    h.update(scene_bytes);
-    h.update(format!(
-        "{} {} {} {} {} {}",
-        o.width,
-        o.height,
-        o.spp,
-        o.max_depth,
-        o.seed,
-        env!("CARGO_PKG_VERSION")
-    ));
-    let key: String = h.finalize().iter().take(8).map(|b| format!("{b:02x}")).collect();
-    dir.join(format!("reference-{key}.bin"))
-}
-
-fn write_images(path: &Path, images: [&Image; 3]) -> Result<()> {
-    crate::output::write_atomically(path, |w| {
-        let io = |source| Error::Io { path: path.to_owned(), source };
-        w.write_all(CACHE_MAGIC).map_err(io)?;
-        for img in images {
-            w.write_all(&img.width.to_le_bytes()).map_err(io)?;
-            w.write_all(&img.height.to_le_bytes()).map_err(io)?;
-            w.write_all(&[img.has_alpha as u8, (img.transfer == Transfer::Display) as u8]).map_err(io)?;
-            w.write_all(bytemuck::cast_slice(&img.pixels)).map_err(io)?;
-        }
-        Ok(())
-    })
-}
-
-fn read_images(path: &Path, size: (u32, u32)) -> Option<[Image; 3]> {
-    let mut bytes = Vec::new();
-    std::fs::File::open(path).ok()?.read_to_end(&mut bytes).ok()?;
-    let mut r = bytes.strip_prefix(CACHE_MAGIC)?;
-    let mut take = |n: usize| -> Option<&[u8]> {
-        let (a, b) = r.split_at_checked(n)?;
-        r = b;
-        Some(a)
-    };
-    let mut one = || -> Option<Image> {
-        let w = u32::from_le_bytes(take(4)?.try_into().ok()?);
-        let h = u32::from_le_bytes(take(4)?.try_into().ok()?);
-        let flags = take(2)?;
-        let alpha = flags[0] != 0;
-        let transfer = if flags[1] != 0 { Transfer::Display } else { Transfer::Srgb };
-        if (w, h) != size {
-            return None;
-        }
-        let px = take(w as usize * h as usize * 16)?;
-        let mut img = Image::new(w, h, alpha);
-        img.pixels = bytemuck::pod_collect_to_vec(px);
-        img.transfer = transfer;
-        img.pixels.iter().all(|p| p.iter().all(|v| v.is_finite())).then_some(img)
-    };
-    Some([one()?, one()?, one()?])
-}
-
-/// The reference of `scene` for `settings`: read from `cache` when it holds it, else
-/// rendered on the CPU (f64) and written there.
-pub fn reference(
-    scene: &Scene,
-    settings: &Settings,
-    cache: &Path,
-    progress: &ProgressBar,
-) -> Result<Reference> {
-    let opts = settings.reference_options();
-    if let Some([image, id, depth]) = read_images(cache, (opts.width, opts.height)) {
-        return Ok(Reference { image, id, depth, seconds: 0.0, cache: cache.to_owned(), cached: true });
-    }
-    let start = std::time::Instant::now();
-    let image = crate::reference::render(scene, &opts, progress)?.image;
-    let aov = |a| crate::reference::render_aov(scene, &opts, a, &ProgressBar::hidden()).map(|r| r.image);
-    let (id, depth) = (aov(Aov::Id)?, aov(Aov::Depth)?);
-    write_images(cache, [&image, &id, &depth])?;
-    let seconds = start.elapsed().as_secs_f64();
-    Ok(Reference { image, id, depth, seconds, cache: cache.to_owned(), cached: false })
-}
-
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     let n = v.len();
@@ -450,148 +354,6 @@ pub fn sweep(
         progress.inc(1);
     }
     Ok(rows)
-}
-
-/// The summaries of a sweep: the least error within the base setting's time (equal time),
-/// and the least time that reaches the FLIP threshold (equal quality).
-#[derive(Clone, Debug, Serialize)]
-pub struct Summary {
-    pub base_gpu_s: f64,
-    pub base_flip_mean: f64,
-    /// The row with the least FLIP mean among those no slower than the base.
-    pub equal_time: Option<Pick>,
-    /// The fastest row whose FLIP mean is at most the threshold.
-    pub equal_quality: Option<Pick>,
-    pub threshold: f64,
-    /// The rows on the Pareto front of FLIP mean against GPU time (indices into the rows).
-    pub pareto: Vec<usize>,
-}
-
-#[derive(Clone, Debug, Serialize)]
-pub struct Pick {
-    pub parameter: Parameter,
-    pub value: String,
-    pub gpu_s: f64,
-    pub flip_mean: f64,
-}
-
-fn pick(r: &Row) -> Pick {
-    Pick { parameter: r.parameter, value: r.value.clone(), gpu_s: r.gpu_s, flip_mean: r.error.flip_mean }
-}
-
-/// The rows no other row beats in both time and error.
-pub fn pareto(rows: &[Row]) -> Vec<usize> {
-    (0..rows.len())
-        .filter(|&i| {
-            let a = &rows[i];
-            !rows.iter().any(|b| {
-                (b.gpu_s <= a.gpu_s && b.error.flip_mean <= a.error.flip_mean)
-                    && (b.gpu_s < a.gpu_s || b.error.flip_mean < a.error.flip_mean)
-            })
-        })
-        .collect()
-}
-
-pub fn summary(rows: &[Row], threshold: f64) -> Summary {
-    let base = rows.iter().find(|r| r.base);
-    let (base_gpu_s, base_flip_mean) = base.map_or((f64::NAN, f64::NAN), |b| (b.gpu_s, b.error.flip_mean));
-    let equal_time = rows
-        .iter()
-        .filter(|r| r.gpu_s <= base_gpu_s)
-        .min_by(|a, b| a.error.flip_mean.total_cmp(&b.error.flip_mean))
-        .map(pick);
-    let equal_quality = rows
-        .iter()
-        .filter(|r| r.error.flip_mean <= threshold)
-        .min_by(|a, b| a.gpu_s.total_cmp(&b.gpu_s))
-        .map(pick);
-    Summary { base_gpu_s, base_flip_mean, equal_time, equal_quality, threshold, pareto: pareto(rows) }
-}
-
-/// The rows as CSV (a header line, then one line per row).
-pub fn csv(rows: &[Row]) -> String {
-    let mut out = String::from(
-        "parameter,value,base,gpu_s,preprocess_s,table_bytes,rmse,psnr,relmse,flip_mean,flip_p99,id_disagreement,max_t_error,self_hits,blocked_share\n",
-    );
-    for r in rows {
-        out += &format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
-            r.parameter.name(),
-            r.value.replace(',', ";"),
-            r.base,
-            r.gpu_s,
-            r.preprocess_s,
-            r.table_bytes,
-            r.error.rmse,
-            r.error.psnr.map_or(String::new(), |p| p.to_string()),
-            r.error.relmse,
-            r.error.flip_mean,
-            r.error.flip_p99,
-            r.hits.id_disagreement,
-            r.hits.max_t_error,
-            r.self_hits,
-            r.blocked_share
-        );
-    }
-    out
-}
-
-/// The rows and summaries as the text table `cuberay accuracy` prints.
-pub fn table(rows: &[Row], summary: &Summary) -> String {
-    let mut out = String::from(
-        "| parameter | value | GPU ms | preprocess s | MiB | RMSE | PSNR dB | relMSE | FLIP mean | FLIP p99 | ids differ | max Δt/size | self-hits | blocked |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
-    );
-    for (i, r) in rows.iter().enumerate() {
-        let mark = if summary.pareto.contains(&i) { " *" } else { "" };
-        out += &format!(
-            "| {} | {}{}{} | {:.2} | {:.3} | {:.1} | {:.5} | {} | {:.5} | {:.4} | {:.4} | {:.4} | {:.2e} | {} | {:.4} |\n",
-            r.parameter.name(),
-            r.value,
-            if r.base { " (base)" } else { "" },
-            mark,
-            r.gpu_s * 1e3,
-            r.preprocess_s,
-            r.table_bytes as f64 / (1u64 << 20) as f64,
-            r.error.rmse,
-            r.error.psnr.map_or("∞".into(), |p| format!("{p:.1}")),
-            r.error.relmse,
-            r.error.flip_mean,
-            r.error.flip_p99,
-            r.hits.id_disagreement,
-            r.hits.max_t_error,
-            r.self_hits,
-            r.blocked_share
-        );
-    }
-    out += "\n* on the Pareto front of FLIP mean against GPU time\n";
-    out += &format!("base: FLIP mean {:.4} in {:.2} ms\n", summary.base_flip_mean, summary.base_gpu_s * 1e3);
-    match &summary.equal_time {
-        Some(p) => {
-            out += &format!(
-                "equal time (at most the base's {:.2} ms): the least error is {} = {}, FLIP mean {:.4} in {:.2} ms\n",
-                summary.base_gpu_s * 1e3,
-                p.parameter.name(),
-                p.value,
-                p.flip_mean,
-                p.gpu_s * 1e3
-            )
-        }
-        None => out += "equal time: no row is as fast as the base\n",
-    }
-    match &summary.equal_quality {
-        Some(p) => {
-            out += &format!(
-                "equal quality (FLIP mean at most {}): the fastest is {} = {}, {:.2} ms (FLIP mean {:.4})\n",
-                summary.threshold,
-                p.parameter.name(),
-                p.value,
-                p.gpu_s * 1e3,
-                p.flip_mean
-            )
-        }
-        None => out += &format!("equal quality: no row reaches a FLIP mean of {}\n", summary.threshold),
-    }
-    out
 }
 
 #[cfg(test)]

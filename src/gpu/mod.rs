@@ -1,16 +1,20 @@
 //! The GPU side, the only part of cuberay that uses wgpu (with the preview's window): device
 //! setup ([`GpuContext`]), the WGSL kernels composed per effect set ([`shaders`]) and compiled
-//! ([`kernels`]), the scene's buffers ([`buffers`]), the one dispatch schedule that `render`
-//! and the preview share ([`schedule`]), and the renderer ([`GpuRenderer`]). The structs and
+//! ([`kernels`]), the scene's buffers ([`buffers`]), the passes of a wave ([`plan`], plain
+//! data), the one dispatch schedule that `render` and the preview share ([`schedule`]), and
+//! the renderer ([`GpuRenderer`]). The structs and
 //! constants it shares with the WGSL are in [`crate::layout`].
 
 pub mod buffers;
 mod context;
 pub mod kernels;
+pub mod plan;
 mod render;
 pub mod schedule;
+mod setup;
 pub mod shaders;
 
 pub use buffers::SceneBuffers;
 pub use context::GpuContext;
-pub use render::{add_surface_bvh, check, point_at, queue_sizes, uses_tables, walk_bounds, GpuRenderer};
+pub use render::GpuRenderer;
+pub use setup::{add_surface_bvh, check, point_at, queue_sizes, uses_tables, walk_bounds, F32_REACH};

@@ -1,0 +1,206 @@
+//! What a render asks of the GPU before anything runs, from the scene and the render
+//! options alone (no device): the kernel variant and the candidate tables' parameters (the
+//! one place that derives them), the checks that refuse what the kernels cannot trace
+//! (depth, size, numbers beyond f32), the queues' sizes, and how packed params point at the
+//! tables and the BVH.
+
+use super::buffers::QueueSizes;
+use super::shaders::{Queries, Variant};
+use super::GpuRenderer;
+use crate::coherence::reach::WalkBounds;
+use crate::coherence::{self, BuildParams, FlatTables};
+use crate::error::{Error, Result};
+use crate::job::{AccelKind, Precision, RenderOptions};
+use crate::layout::budget::{table_params, MAX_DEPTH};
+use crate::layout::Packed;
+use crate::scene::{Effects, Scene};
+
+impl GpuRenderer {
+    /// The kernels' variant for a job with `effects` at `max_depth`.
+    pub fn variant(effects: Effects, max_depth: u32, accel: AccelKind) -> Variant {
+        Variant::for_effects(effects, max_depth).with_queries(queries(accel))
+    }
+
+    /// The variant of a render (`aov`: the AOV pass, which traces eye rays only, so its
+    /// kernel and tables have no effects).
+    pub fn job_variant(scene: &Scene, opts: &RenderOptions, aov: bool) -> Variant {
+        let effects = if aov { Effects::default() } else { scene.effects() };
+        let depth = if aov { 1 } else { opts.max_depth };
+        let v = Self::variant(effects, depth, opts.accel).with_f64(opts.precision == Precision::F64);
+        Self::for_scene(scene, opts, v)
+    }
+
+    /// `variant` narrowed to what `scene` holds and traces, counted if `opts` ask for the
+    /// counts: the intersection code of its kinds of primitive only, and the walk of rays
+    /// leaving surfaces only if the tables built for it trace such rays
+    /// (`coherence::traces_surface_rays`: mirrors or glass, or shadow rays towards a
+    /// directional light), so that a scene lit by point lights alone, without mirrors, gets
+    /// table kernels without a BVH loop; and the beam lookup and group test only where
+    /// beams are built.
+    pub fn for_scene(scene: &Scene, opts: &RenderOptions, variant: Variant) -> Variant {
+        let variant = variant.with_shapes(scene.shapes()).with_counters(opts.count);
+        let params = Self::variant_build_params(scene, opts, variant);
+        let surface_rays = coherence::traces_surface_rays(scene, &params);
+        variant.with_surface_rays(surface_rays).with_beams(params.beams && surface_rays)
+    }
+
+    /// The parameters the render of `scene` with `opts` builds its tables with (`aov`: the
+    /// AOV pass), or `None` when it traces none: what `cuberay tables` builds, and what a
+    /// stored table file must have been built with.
+    pub fn build_params(scene: &Scene, opts: &RenderOptions, aov: bool) -> Option<BuildParams> {
+        let variant = Self::job_variant(scene, opts, aov);
+        variant.tables().then(|| Self::variant_build_params(scene, opts, variant))
+    }
+
+    /// The parameters of the tables for the kernels of `variant` (all its effects) with
+    /// `opts`: the one place that turns render options into a table build.
+    pub fn variant_build_params(scene: &Scene, opts: &RenderOptions, variant: Variant) -> BuildParams {
+        let p = table_params(scene, opts.width, opts.height, opts.max_depth, variant.effects(), opts.spawn);
+        BuildParams { eye_n: opts.eye_cells, beams: opts.accel == AccelKind::Beams, ..p }
+    }
+}
+
+/// The wavefront's queues per point of a tile for `scene` with `variant`: one ray per depth
+/// and point without glass (reflection does not branch), four with it (a tile whose glass
+/// branches further overflows and runs again in halves), and a shadow ray per light.
+pub fn queue_sizes(scene: &Scene, variant: Variant) -> QueueSizes {
+    QueueSizes {
+        rays_per_point: if variant.refraction { 4 } else { 1 },
+        shadows_per_ray: if variant.shadows { scene.lights.len().max(1) as u32 } else { 0 },
+    }
+}
+
+/// Adds the BVH that the rays leaving surfaces walk when `flat` has no beams, if the render
+/// the tables were built for (with `params`) traces such rays; else leaves `packed` alone.
+pub fn add_surface_bvh(packed: &mut Packed, scene: &Scene, flat: &FlatTables, params: &BuildParams) {
+    if flat.surface_bvh() && coherence::traces_surface_rays(scene, params) {
+        packed.add_bvh(scene);
+        packed.params.surface_bvh = 1;
+    }
+}
+
+/// How long the walks of a render with `tables` (`None`: none) and `packed`'s BVH (if any)
+/// may be: with both, rays leaving surfaces walk the BVH.
+pub fn walk_bounds(tables: Option<&WalkBounds>, packed: &Packed) -> Option<WalkBounds> {
+    match (tables, packed.bvh.as_ref().map(|b| b.walk_bounds())) {
+        (Some(t), Some(b)) => Some(t.or(&b)),
+        (t, b) => t.copied().or(b),
+    }
+}
+
+/// Points the params at the tables' eye and fallback origins and the beams' box.
+pub fn point_at(params: &mut crate::layout::Params, flat: &FlatTables) {
+    params.eye_origin = flat.eye_origin;
+    params.fallback_origin = flat.fallback_origin;
+    params.beam_lo = flat.beam_lo;
+    params.beam_hi = flat.beam_hi;
+    params.beam_nodes = flat.beam_nodes.len() as u32;
+}
+
+/// The queries the GPU traces rays with for `accel`: `cube`, `beams` and `auto` the candidate
+/// tables.
+pub fn queries(accel: AccelKind) -> Queries {
+    match accel {
+        AccelKind::Auto | AccelKind::Cube | AccelKind::Beams => Queries::Tables,
+        AccelKind::Bvh => Queries::Bvh,
+        AccelKind::Brute => Queries::Brute,
+    }
+}
+
+/// Whether the GPU traces the candidate tables for `accel`.
+pub fn uses_tables(accel: AccelKind) -> bool {
+    queries(accel) == Queries::Tables
+}
+
+pub(super) fn accel_name(variant: Variant, accel: AccelKind) -> &'static str {
+    match accel {
+        AccelKind::Beams => "beams",
+        _ => variant.queries.name(),
+    }
+}
+
+/// Checks that the GPU backend can render `scene` with `opts`.
+pub fn check(scene: &Scene, opts: &RenderOptions) -> Result<()> {
+    opts.validate()?;
+    scene.validate()?;
+    if opts.max_depth > MAX_DEPTH {
+        return Err(Error::Options(format!(
+            "--max-depth {} is deeper than the GPU backend traces ({MAX_DEPTH}); use --backend cpu",
+            opts.max_depth
+        )));
+    }
+    if scene.primitives.len() >= u32::MAX as usize {
+        return Err(Error::Scene("too many primitives for the GPU backend".into()));
+    }
+    check_f32_range(scene)?;
+    Ok(())
+}
+
+/// How far from the camera (where the packed scene is centred) a coordinate may lie on the
+/// GPU: the kernels square coordinates and radii in f32, whose largest value is 3.4·10³⁸.
+pub const F32_REACH: f64 = (1u64 << 60) as f64;
+
+/// Refuses a scene that the kernels' f32 arithmetic would overflow: a finite f64 value that
+/// turns to Inf in f32, or squares to it, so that no Inf reaches a kernel.
+fn check_f32_range(scene: &Scene) -> Result<()> {
+    let eye = scene.camera.eye;
+    let reach_of = |b: crate::scene::Aabb| (b.min - eye).abs().max((b.max - eye).abs()).max_element();
+    let too_far = |what: String, reach: f64| {
+        Error::Scene(format!(
+            "{what} reaches {reach:.3e} from the camera, beyond what the GPU's f32 arithmetic can \
+             square ({F32_REACH:.3e}); render it with --backend cpu"
+        ))
+    };
+    for (id, p) in scene.primitives.iter().enumerate() {
+        let r = reach_of(p.bounds());
+        if r > F32_REACH {
+            return Err(too_far(format!("primitive {id}"), r));
+        }
+    }
+    for (i, l) in scene.lights.iter().enumerate() {
+        let r = (l.position - eye).abs().max_element();
+        if !matches!(l.kind, crate::scene::LightKind::Directional) && r > F32_REACH {
+            return Err(too_far(format!("light {i}"), r));
+        }
+    }
+    // The other numbers the kernels get as f32: finite in f64, they must stay finite there.
+    let beyond = |what: String, x: f64| {
+        Error::Scene(format!(
+            "{what} is {x:.3e}, beyond f32's range ({:.3e}), which the GPU holds it in; render it \
+             with --backend cpu",
+            f32::MAX
+        ))
+    };
+    let fits = |x: f64| x.abs() <= f32::MAX as f64;
+    for (i, m) in scene.materials.iter().enumerate() {
+        let values = [
+            ("colour", m.color.abs().max_element()),
+            ("diffuse weight", m.kd),
+            ("highlight weight", m.ks),
+            ("Phong exponent", m.shine),
+            ("mirror weight", m.mirror.abs().max_element()),
+            ("transmittance", m.transmittance),
+            ("index of refraction", m.ior),
+            ("emission", m.emission.abs().max_element()),
+        ];
+        if let Some((what, x)) = values.into_iter().find(|&(_, x)| !fits(x)) {
+            let named = m.name.as_ref().map(|n| format!(" ({n})")).unwrap_or_default();
+            return Err(beyond(format!("material {i}{named}: its {what}"), x));
+        }
+    }
+    for (i, l) in scene.lights.iter().enumerate() {
+        let radiance = (l.color * l.intensity).abs().max_element();
+        if !fits(radiance) {
+            return Err(beyond(format!("light {i}: its colour times intensity"), radiance));
+        }
+        if let Some(r) = l.range.filter(|&r| !fits(r)) {
+            return Err(beyond(format!("light {i}: its range"), r));
+        }
+    }
+    for (name, v) in [("the ambient light", scene.ambient), ("the background", scene.background)] {
+        if !fits(v.abs().max_element()) {
+            return Err(beyond(name.into(), v.abs().max_element()));
+        }
+    }
+    Ok(())
+}
