@@ -400,6 +400,15 @@ pub fn compose(kernel: Kernel, variant: Variant) -> Result<String> {
     compose_from(SOURCES, &kernel.file(), variant)
 }
 
+/// The WGSL of a module whose root file is `root` (text, not a kernel of `shaders/`),
+/// composed with the shared files it includes for `variant`: for tests that run the
+/// kernels' shared functions on their own inputs.
+pub fn compose_root(root: &str, variant: Variant) -> Result<String> {
+    let mut sources = SOURCES.to_vec();
+    sources.push(("<root>", root));
+    compose_from(&sources, "<root>", variant)
+}
+
 /// Composes `root` from `sources` (name, text).
 fn compose_from(sources: &[(&str, &str)], root: &str, variant: Variant) -> Result<String> {
     let mut out = String::new();

@@ -41,6 +41,50 @@ pub const BVH_SLACK: f32 = 1e-5;
 /// before rounding outward to f32: it covers the f32 rounding of the packed primitives.
 pub const BVH_PAD_REL: f64 = 1e-5;
 
+/// A ray ready for box tests (WGSL `BoxRay`, twin of `box_ray` in
+/// `shaders/shared/bvh.wgsl`: keep them in sync): its reciprocal direction (components below
+/// 1e-20 in size taken as 1e-20, so that nothing divides by zero), the growth of the boxes,
+/// and where its order starts in the nodes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BoxRay {
+    pub o: [f32; 3],
+    pub inv: [f32; 3],
+    pub pad: f32,
+    pub base: u32,
+}
+
+/// The box-test form of the ray from `o` along unit `d`, whose threaded order starts every
+/// `stride` nodes (WGSL `box_ray`).
+pub fn box_ray(o: [f32; 3], d: [f32; 3], stride: u32) -> BoxRay {
+    let a = d.map(f32::abs);
+    let axis = if a[0] >= a[1] && a[0] >= a[2] {
+        0
+    } else if a[1] >= a[2] {
+        1
+    } else {
+        2
+    };
+    let order = 2 * axis as u32 + u32::from(d[axis] < 0.0);
+    // WGSL `select(ray.d, vec3(1e-20), a < vec3(1e-20))`, per component.
+    let inv = std::array::from_fn(|k| 1.0 / if a[k] < 1e-20 { 1e-20 } else { d[k] });
+    let pad = BVH_SLACK * o.iter().fold(0.0f32, |m, x| m.max(x.abs()));
+    BoxRay { o, inv, pad, base: order * stride }
+}
+
+/// Whether the ray meets node `n`'s box, grown by `r.pad`, at some t in [0, t_far] (WGSL
+/// `box_hit`, operation for operation).
+pub fn box_hit(n: &BvhNode, r: &BoxRay, t_far: f32) -> bool {
+    let slab = |k: usize| {
+        let a = (n.lo[k] - r.pad - r.o[k]) * r.inv[k];
+        let b = (n.hi[k] + r.pad - r.o[k]) * r.inv[k];
+        (a.min(b), a.max(b))
+    };
+    let (near, far): (Vec<f32>, Vec<f32>) = (0..3).map(slab).unzip();
+    let t0 = near[0].max(near[1]).max(near[2].max(0.0));
+    let t1 = far[0].min(far[1]).min(far[2]) * (1.0 + BVH_SLACK);
+    t0 <= t1.min(t_far)
+}
+
 /// The BVH flattened for the GPU: `6 · stride` nodes (order `k` at `k · stride`), and the
 /// primitive ids the leaves point into.
 #[derive(Clone, Debug, Default)]

@@ -6,6 +6,7 @@
 mod common;
 
 mod accuracy;
+mod arith;
 mod cli;
 mod coherence;
 mod fuzz;
