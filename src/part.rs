@@ -163,6 +163,11 @@ pub struct Part {
     pub image: Image,
 }
 
+/// The most pixels a part holds (as RGBA f32, 1 GiB): `cuberay render` refuses a larger
+/// `--tile` or `--crop` to an EXR, and [`read_part`] a larger file before it allocates its
+/// pixels. Render larger images in more parts.
+pub const MAX_PART_PIXELS: u64 = 1 << 26;
+
 /// Reads a partial EXR written by [`write_part`].
 pub fn read_part(path: &Path) -> Result<Part, Error> {
     use exr::prelude as x;
@@ -172,14 +177,18 @@ pub fn read_part(path: &Path) -> Result<Part, Error> {
         return Err(bad("no such file".into()));
     }
     // The header first: a small file must not make the reader allocate pixels for a huge
-    // data window that no part of an image cuberay renders (32768² at most) could have.
+    // data window that no part cuberay writes could have (32768 a side, MAX_PART_PIXELS in
+    // all).
     let meta = x::MetaData::read_from_file(path, false)
         .map_err(|e| bad(format!("not a readable RGB EXR file: {e}")))?;
-    if let Some(h) =
-        meta.headers.iter().find(|h| h.layer_size.width() > 32768 || h.layer_size.height() > 32768)
-    {
+    let too_large = |h: &&exr::meta::header::Header| {
+        let (w, ht) = (h.layer_size.width(), h.layer_size.height());
+        w > 32768 || ht > 32768 || (w as u64) * (ht as u64) > MAX_PART_PIXELS
+    };
+    if let Some(h) = meta.headers.iter().find(too_large) {
         return Err(bad(format!(
-            "its {}x{} pixels are more than any cuberay image holds",
+            "its {}x{} pixels are more than any cuberay part holds (at most {MAX_PART_PIXELS} pixels, \
+             32768 a side)",
             h.layer_size.width(),
             h.layer_size.height()
         )));

@@ -327,6 +327,13 @@ fn render_one(
     };
     opts.validate()?;
     let part = opts.region.is_some() && format == OutputFormat::Exr;
+    if part && opts.region().pixels() > part::MAX_PART_PIXELS {
+        bail!(
+            "the part has {} pixels, more than a part holds ({}): split the image into more --tile bands",
+            opts.region().pixels(),
+            part::MAX_PART_PIXELS
+        );
+    }
     // The kernels count rays and tests only for a report or a part (whose counts `merge`
     // adds up): uncounted they run faster.
     opts.count = args.stats.is_some() || part;
