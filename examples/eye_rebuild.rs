@@ -40,7 +40,7 @@ fn main() -> anyhow::Result<()> {
     for path in &args {
         let mut scene = load::load(path.as_ref(), &LoadOptions::default())?.scene;
         let params = |s: &cuberay::scene::Scene| {
-            layout::budget::table_params(s, w, h, 5, s.effects(), SpawnPolicy::Scaled)
+            layout::budget::table_params(s, w, h, s.effects(), SpawnPolicy::Scaled)
         };
         let start = Instant::now();
         let mut tables = coherence::build(&scene, &params(&scene))?;

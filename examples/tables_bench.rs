@@ -1,15 +1,15 @@
 //! Measures the candidate tables on scene files: build statistics and, with `--trace`, the
 //! mean number of primitive tests per ray by kind over the SPD corner sampling at 512×512
-//! (513² eye rays) and the ray trees they spawn (depth 5), in f32 with the table walker. The
-//! tables are built with their beams, as `--accel beams` builds them (`--no-beams`: as
-//! `--accel cube` does; then only the build statistics mean something).
+//! (513² eye rays) and the ray trees they spawn (depth 5), in f32 with the table walker (rays
+//! leaving surfaces have no table: the walker takes the fallback origin, every primitive, for
+//! them, where the GPU walks its BVH; their figures count brute force).
 //!
-//! `cargo run --release --example tables_bench -- [--trace] [--verify K] [--hit-object]
-//!  [--size W] [--pilot-rays N] [--beam-target T] [--budget-mib M] [--fixed-offset K] [--no-beams]
-//!  SCENE...` prints one JSON object per scene. `--fixed-offset K` builds for a fixed spawn
-//!  offset of K times the scene's bounding diagonal (as `cuberay accuracy`'s offset rows do).
+//! `cargo run --release --example tables_bench -- [--trace] [--verify K] [--size W]
+//!  [--budget-mib M] [--eye-n N] [--light-cells C] [--fixed-offset K] SCENE...` prints one JSON
+//!  object per scene. `--fixed-offset K` builds for a fixed spawn offset of K times the scene's
+//!  bounding diagonal (as `cuberay accuracy`'s offset rows do).
 
-use cuberay::coherence::{self, audit, BuildParams, ShadowMode, TableStats};
+use cuberay::coherence::{self, audit, BuildParams, TableStats};
 use cuberay::load::{self, LoadOptions};
 
 fn main() -> anyhow::Result<()> {
@@ -22,8 +22,6 @@ fn main() -> anyhow::Result<()> {
         found.is_some()
     };
     let trace = flag("--trace");
-    let hit_object = flag("--hit-object");
-    let no_beams = flag("--no-beams");
     let mut value = |name: &str| -> Option<String> {
         let i = args.iter().position(|a| a == name)?;
         let v = args.remove(i + 1);
@@ -32,37 +30,18 @@ fn main() -> anyhow::Result<()> {
     };
     let verify: u32 = value("--verify").map(|v| v.parse()).transpose()?.unwrap_or(0);
     let size: u32 = value("--size").map(|v| v.parse()).transpose()?.unwrap_or(512);
-    let pilot_rays: Option<usize> = value("--pilot-rays").map(|v| v.parse()).transpose()?;
-    let beam_target: Option<f64> = value("--beam-target").map(|v| v.parse()).transpose()?;
-    let budget_mib: Option<usize> = value("--budget-mib").map(|v| v.parse()).transpose()?;
     let eye_n: Option<u32> = value("--eye-n").map(|v| v.parse()).transpose()?;
     let light_cells: Option<usize> = value("--light-cells").map(|v| v.parse()).transpose()?;
     let fixed_offset: Option<f64> = value("--fixed-offset").map(|v| v.parse()).transpose()?;
     for path in &args {
         let loaded = load::load(path.as_ref(), &LoadOptions::default())?;
         let scene = loaded.scene;
-        // With the beams (`--accel beams`) unless `--no-beams`: without them, rays leaving
-        // surfaces go to a BVH, which this walker does not trace (it walks the fallback
-        // origin for them, every primitive).
-        let mut params =
-            BuildParams { image: Some((size, size)), eye_n, beams: !no_beams, ..BuildParams::default() };
-        if let Some(n) = pilot_rays {
-            params.pilot_rays = n;
-        }
-        if let Some(t) = beam_target {
-            params.beam_target = t;
-        }
-        if let Some(m) = budget_mib {
-            params.budget_bytes = m << 20;
-        }
+        let mut params = BuildParams { image: Some((size, size)), eye_n, ..BuildParams::default() };
         if let Some(c) = light_cells {
             params.light_cells = c;
         }
         if let Some(k) = fixed_offset {
             params.spawn = cuberay::arith::spawn::SpawnPolicy::Fixed((k * scene.bounds().diagonal()) as f32);
-        }
-        if hit_object {
-            params.shadow_mode = ShadowMode::HitObject;
         }
         let tables = coherence::build(&scene, &params)?;
         tables.flat.check(scene.primitives.len()).map_err(anyhow::Error::msg)?;

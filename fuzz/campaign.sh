@@ -30,11 +30,14 @@ for t in "${targets[@]}"; do
             ;;
     esac
     echo "== $t: ${seconds}s from ${seeds[*]}" >&2
+    started=$(mktemp)
     # Fork mode goes on past a finding (each is saved under artifacts/), so that one crash
     # does not end the target's run or the campaign.
     cargo +nightly fuzz run -O "$t" "$corpus" "${seeds[@]}" -- \
         -max_total_time="$seconds" -timeout=10 -rss_limit_mb=4096 -malloc_limit_mb=1024 \
         -max_len=1048576 -fork=1 -ignore_crashes=1 -ignore_ooms=1 -ignore_timeouts=1 \
         2>&1 | grep -E '^(INFO: (fuzzed|exiting)|#[0-9]+|==[0-9]+== ERROR|.*crash-|.*oom-|.*timeout-)' | tail -n 20 || true
-    ls "artifacts/$t" 2>/dev/null | sed "s|^|$t finding: |" >&2 || true
+    # This run's findings only: older ones stay in artifacts/ until moved to regressions/.
+    find "artifacts/$t" -type f -newer "$started" 2>/dev/null | sed "s|^|$t finding: |" >&2 || true
+    rm -f "$started"
 done

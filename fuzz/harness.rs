@@ -177,8 +177,7 @@ fn part(path: &Path) -> Result<(), String> {
 
 /// The scene and render options the tables inputs are keyed for: `scenes/hard/
 /// parallel_mirrors.nff` at 8×8, whose tables are a few hundred bytes (its seeds are
-/// `cuberay tables scenes/hard/parallel_mirrors.nff --width 8 --height 8`, with and
-/// without `--accel beams`).
+/// `cuberay tables scenes/hard/parallel_mirrors.nff --width 8 --height 8`).
 pub fn tables_scene() -> (cuberay::scene::Scene, RenderOptions) {
     let path = repo().join("scenes/hard/parallel_mirrors.nff");
     let scene = load::load(&path, &LoadOptions::default()).expect("the tables' scene loads").scene;

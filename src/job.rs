@@ -27,9 +27,6 @@ pub enum AccelKind {
     /// The direction-cube candidate tables of the coherence method (Ohta and Maekawa) for eye
     /// and light rays; the BVH for rays leaving surfaces.
     Cube,
-    /// The direction cubes, and ray classification (Arvo and Kirk's beams) for rays leaving
-    /// surfaces.
-    Beams,
 }
 
 /// The arithmetic of the GPU kernels' intersection tests and hit points (`--precision`):

@@ -11,8 +11,8 @@
 //! Layers, each using only those before it: [`scene`] ← [`load`]; [`scene`] ← [`arith`] ←
 //! [`coherence`] ← [`layout`] ← [`gpu`] ← [`preview`], [`accuracy`]; the CPU
 //! [`reference`](mod@reference) beside them.
-//! [`job`], [`sampling`], [`bvh`], [`stats`], [`output`], [`window`], [`part`] and [`error`] are
-//! shared by both backends.
+//! [`job`], [`sampling`], [`bvh`], [`stats`], [`output`], [`region`], [`part`], [`interrupt`] and
+//! [`error`] are shared by both backends.
 //!
 //! - [`scene`]: the plain-data scene model both renderers read;
 //! - [`load`]: NFF and glTF loaders that produce a validated [`scene::Scene`];
@@ -28,12 +28,13 @@
 //! - [`reference`](mod@reference): the independent CPU renderer in f64;
 //! - [`stats`], [`output`], [`compare`], [`info`]: statistics, image files, image
 //!   comparison, scene summaries;
-//! - [`window`], [`part`]: the part of an image a render covers (`--tile`, `--crop`), and
+//! - [`region`], [`part`]: the part of an image a render covers (`--tile`, `--crop`), and
 //!   the partial EXRs that `cuberay merge` assembles;
 //! - [`tablefile`]: candidate tables stored on disk, so that the tasks of a split render
 //!   share one build;
 //! - [`accuracy`]: what accuracy costs in time: settings swept on the GPU against a
 //!   converged CPU reference, with error metrics and a plot;
+//! - [`interrupt`]: how a render in progress is asked to stop (Ctrl-C, a closed window);
 //! - [`error`]: the library's one error type.
 
 pub mod accuracy;

@@ -236,7 +236,7 @@ pub struct KernelTimes {
 pub struct Settings {
     /// `cpu` or `gpu`.
     pub backend: String,
-    /// The acceleration structure actually used (`brute`, `bvh`, `cube`, `beams`).
+    /// The acceleration structure actually used (`brute`, `bvh`, `cube`).
     pub accel: String,
     /// `[width, height]` of the image.
     pub size: [u32; 2],
@@ -383,7 +383,7 @@ impl Stats {
             if t.bound > 0 {
                 let b = &self.bound_tests_per_ray;
                 o += &format!(
-                    "bounds:   {} bound tests (beam-list group spheres, BVH nodes); per ray {:.3} eye, {:.3} shadow, {:.3} reflect, {:.3} refract\n",
+                    "bounds:   {} bound tests (BVH nodes); per ray {:.3} eye, {:.3} shadow, {:.3} reflect, {:.3} refract\n",
                     t.bound, b.eye, b.shadow, b.reflect, b.refract
                 );
             }

@@ -21,7 +21,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
-use crate::coherence::{BuildParams, FlatTables, GpuBeamNode, GpuEntry, GpuFace, GpuGroup, GpuOrigin};
+use crate::coherence::{BuildParams, FlatTables, GpuEntry, GpuFace, GpuOrigin};
 use crate::error::Error;
 use crate::scene::Scene;
 
@@ -29,7 +29,7 @@ use crate::scene::Scene;
 const MAGIC: &[u8] = b"cuberay tables\n";
 
 /// The layout version; a file of another version is refused.
-const VERSION: u32 = 2;
+const VERSION: u32 = 3;
 
 /// The SHA-256 of the running cuberay binary (its version where it cannot be read): stored
 /// tables are valid for the builder and kernels that made them.
@@ -76,19 +76,12 @@ struct Header {
     scene: String,
     eye_origin: u32,
     fallback_origin: u32,
-    /// The beams' box, camera-relative.
-    beam_lo: [f32; 3],
-    beam_hi: [f32; 3],
     /// Element counts of the arrays that follow, in the order written.
     origins: usize,
     faces: usize,
     cell_start: usize,
     entries: usize,
-    prim_beams: usize,
-    beam_nodes: usize,
     light_origin: usize,
-    groups: usize,
-    group_prims: usize,
 }
 
 /// Writes `flat` with `key` to `path`, atomically (`scene` names the scene in messages).
@@ -99,17 +92,11 @@ pub fn write(path: &Path, key: &str, scene: &str, flat: &FlatTables) -> Result<(
         scene: scene.into(),
         eye_origin: flat.eye_origin,
         fallback_origin: flat.fallback_origin,
-        beam_lo: flat.beam_lo,
-        beam_hi: flat.beam_hi,
         origins: flat.origins.len(),
         faces: flat.faces.len(),
         cell_start: flat.cell_start.len(),
         entries: flat.entries.len(),
-        prim_beams: flat.prim_beams.len(),
-        beam_nodes: flat.beam_nodes.len(),
         light_origin: flat.light_origin.len(),
-        groups: flat.groups.len(),
-        group_prims: flat.group_prims.len(),
     };
     let json = serde_json::to_vec(&header).expect("the header serialises");
     let io = |source| Error::Io { path: path.to_owned(), source };
@@ -117,16 +104,12 @@ pub fn write(path: &Path, key: &str, scene: &str, flat: &FlatTables) -> Result<(
         w.write_all(MAGIC).map_err(io)?;
         w.write_all(&(json.len() as u64).to_le_bytes()).map_err(io)?;
         w.write_all(&json).map_err(io)?;
-        let arrays: [&[u8]; 9] = [
+        let arrays: [&[u8]; 5] = [
             bytemuck::cast_slice(&flat.origins),
             bytemuck::cast_slice(&flat.faces),
             bytemuck::cast_slice(&flat.cell_start),
             bytemuck::cast_slice(&flat.entries),
-            bytemuck::cast_slice(&flat.prim_beams),
-            bytemuck::cast_slice(&flat.beam_nodes),
             bytemuck::cast_slice(&flat.light_origin),
-            bytemuck::cast_slice(&flat.groups),
-            bytemuck::cast_slice(&flat.group_prims),
         ];
         for a in arrays {
             w.write_all(a).map_err(io)?;
@@ -181,11 +164,7 @@ pub fn read(path: &Path, key: &str) -> Result<StoredTables, Error> {
     let faces: Vec<GpuFace> = take(&mut rest, h.faces, "faces").map_err(t)?;
     let cell_start: Vec<u32> = take(&mut rest, h.cell_start, "cell starts").map_err(t)?;
     let entries: Vec<GpuEntry> = take(&mut rest, h.entries, "entries").map_err(t)?;
-    let prim_beams: Vec<u32> = take(&mut rest, h.prim_beams, "primitive beam flags").map_err(t)?;
-    let beam_nodes: Vec<GpuBeamNode> = take(&mut rest, h.beam_nodes, "beam nodes").map_err(t)?;
     let light_origin: Vec<u32> = take(&mut rest, h.light_origin, "light origins").map_err(t)?;
-    let groups: Vec<GpuGroup> = take(&mut rest, h.groups, "groups").map_err(t)?;
-    let group_prims: Vec<u32> = take(&mut rest, h.group_prims, "group members").map_err(t)?;
     if !rest.is_empty() {
         return Err(bad(format!("{} bytes follow its last array", rest.len())));
     }
@@ -194,15 +173,9 @@ pub fn read(path: &Path, key: &str) -> Result<StoredTables, Error> {
         faces,
         cell_start,
         entries,
-        prim_beams,
-        beam_nodes,
-        beam_lo: h.beam_lo,
-        beam_hi: h.beam_hi,
         light_origin,
         eye_origin: h.eye_origin,
         fallback_origin: h.fallback_origin,
-        groups,
-        group_prims,
     };
     Ok(StoredTables { flat })
 }
@@ -228,7 +201,7 @@ mod tests {
     #[test]
     fn tables_come_back_as_they_were_written() {
         let s = scene();
-        let params = BuildParams { image: Some((32, 24)), beams: true, ..BuildParams::default() };
+        let params = BuildParams { image: Some((32, 24)), ..BuildParams::default() };
         let t = coherence::build(&s, &params).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("t.tables");
@@ -240,20 +213,14 @@ mod tests {
         assert_eq!(a.faces, b.faces);
         assert_eq!(a.cell_start, b.cell_start);
         assert_eq!(bytemuck::cast_slice::<_, u8>(&a.entries), bytemuck::cast_slice::<_, u8>(&b.entries));
-        assert!(!a.beam_nodes.is_empty(), "the mirrors have beams");
-        assert_eq!(a.prim_beams, b.prim_beams);
-        assert_eq!(a.beam_nodes, b.beam_nodes);
-        assert_eq!((a.beam_lo, a.beam_hi), (b.beam_lo, b.beam_hi));
         assert_eq!(a.light_origin, b.light_origin);
         assert_eq!((a.eye_origin, a.fallback_origin), (b.eye_origin, b.fallback_origin));
-        assert_eq!(bytemuck::cast_slice::<_, u8>(&a.groups), bytemuck::cast_slice::<_, u8>(&b.groups));
-        assert_eq!(a.group_prims, b.group_prims);
         back.flat.check_scene(s.primitives.len(), s.lights.len()).unwrap();
         // The key changes with the image size and with the scene, by as little as one
         // sphere's radius; another key, a truncated file and a foreign file are refused.
         let other = key(&s, &BuildParams { image: Some((33, 24)), ..params.clone() });
         assert_ne!(other, k);
-        assert_ne!(key(&s, &BuildParams { beams: false, ..params.clone() }), k);
+        assert_ne!(key(&s, &BuildParams { eye_n: Some(16), ..params.clone() }), k);
         let mut moved = s.clone();
         if let crate::scene::Primitive::Sphere(sp) = &mut moved.primitives[3] {
             sp.radius *= 1.001;

@@ -1,5 +1,5 @@
 // Brute force (`--accel brute`): every primitive for every ray, as query.wgsl's protocol (the
-// twin of src/kernel/closest.rs's `brute_nearest`: keep them in sync). A walk is the run of
+// twin of src/arith/closest.rs's `brute_nearest`: keep them in sync). A walk is the run of
 // primitive ids `i..iend` still to test.
 
 struct Walk {

@@ -1,5 +1,5 @@
 // Rays and primitive intersection in f32, the surface at a hit and the spawn offset. Keep in
-// sync with their Rust twins of the same names in src/kernel/geometry.rs, closest.rs and
+// sync with their Rust twins of the same names in src/arith/geometry.rs, closest.rs and
 // spawn.rs. The intersection tests and the hit points compute in `real`: f32, or f64 in the
 // F64 variant (`--precision f64`), from the f32 scene and rays, rounding their answers to
 // f32.

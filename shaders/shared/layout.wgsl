@@ -50,19 +50,13 @@ struct Params {
     own_h: u32,
     // --accel bvh: the nodes of one threaded order of the BVH (bvh.wgsl).
     bvh_stride: u32,
-    // --accel cube: the box of ray origins the beams classify, and the beam nodes (0: none);
-    // rays leaving surfaces from outside it walk the fallback origin (tables.wgsl).
-    beam_lo: vec3<f32>,
-    beam_nodes: u32,
-    beam_hi: vec3<f32>,
     // The wavefront's queues: jobs each ray queue and each shadow queue holds.
     ray_queue: u32,
     shadow_queue: u32,
-    // --accel cube: 1 when rays leaving surfaces walk the BVH (the tables have no beams).
+    // --accel cube: 1 when rays leaving surfaces walk the BVH (the render traces some).
     surface_bvh: u32,
     // The BVH's inline shadow walks: a budget of loop iterations (nodes and primitives).
     bvh_inline: u32,
-    pad_q2: u32,
 }
 
 // One primitive (kind KIND_*). Sphere: a = (centre, radius). Triangle: a, b, c = vertices.
@@ -145,8 +139,7 @@ struct Pending {
 // The deepest ray tree the kernels trace (--max-depth, checked on the CPU).
 const MAX_DEPTH: u32 = 16u;
 
-// Loop iterations a pass spends on one walk, at most (plus the members of the last group
-// entry): lavapipe ends an invocation's loops after 65535 iterations in all, so a long
+// Loop iterations a pass spends on one walk, at most: lavapipe ends an invocation's loops after 65535 iterations in all, so a long
 // candidate list (or brute force's every primitive) is walked over several passes, its
 // position kept in the job (`Job::walk`). Twin: src/coherence/walk.rs.
 const WALK_CHUNK: u32 = 8192u;
@@ -303,8 +296,8 @@ fn job_depth(job: Pending) -> u32 {
 const SELF_HIT_SPAWNS: f32 = 4.0;
 
 // Counter slots: rays by kind (C_RAYS + kind), tests by ray kind x primitive kind
-// (C_TESTS + 3 * ray kind + primitive kind), eye hits, blocked shadow rays, group sphere
-// tests by ray kind (C_BOUNDS + kind), self-hits of spawned rays. Each is 64-bit in
+// (C_TESTS + 3 * ray kind + primitive kind), eye hits, blocked shadow rays, bound tests
+// (the BVH's nodes) by ray kind (C_BOUNDS + kind), self-hits of spawned rays. Each is 64-bit in
 // `counters` (low, high word).
 const C_RAYS: u32 = 0u;
 const C_TESTS: u32 = 4u;

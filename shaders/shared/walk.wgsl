@@ -1,15 +1,11 @@
 // The table walk: line-by-line twin of src/coherence/walk.rs (keep them in sync), but for the
-// BVH branches, whose CPU counterpart is the reference's own BVH (reference/tables.rs), and
-// for a group entry's members, which go through the walk's own loop here (a nested loop
-// there: the same tests in the same order), so that the kernels hold one copy of the
-// intersection code for the table walks: lavapipe runs kernels with code inlined twice
-// markedly slower. (Taking the BVH's steps in that loop too made the BVH walks slower:
-// balls_s4 +11 %, rings_s7 +17 %.) A ray finds its list (the cell of its direction in the
-// direction cube of the eye or the light it is traced from; the beam of a ray leaving a
-// surface) and walks it merged with the origin's always-test list by increasing d_min,
-// stopping once d_min passes the nearest hit so far; a long walk is spread over several
-// passes. Rays leaving surfaces walk the BVH instead (bvh.wgsl) when the tables have no
-// beams (`--accel cube`; `--accel beams` builds them). It supplies query.wgsl's protocol.
+// BVH branches, whose CPU counterpart is the reference's own BVH (reference/tables.rs). (Taking
+// the BVH's steps in the list walk's loop made the BVH walks slower: balls_s4 +11 %,
+// rings_s7 +17 %.) A ray finds its list (the cell of its direction in the direction cube of
+// the eye or the light it is traced from) and walks it merged with the origin's always-test
+// list by increasing d_min, stopping once d_min passes the nearest hit so far; a long walk
+// is spread over several passes. Rays leaving surfaces walk the BVH (bvh.wgsl). It supplies
+// query.wgsl's protocol.
 
 #if SURFACE_RAYS
 #include "shared/bvh.wgsl"
@@ -33,12 +29,11 @@ fn cell_walk(origin: u32, d: vec3<f32>) -> Walk {
     return Walk(range.x, range.y, org.always_start, org.always_start + org.always_count);
 }
 
-// The walk of a ray leaving primitive `from_prim` (NO_ID: the eye) from `at` along `d` (not
-// zero): the eye's cell; for a ray leaving a surface, the BVH (`params.surface_bvh`: the
-// tables classify no such rays) or its beam; else the fallback origin (twin of
-// FlatTables::walk_from, where `reference::tables` hands the BVH's rays to the reference's
-// own BVH).
-fn walk_from(from_prim: u32, at: vec3<f32>, d: vec3<f32>) -> Walk {
+// The walk of a ray leaving primitive `from_prim` (NO_ID: the eye) along `d` (not zero): the
+// eye's cell; for a ray leaving a surface, the BVH (`params.surface_bvh`); else the fallback
+// origin (twin of FlatTables::walk_from, where `reference::tables` hands the BVH's rays to
+// the reference's own BVH).
+fn walk_from(from_prim: u32, d: vec3<f32>) -> Walk {
     if from_prim == NO_ID {
         let o = params.eye_origin;
         return cell_walk(select(o, params.fallback_origin, o == NO_ORIGIN), d);
@@ -47,19 +42,13 @@ fn walk_from(from_prim: u32, at: vec3<f32>, d: vec3<f32>) -> Walk {
     if params.surface_bvh != 0u {
         return Walk(0u, BVH_WALK, 0u, 0u);
     }
-#if BEAMS
-    if from_prim < params.prim_count && prim_beams[from_prim] != 0u && in_beams(at) {
-        let r = beam_range(at, d);
-        return Walk(r.x, r.y, 0u, 0u);
-    }
-#endif
 #endif
     return cell_walk(params.fallback_origin, d);
 }
 
 // The protocol of query.wgsl: a ray's walk, and the loop iterations a pass gives it.
 fn walk_of_ray(from_prim: u32, ray: Ray) -> Walk {
-    return walk_from(from_prim, ray.o, ray.d);
+    return walk_from(from_prim, ray.d);
 }
 
 // The entry the merged walk visits next; the walk is over when `w.i == w.iend` and
@@ -87,9 +76,9 @@ fn walk_chunk(w: Walk) -> u32 {
     return select(WALK_CHUNK, WALK_CHUNK / 2u, w.iend == BVH_WALK);
 }
 
-// Continues the nearest-hit walk `w` for at most about `budget` loop iterations (an entry,
-// or a group's members), keeping the nearest hit in `best` (ties to the lower id; `skip`
-// never tested). True when the walk is over.
+// Continues the nearest-hit walk `w` for at most `budget` loop iterations (an entry each),
+// keeping the nearest hit in `best` (ties to the lower id; `skip` never tested). True when
+// the walk is over.
 fn walk_nearest(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, t_max: f32, skip: u32, ray_kind: u32,
     budget: u32) -> bool {
 #if SURFACE_RAYS
@@ -99,51 +88,21 @@ fn walk_nearest(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, 
 #endif
     var left = budget;
     var best_t = select(t_max, (*best).hit.t, (*best).found);
-    // The members k..kend of the group entry being tested: they go through the same loop
-    // as the entries, so that the kernel holds one copy of `consider` (lavapipe runs a
-    // kernel with its code inlined twice markedly slower). Only beam lists name groups:
-    // without `BEAMS` (`--accel cube`) the loop takes entries alone, and lavapipe does not
-    // run the group test, taken or not, in every iteration.
-    var k = 0u;
-    var kend = 0u;
     loop {
         count_step();
-        var id: u32;
-#if BEAMS
-        if k < kend {
-            id = group_prims[k];
-            k += 1u;
-        } else {
-#endif
-            if walk_done(*w) {
-                break;
-            }
-            if left == 0u {
-                return false;
-            }
-            left -= 1u;
-            let e = walk_next(w);
-            if e.d_min > best_t {
-                break;
-            }
-#if BEAMS
-            if (e.id & GROUP_BIT) != 0u {
-                let g = groups[e.id & ~GROUP_BIT];
-                count_bound(ray_kind);
-                if group_hit(g, ray, best_t) {
-                    left -= min(left, g.count);
-                    k = g.first;
-                    kend = g.first + g.count;
-                }
-                continue;
-            }
-#endif
-            id = e.id;
-#if BEAMS
+        if walk_done(*w) {
+            break;
         }
-#endif
-        if id != skip {
-            best_t = consider(id, best, ray, t_max, ray_kind, best_t);
+        if left == 0u {
+            return false;
+        }
+        left -= 1u;
+        let e = walk_next(w);
+        if e.d_min > best_t {
+            break;
+        }
+        if e.id != skip {
+            best_t = consider(e.id, best, ray, t_max, ray_kind, best_t);
         }
     }
     return true;
@@ -160,47 +119,21 @@ fn walk_any(w: ptr<function, Walk>, ray: Ray, t_max: f32, skip: u32, budget: u32
     }
 #endif
     var left = budget;
-    // A group entry's members k..kend go through the same loop (see `walk_nearest`).
-    var k = 0u;
-    var kend = 0u;
     loop {
         count_step();
-        var id: u32;
-#if BEAMS
-        if k < kend {
-            id = group_prims[k];
-            k += 1u;
-        } else {
-#endif
-            if walk_done(*w) {
-                break;
-            }
-            if left == 0u {
-                return any_answer(ANY_UNFINISHED);
-            }
-            left -= 1u;
-            let e = walk_next(w);
-            if e.d_min >= t_max {
-                break;
-            }
-#if BEAMS
-            if (e.id & GROUP_BIT) != 0u {
-                let g = groups[e.id & ~GROUP_BIT];
-                count_bound(RAY_SHADOW);
-                if group_hit(g, ray, t_max) {
-                    left -= min(left, g.count);
-                    k = g.first;
-                    kend = g.first + g.count;
-                }
-                continue;
-            }
-#endif
-            id = e.id;
-#if BEAMS
+        if walk_done(*w) {
+            break;
         }
-#endif
-        if id != skip {
-            let h = test_any(id, ray, t_max);
+        if left == 0u {
+            return any_answer(ANY_UNFINISHED);
+        }
+        left -= 1u;
+        let e = walk_next(w);
+        if e.d_min >= t_max {
+            break;
+        }
+        if e.id != skip {
+            let h = test_any(e.id, ray, t_max);
             if h.ok {
                 return AnyHit(ANY_BLOCKED, h.t);
             }
@@ -211,18 +144,18 @@ fn walk_any(w: ptr<function, Walk>, ray: Ray, t_max: f32, skip: u32, budget: u32
 
 // The protocol of query.wgsl for shadow rays: the walk of shadow ray `sr` towards light
 // `light` from a hit on primitive `from_prim`, in the light's table when it is traced from
-// the light, else as a ray leaving the surface (`walk_from`: the BVH, or the beam it lies
-// in, or the fallback origin where there is none).
+// the light, else as a ray leaving the surface (`walk_from`: the BVH, or the fallback
+// origin where there is none).
 fn walk_of_shadow(sr: ShadowRay, light: u32, from_prim: u32) -> Walk {
     if sr.from_light {
         let lo = light_table(light);
         return cell_walk(select(lo, params.fallback_origin, lo == NO_ORIGIN), sr.ray.d);
     }
-    return walk_from(from_prim, sr.ray.o, sr.ray.d);
+    return walk_from(from_prim, sr.ray.d);
 }
 
 // A shadow walk is traced at its hit when its lists hold at most `params.shadow_inline`
-// entries (groups counted once), or, for a walk of the BVH, within `params.bvh_inline` loop
+// entries, or, for a walk of the BVH, within `params.bvh_inline` loop
 // iterations; a longer list is not walked there (0): the shadow ray becomes a job.
 fn walk_inline(w: Walk) -> u32 {
     if w.iend == BVH_WALK {

@@ -9,7 +9,7 @@
 //! ([`metrics::image_error`]), the eye rays' hit error against the reference's at the pixel
 //! centres ([`metrics::hit_error`]), and the self-hits and blocked shadow rays the render
 //! counted (acne and light leaks). The reference is rendered once per scene, size and
-//! settings and kept in a cache file ([`reference`]).
+//! settings and kept in a cache file ([`reference()`]).
 
 mod cache;
 pub mod metrics;
@@ -194,7 +194,7 @@ impl Settings {
                     })
                     .collect()
             }
-            Parameter::Accel => [AccelKind::Cube, AccelKind::Beams, AccelKind::Bvh, AccelKind::Brute]
+            Parameter::Accel => [AccelKind::Cube, AccelKind::Bvh, AccelKind::Brute]
                 .into_iter()
                 .map(|accel| {
                     with(format!("{accel:?}").to_lowercase(), RenderOptions { accel, ..base.clone() })

@@ -22,9 +22,6 @@ pub enum AccelArg {
     /// The direction-cube candidate tables of the coherence method (Ohta and Maekawa) for eye
     /// and light rays; the BVH for rays leaving surfaces.
     Cube,
-    /// The direction cubes, and ray classification (Arvo and Kirk's beams) for rays leaving
-    /// surfaces.
-    Beams,
 }
 
 impl From<AccelArg> for AccelKind {
@@ -34,7 +31,6 @@ impl From<AccelArg> for AccelKind {
             AccelArg::Brute => AccelKind::Brute,
             AccelArg::Bvh => AccelKind::Bvh,
             AccelArg::Cube => AccelKind::Cube,
-            AccelArg::Beams => AccelKind::Beams,
         }
     }
 }
@@ -164,7 +160,7 @@ mod tests {
             }
             assert_eq!(mapped.len(), all);
         }
-        distinct(|a: &AccelArg| AccelKind::from(*a), 5);
+        distinct(|a: &AccelArg| AccelKind::from(*a), 4);
         distinct(|a: &PrecisionArg| Precision::from(*a), 2);
         distinct(|a: &SamplingArg| Sampling::from(*a), 2);
         distinct(|a: &AovArg| Aov::from(*a), 3);

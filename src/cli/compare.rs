@@ -67,9 +67,9 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
         .with_context(|| format!("cannot render {} on the GPU", scene_name.display()))?;
     progress.finish_and_clear();
     let progress = progress_bar("CPU");
-    // The yardstick stays independent of the tables: `--accel cube` or `beams` compares the
+    // The yardstick stays independent of the tables: `--accel cube` compares the
     // GPU's tables against the reference's automatic choice (brute force or its BVH).
-    let tables = matches!(opts.accel, AccelKind::Cube | AccelKind::Beams);
+    let tables = opts.accel == AccelKind::Cube;
     let cpu_opts = RenderOptions { accel: if tables { AccelKind::Auto } else { opts.accel }, ..opts.clone() };
     let c = reference::render(scene, &cpu_opts, &progress)
         .with_context(|| format!("cannot render {}", scene_name.display()))?;

@@ -133,9 +133,8 @@ pub struct TraceArgs {
     pub max_depth: u32,
     /// Acceleration structure. auto: the candidate tables (cube) on the GPU; on the CPU brute
     /// force for tiny scenes, else a BVH. cube: the direction-cube candidate tables for eye and
-    /// light rays, the BVH for rays leaving surfaces; beams: the direction cubes and ray
-    /// classification's beams; bvh: a bounding volume hierarchy (the baseline); brute: every
-    /// primitive for every ray.
+    /// light rays, the BVH for rays leaving surfaces; bvh: a bounding volume hierarchy (the
+    /// baseline); brute: every primitive for every ray.
     #[arg(long, value_enum, default_value_t = AccelArg::Auto)]
     pub accel: AccelArg,
     /// The GPU kernels' intersection arithmetic: f32, or f64 where the adapter has 64-bit

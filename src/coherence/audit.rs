@@ -33,12 +33,9 @@ pub struct AuditParams {
 pub struct KindCount {
     pub rays: u64,
     pub tests: u64,
-    /// Group bounding-sphere tests.
-    pub bounds: u64,
     /// Rays whose origin had no table (they walk the fallback origin: every primitive).
     pub untabled: u64,
     pub tests_per_ray: f64,
-    pub bounds_per_ray: f64,
 }
 
 /// The measurement.
@@ -64,7 +61,6 @@ impl std::ops::AddAssign for KindCount {
     fn add_assign(&mut self, o: Self) {
         self.rays += o.rays;
         self.tests += o.tests;
-        self.bounds += o.bounds;
         self.untabled += o.untabled;
     }
 }
@@ -105,14 +101,13 @@ impl Tracer<'_> {
         let (key, ray, skip) = (tr.key(), &tr.ray, tr.skip);
         let prims = &self.tree.prims;
         let mut count = WalkCount::default();
-        let hit = table_nearest(f, key, ray.o, ray.d, FAR, skip, &mut count, |id| {
+        let hit = table_nearest(f, key, ray.d, FAR, skip, &mut count, |id| {
             test_prim(&prims[id as usize], ray, FAR)
         });
         let c = kind_mut(r, tr.kind);
         c.rays += 1;
-        c.untabled += !f.has_table(key) as u64;
+        c.untabled += f.cube_of(key).is_none() as u64;
         c.tests += count.tests as u64;
-        c.bounds += count.bounds as u64;
         if self.params.verify_every > 0 && n % self.params.verify_every as u64 == 0 {
             r.verified += 1;
             let want = brute_nearest(prims, ray, FAR, skip);
@@ -138,11 +133,10 @@ impl Tracer<'_> {
         let prims = &self.tree.prims;
         let mut count = WalkCount::default();
         let hits = |id: u32| prims[id as usize].intersect(ray, t_max).ok;
-        let blocked = table_any(f, key, ray.o, ray.d, t_max, skip, &mut count, hits);
-        r.shadow.untabled += !f.has_table(key) as u64;
+        let blocked = table_any(f, key, ray.d, t_max, skip, &mut count, hits);
+        r.shadow.untabled += f.cube_of(key).is_none() as u64;
         r.shadow.rays += 1;
         r.shadow.tests += count.tests as u64;
-        r.shadow.bounds += count.bounds as u64;
         r.shadow_blocked += blocked as u64;
         if self.params.verify_every > 0 && n % self.params.verify_every as u64 == 0 {
             r.verified += 1;
@@ -198,7 +192,6 @@ pub fn trace_counts(scene: &Scene, tables: &Tables, params: AuditParams) -> Audi
         });
     for k in [&mut total.eye, &mut total.shadow, &mut total.reflect, &mut total.refract] {
         k.tests_per_ray = if k.rays > 0 { k.tests as f64 / k.rays as f64 } else { 0.0 };
-        k.bounds_per_ray = if k.rays > 0 { k.bounds as f64 / k.rays as f64 } else { 0.0 };
     }
     total.trace_s = start.elapsed().as_secs_f64();
     total

@@ -1,7 +1,6 @@
 //! The shared, read-only inputs of the per-origin builds: the targets and their hierarchy,
-//! the spawn offset and angular widening, the primitive groups.
+//! the spawn offset and angular widening.
 
-use super::groups::{Groups, GROUP_SIZE};
 use super::hierarchy::SphereTree;
 use super::params::BuildParams;
 use super::targets::Target;
@@ -12,20 +11,10 @@ pub struct Ctx<'a> {
     pub bvh: &'a SphereTree,
     pub eps: f64,
     pub delta: f64,
-    /// The primitive groups, and the list length from which lists name them.
-    pub groups: Groups,
-    pub group_min_list: usize,
 }
 
 impl<'a> Ctx<'a> {
     pub fn new(targets: &'a [Target], bvh: &'a SphereTree, eps: f64, params: &BuildParams) -> Self {
-        Ctx {
-            targets,
-            bvh,
-            eps,
-            delta: params.delta,
-            groups: Groups::of_bvh(bvh, targets.len(), GROUP_SIZE),
-            group_min_list: params.group_min_list,
-        }
+        Ctx { targets, bvh, eps, delta: params.delta }
     }
 }

@@ -1,7 +1,7 @@
 //! The origins a build makes direction cubes for, before building: the eye (its cells
 //! clipped to the view frustum) and each positional light (its cells where objects lie),
-//! each with its sphere, resolution and stored windows. (Rays leaving surfaces are
-//! classified into beams instead: [`super::beams`].)
+//! each with its sphere, resolution and stored windows. (Rays leaving surfaces have no
+//! origin to build for: the kernels send them to the BVH.)
 
 use glam::DVec3;
 

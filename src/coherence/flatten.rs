@@ -1,27 +1,14 @@
-//! Flattening: the built direction cubes and the beam tree become the buffers the walkers
-//! read ([`FlatTables`]): the cubes' cell lists in order, then their always-test lists, the
-//! fallback origin (the last origin) and its list of every primitive, the beams' leaf lists
-//! and nodes, the per-light origin indices, the groups and the eye-relative f32 data.
+//! Flattening: the built direction cubes become the buffers the walkers read
+//! ([`FlatTables`]): the cubes' cell lists in order, then their always-test lists, the
+//! fallback origin (the last origin) and its list of every primitive, and the per-light
+//! origin indices.
 
-use glam::DVec3;
-
-use super::beams::BeamTree;
 use super::defs::OriginDef;
-use super::flat::{FlatTables, GpuEntry, GpuFace, GpuOrigin, OriginKind, GROUP_BIT};
-use super::groups::Groups;
+use super::flat::{FlatTables, GpuEntry, GpuFace, GpuOrigin, OriginKind};
 use super::lists::OriginTable;
 
-/// Flattens built direction cubes, the beams (if any) and the fallback origin into the GPU
-/// buffers, for a camera at `eye`.
-pub fn flatten(
-    tables: &[OriginTable],
-    defs: &[OriginDef],
-    beams: Option<&BeamTree>,
-    primitives: usize,
-    lights: usize,
-    groups: &Groups,
-    eye: DVec3,
-) -> FlatTables {
+/// Flattens built direction cubes and the fallback origin into the GPU buffers.
+pub fn flatten(tables: &[OriginTable], defs: &[OriginDef], primitives: usize, lights: usize) -> FlatTables {
     let mut flat =
         FlatTables { light_origin: vec![u32::MAX; lights], eye_origin: u32::MAX, ..FlatTables::default() };
     let cells: usize = tables.iter().map(|t| t.starts.len() - 1).sum();
@@ -65,29 +52,7 @@ pub fn flatten(
         flat.entries.extend_from_slice(&t.always);
     }
     append_fallback(&mut flat, primitives);
-    match beams {
-        Some(b) => b.append_to(&mut flat, eye),
-        None => {
-            flat.prim_beams = vec![0; primitives];
-            BeamTree::default().frame(&mut flat, eye);
-        }
-    }
-    // The groups go up only when some list names them; their spheres follow the eye
-    // ([`frames`]).
-    if flat.entries.iter().any(|e| e.id & GROUP_BIT != 0) {
-        flat.group_prims = groups.members.clone();
-    }
-    frames(&mut flat, groups, beams, eye);
     flat
-}
-
-/// The eye-relative f32 data of the flat tables: the groups' spheres and the beams' origin
-/// splits and box.
-pub fn frames(flat: &mut FlatTables, groups: &Groups, beams: Option<&BeamTree>, eye: DVec3) {
-    flat.groups = if flat.group_prims.is_empty() { Vec::new() } else { groups.gpu(eye) };
-    if let Some(b) = beams {
-        b.frame(flat, eye);
-    }
 }
 
 /// Appends the fallback origin: every primitive in its always-test list (`d_min` 0,

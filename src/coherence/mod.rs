@@ -4,7 +4,7 @@
 //!
 //! This module owns the tables and nothing else: it does no file IO and knows nothing of
 //! wgpu. Its files, in the order data flows through them:
-//! - [`params`]: what a build may be told (budget, resolutions, spawn-offset policy, effects);
+//! - [`params`]: what a build may be told (resolutions, spawn-offset policy, effects);
 //! - [`targets`]: every primitive as a target (bounding shape, self-listing, occluder);
 //! - [`hierarchy`]: the bounding-sphere hierarchy over targets;
 //! - [`defs`]: the direction cubes to build (eye frustum, lights);
@@ -15,12 +15,9 @@
 //! - [`raster`]: rasterising a bound into an origin's cells;
 //! - [`origin`]: building one direction cube (rayon-parallel over origins);
 //! - [`lists`]: finishing one cube's lists (sorting, window cropping);
-//! - [`raytree`]: the kernels' ray trees in f32, which the pilot and the audit trace;
-//! - [`beams`]: ray classification for the rays leaving surfaces: the beam tree, its pilot
-//!   pass and its lookup;
-//! - [`groups`]: primitive groups, which long candidate lists name instead of their members;
+//! - [`raytree`]: the kernels' ray trees in f32, which the audit traces;
 //! - [`tables`]: the whole build ([`build`]) and the eye-only rebuild;
-//! - [`flatten`]: cubes and beams into flat buffers, with the fallback origin;
+//! - [`flatten`]: cubes into flat buffers, with the fallback origin;
 //! - [`flat`]: the `#[repr(C)]` buffers and their documented layout;
 //! - [`reach`]: how long a walk of the flat tables can be (for the GPU's loop budget);
 //! - [`cube`]: the direction-cube lookup (face, cell, candidate range);
@@ -34,11 +31,10 @@
 //! `N×N` cells per face (Ohta and Maekawa). A cell lists every primitive a ray from the origin
 //! with a direction in the cell can hit, sorted by a lower bound `d_min` on the hit distance,
 //! so a walker stops as soon as `d_min` exceeds the nearest hit so far. Rays leaving surfaces
-//! have no one origin: with [`BuildParams::beams`] (`--accel beams`) they are classified by
-//! origin and direction together into beams (Arvo and Kirk), whose lists are built and walked
-//! the same way; without (the default, `--accel cube`) the tables leave them to the BVH
-//! ([`FlatTables::surface_bvh`]), which traces them faster than the beams on every scene
-//! measured (README, *Speed*) and needs no build of seconds.
+//! have no one origin: the tables leave them to the BVH. (Arvo and Kirk's ray classification,
+//! beams of origin × direction with lists built and walked the same way, was built here and
+//! removed: its rays cost 2.0–3.5× the BVH's walk and took seconds to build;
+//! docs/performance.md has the figures.)
 //!
 //! # Conservative in f32
 //! Bounds are computed in f64 and widened by an angle `delta` (the GPU's f32 lookup may put a
@@ -54,10 +50,9 @@
 //! # fn f(scene: &cuberay::scene::Scene) {
 //! let tables = build(scene, &BuildParams::default()).unwrap();
 //! let dir = glam::Vec3::new(0.0, 0.0, -1.0);
-//! // A primary ray starts at the eye: the origin of the walkers' camera-relative frame.
-//! let at = glam::Vec3::ZERO;
+//! // A primary ray from the eye; the walk reads the eye's cell of `dir`.
 //! let mut count = WalkCount::default();
-//! let hit: Closest<f32, ()> = walk::table_nearest(&tables.flat, OriginKey::Eye, at, dir, FAR, NO_ID, &mut count, |id| {
+//! let hit: Closest<f32, ()> = walk::table_nearest(&tables.flat, OriginKey::Eye, dir, FAR, NO_ID, &mut count, |id| {
 //!     let _ = id; // intersect primitive `id` here: Some((t, payload)) for a hit before FAR
 //!     None
 //! });
@@ -65,7 +60,6 @@
 //! ```
 
 pub mod audit;
-pub mod beams;
 pub mod bounds;
 pub mod cells;
 pub mod context;
@@ -73,7 +67,6 @@ pub mod cube;
 pub mod defs;
 pub mod flat;
 pub mod flatten;
-pub mod groups;
 pub mod hierarchy;
 pub mod lists;
 pub mod origin;
@@ -87,8 +80,8 @@ pub mod tables;
 pub mod targets;
 pub mod walk;
 
-pub use flat::{FlatTables, GpuBeamNode, GpuEntry, GpuFace, GpuGroup, GpuOrigin, OriginKind};
-pub use params::{BuildParams, ShadowMode};
+pub use flat::{FlatTables, GpuEntry, GpuFace, GpuOrigin, OriginKind};
+pub use params::BuildParams;
 pub use stats::TableStats;
 pub use tables::{build, traces_surface_rays, Tables};
 pub use walk::{OriginKey, WalkCount};

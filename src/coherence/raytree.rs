@@ -2,8 +2,8 @@
 //! shadow query per light the surface faces, a reflection ray on surfaces that reflect or
 //! transmit, a refraction ray on transmitting ones by Snell's law unless totally internally
 //! reflected), up to a maximum depth (the eye ray is depth 1), with the kernels' spawn
-//! offset and skip rule. No shading. Two tracers share it: [`super::audit`] (tests per
-//! ray over a whole image) and the beams' pilot pass ([`super::beams::pilot`]).
+//! offset and skip rule. No shading. [`super::audit`] traces it (tests per ray over a whole
+//! image).
 
 use glam::{DVec3, Vec3};
 
@@ -39,7 +39,7 @@ impl TreeRay {
     pub fn key(&self) -> OriginKey {
         match self.from {
             NO_ID => OriginKey::Eye,
-            id => OriginKey::Surface(id, self.ray.o),
+            id => OriginKey::Surface(id),
         }
     }
 }
@@ -164,6 +164,6 @@ impl<'a> RayTree<'a> {
         }
         let t_max =
             if lk == LightKind::Directional { FAR } else { (lp - s.q).length() * (1.0 - SHADOW_END_REL) };
-        Some((OriginKey::Surface(s.from, s.q), make_ray(s.q, s.to_light), t_max))
+        Some((OriginKey::Surface(s.from), make_ray(s.q, s.to_light), t_max))
     }
 }

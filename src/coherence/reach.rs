@@ -1,10 +1,10 @@
 //! How long a walk of the flattened tables can be: the longest merged list (cell + always) a
-//! nearest-hit walk, an eye ray's walk and a shadow walk may meet, in loop iterations (a group
-//! entry counts its members too), and whether any ray of a render falls back to walking every
-//! primitive. The GPU's loop budget and tile size are set from these.
+//! nearest-hit walk, an eye ray's walk and a shadow walk may meet, in loop iterations (an
+//! entry each), and whether any ray of a render falls back to walking every primitive. The
+//! GPU's loop budget and tile size are set from these.
 
-use super::flat::{FlatTables, OriginKind, BEAM_LEAF, GROUP_BIT, NO_ORIGIN};
-use crate::scene::{Effects, Scene};
+use super::flat::{FlatTables, OriginKind, NO_ORIGIN};
+use crate::scene::Scene;
 
 /// Bounds on the walks of one set of tables.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -29,37 +29,11 @@ pub struct WalkBounds {
     pub mixed: bool,
 }
 
-/// Loop iterations a walk over `entries[a..b]` may take: one per entry, plus the members of
-/// each group entry.
-fn walk_cost(flat: &FlatTables, a: u32, b: u32) -> u64 {
-    flat.entries[a as usize..b as usize]
-        .iter()
-        .map(|e| match e.id & GROUP_BIT {
-            0 => 1,
-            _ => 1 + flat.groups[(e.id & !GROUP_BIT) as usize].count as u64,
-        })
-        .sum()
-}
-
-/// Whether a ray of a render with `effects` can come from an entity without a table: the eye
-/// of a non-empty scene, the secondary rays of a reflecting or transmitting primitive the
-/// beams do not classify, or (for lights without a table) the shadow rays of any primitive
-/// they do not classify. Without beams, rays leaving surfaces walk the BVH.
-fn fallback_reachable(scene: &Scene, flat: &FlatTables, effects: Effects) -> bool {
-    let missing = |id: usize| !flat.surface_bvh() && !flat.has_surface(id as u32);
-    if flat.eye_origin == NO_ORIGIN && !scene.primitives.is_empty() {
-        return true;
-    }
-    if effects.shadows && flat.light_origin.contains(&NO_ORIGIN) && (0..scene.primitives.len()).any(missing) {
-        return true;
-    }
-    if effects.reflection {
-        return scene.primitives.iter().enumerate().any(|(i, p)| {
-            let m = &scene.materials[p.material() as usize];
-            (m.reflects() || m.transmits()) && missing(i)
-        });
-    }
-    false
+/// Whether a ray of a render can come from an entity without a table: the eye of a
+/// non-empty scene without one. (Rays leaving surfaces, and shadow rays towards lights
+/// without a table, walk the BVH.)
+fn fallback_reachable(scene: &Scene, flat: &FlatTables) -> bool {
+    flat.eye_origin == NO_ORIGIN && !scene.primitives.is_empty()
 }
 
 impl WalkBounds {
@@ -77,10 +51,9 @@ impl WalkBounds {
         }
     }
 
-    /// The bounds of `flat`, built for `scene` and a render with `effects`.
-    pub fn of(scene: &Scene, flat: &FlatTables, effects: Effects) -> WalkBounds {
-        let mut b =
-            WalkBounds { fallback_reachable: fallback_reachable(scene, flat, effects), ..Default::default() };
+    /// The bounds of `flat`, built for `scene`.
+    pub fn of(scene: &Scene, flat: &FlatTables) -> WalkBounds {
+        let mut b = WalkBounds { fallback_reachable: fallback_reachable(scene, flat), ..Default::default() };
         for (o, org) in flat.origins.iter().enumerate() {
             if org.kind == OriginKind::Fallback as u32 {
                 continue;
@@ -88,11 +61,11 @@ impl WalkBounds {
             let mut longest = 0u64;
             for f in &flat.faces[o * 6..o * 6 + 6] {
                 for c in f.cell_base..f.cell_base + f.width * f.height {
-                    let len = walk_cost(flat, flat.cell_start[c as usize], flat.cell_start[c as usize + 1]);
+                    let len = (flat.cell_start[c as usize + 1] - flat.cell_start[c as usize]) as u64;
                     longest = longest.max(len);
                 }
             }
-            let list = longest + walk_cost(flat, org.always_start, org.always_start + org.always_count);
+            let list = longest + org.always_count as u64;
             if org.kind == OriginKind::Eye as u32 {
                 b.worst_eye = b.worst_eye.max(list);
             }
@@ -102,16 +75,6 @@ impl WalkBounds {
                 b.worst_closest = b.worst_closest.max(list);
             }
         }
-        let mut leaves = 0;
-        for n in flat.beam_nodes.iter().filter(|n| n.axis == BEAM_LEAF) {
-            b.worst_closest = b.worst_closest.max(walk_cost(flat, n.a, n.b));
-            leaves += 1;
-        }
-        // Shadow rays from a light without a table use the beams (without beams, the BVH:
-        // `WalkBounds::or`).
-        if flat.light_origin.contains(&NO_ORIGIN) {
-            b.worst_shadow = b.worst_shadow.max(b.worst_closest);
-        }
         let n = scene.primitives.len() as u64;
         if b.fallback_reachable {
             b.worst_closest = b.worst_closest.max(n);
@@ -119,7 +82,7 @@ impl WalkBounds {
             b.worst_shadow = b.worst_shadow.max(n);
         }
         let fallback = flat.origins.get(flat.fallback_origin as usize).map_or(0, |o| o.always_count as usize);
-        b.mean_list = (flat.entries.len() - fallback) as f64 / (flat.cells() + leaves).max(1) as f64;
+        b.mean_list = (flat.entries.len() - fallback) as f64 / flat.cells().max(1) as f64;
         b.planned = b.worst_closest.max(b.worst_shadow);
         b
     }

@@ -30,18 +30,12 @@ pub struct TableStats {
     pub origins: usize,
     pub cells: usize,
     pub entries: usize,
-    /// Entries naming primitive groups, and the groups uploaded.
-    pub group_entries: usize,
-    pub groups: usize,
-    pub shadow_mode: super::ShadowMode,
     /// The spawn offset the origins are inflated by.
     pub spawn_offset: f64,
     /// The image size the eye table covers.
     pub eye_image: [u32; 2],
     pub eye: KindStats,
     pub light: KindStats,
-    /// The beams of the rays leaving surfaces (`None`: no such rays).
-    pub beams: Option<super::beams::BeamStats>,
 }
 
 impl TableStats {
@@ -83,14 +77,10 @@ impl TableStats {
             origins: f.origins.len(),
             cells: f.cells(),
             entries: f.entries.len(),
-            group_entries: f.entries.iter().filter(|e| e.id & super::flat::GROUP_BIT != 0).count(),
-            groups: f.groups.len(),
-            shadow_mode: t.shadow_mode,
             spawn_offset: t.eps,
             eye_image: [t.eye_image.0, t.eye_image.1],
             eye,
             light,
-            beams: t.beams.as_ref().map(|b| b.stats),
         }
     }
 
@@ -111,31 +101,6 @@ impl TableStats {
                     k.origins, k.n, k.cells, k.entries, k.mean_list, k.max_list
                 );
             }
-        }
-        if let Some(b) = &self.beams {
-            s += &format!(
-                "  beams    {} clusters, {} leaves, depth {}, {} entries, list length mean {:.2} max {}; \
-                 piloted by {} rays testing {:.2} each ({:.3} s tracing, {:.3} s splitting{})\n",
-                b.clusters,
-                b.leaves,
-                b.depth,
-                b.entries,
-                b.entries as f64 / b.leaves.max(1) as f64,
-                b.max_list,
-                b.pilot_rays,
-                b.pilot_cost,
-                b.trace_s,
-                b.split_s,
-                if b.over_budget { ", stopped by the memory budget" } else { "" }
-            );
-        }
-        if self.group_entries > 0 {
-            s += &format!(
-                "  groups   {} entries name groups ({} groups of at most {} primitives)\n",
-                self.group_entries,
-                self.groups,
-                super::groups::GROUP_SIZE
-            );
         }
         s
     }

@@ -1,14 +1,13 @@
 //! The candidate tables of a scene: [`build`] makes the direction cubes the scene's effects
-//! call for (the eye, the positional lights), in parallel (rayon), then the beams of the
-//! rays leaving surfaces (piloted by the eye's table), and flattens the result, coarser
-//! where a buffer would outgrow a binding;
-//! [`Tables::rebuild_eye`] replaces only the eye's table after the camera moved.
+//! call for (the eye, the positional lights), in parallel (rayon), and flattens them,
+//! coarser where a buffer would outgrow a binding; [`Tables::rebuild_eye`] replaces only the
+//! eye's table after the camera moved. Rays leaving surfaces have no table: the GPU walks
+//! the BVH for them ([`traces_surface_rays`] says whether a render has any).
 
 use std::time::Instant;
 
 use rayon::prelude::*;
 
-use super::beams::{pilot::build_beams, BeamTree};
 use super::context::Ctx;
 use super::defs::{eye_def, light_def, OriginDef};
 use super::flat::{FlatTables, OriginKind, MAX_BINDING_BYTES};
@@ -16,7 +15,7 @@ use super::flatten::flatten;
 use super::hierarchy::SphereTree;
 use super::lists::OriginTable;
 use super::origin::build_origin;
-use super::params::{BuildParams, ShadowMode};
+use super::params::BuildParams;
 use super::reach::WalkBounds;
 use super::targets::Target;
 use crate::arith::spawn::SpawnPolicy;
@@ -35,14 +34,11 @@ pub struct Tables {
     /// inflation) used.
     pub spawn: SpawnPolicy,
     pub eps: f64,
-    pub shadow_mode: ShadowMode,
     /// The image size the eye table covers.
     pub eye_image: (u32, u32),
     /// The per-origin tables `flat` was flattened from (kept so that the eye's table alone
     /// can be replaced, [`Tables::rebuild_eye`]).
     pub built: Vec<OriginTable>,
-    /// The beams of the rays leaving surfaces, in the world frame (`None`: no such rays).
-    pub beams: Option<BeamTree>,
     /// How long a walk of `flat` can be, for the render's effects.
     pub walks: WalkBounds,
 }
@@ -57,17 +53,11 @@ fn targets(scene: &Scene) -> (Vec<Target>, SphereTree) {
     (targets, bvh)
 }
 
-/// Flattens `built` (origins `defs`) and `beams` for the scene's camera, and checks every
-/// buffer against wgpu's binding limit and the walkers' invariants.
-fn flat_tables(
-    built: &[OriginTable],
-    defs: &[OriginDef],
-    beams: Option<&BeamTree>,
-    scene: &Scene,
-    ctx: &Ctx,
-) -> Result<FlatTables> {
+/// Flattens `built` (origins `defs`) for the scene's camera, and checks every buffer
+/// against wgpu's binding limit and the walkers' invariants.
+fn flat_tables(built: &[OriginTable], defs: &[OriginDef], scene: &Scene, ctx: &Ctx) -> Result<FlatTables> {
     let (n, lights) = (ctx.targets.len(), scene.lights.len());
-    let flat = flatten(built, defs, beams, n, lights, &ctx.groups, scene.camera.eye);
+    let flat = flatten(built, defs, n, lights);
     if flat.largest_buffer_bytes() > MAX_BINDING_BYTES {
         return Err(Error::TablesTooLarge { bytes: flat.largest_buffer_bytes(), limit: MAX_BINDING_BYTES });
     }
@@ -76,11 +66,10 @@ fn flat_tables(
 }
 
 impl Tables {
-    /// Replaces the eye's table after `scene.camera` moved, keeping the light tables and the
-    /// beams (the interactive preview). Those depend on the eye only through the spawn
-    /// offset, which grows with the distance from the eye to the scene (and through the
-    /// pilot, which only makes them faster for the rays it saw); when the offset grew,
-    /// everything is rebuilt. Returns whether the eye table alone was rebuilt.
+    /// Replaces the eye's table after `scene.camera` moved, keeping the light tables (the
+    /// interactive preview). Those depend on the eye only through the spawn offset, which
+    /// grows with the distance from the eye to the scene; when the offset grew, everything is
+    /// rebuilt. Returns whether the eye table alone was rebuilt.
     pub fn rebuild_eye(&mut self, scene: &Scene, params: &BuildParams) -> Result<bool> {
         let start = Instant::now();
         let eps = params.spawn_offset(scene);
@@ -97,37 +86,28 @@ impl Tables {
         self.built[0] = build_origin(&def, &ctx);
         crate::interrupt::check()?;
         self.defs[0] = def;
-        self.flat = flat_tables(&self.built, &self.defs, self.beams.as_ref(), scene, &ctx)?;
-        self.walks = WalkBounds::of(scene, &self.flat, params.effects.unwrap_or_else(|| scene.effects()));
+        self.flat = flat_tables(&self.built, &self.defs, scene, &ctx)?;
+        self.walks = WalkBounds::of(scene, &self.flat);
         self.eye_image = params.eye_image(scene);
         self.build_s = start.elapsed().as_secs_f64();
         Ok(true)
     }
 }
 
-/// The primitives whose rays the beams classify: those that reflect or transmit (with the
-/// reflection effect), and every primitive when shadow rays leave surfaces (hit-object mode,
-/// or a directional light, which has no table).
-fn spawners(scene: &Scene, params: &BuildParams) -> Vec<u32> {
+/// Whether a render the tables of `params` are for traces rays leaving surfaces, which the
+/// BVH takes: reflection or refraction rays from mirrors and glass (with the reflection
+/// effect), or shadow rays towards a directional light, which has no table.
+pub fn traces_surface_rays(scene: &Scene, params: &BuildParams) -> bool {
     let effects = params.effects.unwrap_or_else(|| scene.effects());
     let directional = scene.lights.iter().any(|l| l.kind == LightKind::Directional);
-    let all = effects.shadows && (params.shadow_mode == ShadowMode::HitObject || directional);
-    scene
-        .primitives
-        .iter()
-        .enumerate()
-        .filter(|(_, p)| {
+    if effects.shadows && directional && !scene.primitives.is_empty() {
+        return true;
+    }
+    effects.reflection
+        && scene.primitives.iter().any(|p| {
             let m = &scene.materials[p.material() as usize];
-            all || (effects.reflection && (m.reflects() || m.transmits()))
+            m.reflects() || m.transmits()
         })
-        .map(|(i, _)| i as u32)
-        .collect()
-}
-
-/// Whether a render the tables of `params` are for traces rays leaving surfaces: the rays
-/// the beams classify when they are built, and the BVH walks when they are not.
-pub fn traces_surface_rays(scene: &Scene, params: &BuildParams) -> bool {
-    !spawners(scene, params).is_empty()
 }
 
 /// Builds the candidate tables a scene calls for.
@@ -185,7 +165,7 @@ fn build_once(scene: &Scene, params: &BuildParams) -> Result<Tables> {
     if !targets.is_empty() {
         defs.push(eye_def(scene, params, eps));
     }
-    if effects.shadows && params.shadow_mode == ShadowMode::LightBuffer {
+    if effects.shadows {
         for (i, l) in scene.lights.iter().enumerate() {
             if l.kind != LightKind::Directional {
                 defs.push(light_def(i, l.position, params, eps, &ctx));
@@ -194,32 +174,16 @@ fn build_once(scene: &Scene, params: &BuildParams) -> Result<Tables> {
     }
     let built: Vec<OriginTable> = defs.par_iter().map(|d| build_origin(d, &ctx)).collect();
     crate::interrupt::check()?;
-    let mut flat = flat_tables(&built, &defs, None, scene, &ctx)?;
-
-    // The beams, piloted through the eye's table, in what the budget leaves.
-    let spawners = if params.beams { spawners(scene, params) } else { Vec::new() };
-    let beams = (!spawners.is_empty()).then(|| {
-        // What the groups' buffers take, should a list name them.
-        let groups =
-            4 * targets.len() + std::mem::size_of::<super::flat::GpuGroup>() * ctx.groups.spans.len();
-        let left = params.budget_bytes.saturating_sub(flat.bytes() + groups);
-        build_beams(scene, &flat, &ctx, &spawners, params, effects.shadows, left)
-    });
-    crate::interrupt::check()?;
-    if beams.is_some() {
-        flat = flat_tables(&built, &defs, beams.as_ref(), scene, &ctx)?;
-    }
+    let flat = flat_tables(&built, &defs, scene, &ctx)?;
     Ok(Tables {
-        walks: WalkBounds::of(scene, &flat, effects),
+        walks: WalkBounds::of(scene, &flat),
         flat,
         defs,
         build_s: start.elapsed().as_secs_f64(),
         spawn: params.spawn,
         eps,
-        shadow_mode: params.shadow_mode,
         eye_image: params.eye_image(scene),
         built,
-        beams,
     })
 }
 

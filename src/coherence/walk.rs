@@ -1,9 +1,8 @@
 //! The one table walker: a ray finds its list, the cell of its direction in the direction
-//! cube of its origin entity (the eye, a light) or the beam it lies in (a ray leaving a
-//! surface, [`super::beams`]), and walks it merged with the origin's always-test list by
-//! increasing `d_min`, stopping as soon as the next `d_min` passes the nearest hit so far (the
-//! distance interval optimisation). A group entry tests the group's bounding sphere first and
-//! its members only when the ray meets it in time.
+//! cube of its origin entity (the eye, a light; rays without one walk the fallback origin,
+//! every primitive), and walks it merged with the origin's always-test list by increasing
+//! `d_min`, stopping as soon as the next `d_min` passes the nearest hit so far (the distance
+//! interval optimisation).
 //!
 //! Line-by-line twin of the walk in `shaders/shared/walk.wgsl` (keep them in sync): the same
 //! names (`cell_walk`, `walk_from`, `walk_next`, `walk_done`, `walk_nearest`, `walk_any`) and
@@ -20,36 +19,33 @@
 
 use glam::Vec3;
 
-use super::beams::{beam_range, in_beams};
 use super::cube::cube_cell_range;
-use super::flat::{FlatTables, GpuEntry, GROUP_BIT, NO_ORIGIN};
-use super::groups::group_hit;
+use super::flat::{FlatTables, GpuEntry, NO_ORIGIN};
 use crate::arith::closest::{consider, no_closest, Closest, Dist};
 
-/// Loop iterations one kernel pass spends on a walk, at most (plus the members of the last
-/// group entry): lavapipe ends an invocation's loops after 65535 iterations in all (WGSL
-/// `WALK_CHUNK`, keep them in sync).
+/// Loop iterations one kernel pass spends on a walk, at most: lavapipe ends an invocation's
+/// loops after 65535 iterations in all (WGSL `WALK_CHUNK`, keep them in sync).
 pub const WALK_CHUNK: u32 = 8192;
 
 /// The budget of a walk that runs to its end in one go (WGSL `UNBOUNDED`).
 pub const UNBOUNDED: u32 = u32::MAX;
 
-/// The kernels mark a walk of the BVH (a ray leaving a surface when the tables have no
-/// beams) with this `Walk::iend`, its node in `i` and its leaf's primitives left in `j..jend`
-/// (WGSL `BVH_WALK`); the CPU reference walks its own BVH instead.
+/// The kernels mark a walk of the BVH (a ray leaving a surface) with this `Walk::iend`, its
+/// node in `i` and its leaf's primitives left in `j..jend` (WGSL `BVH_WALK`); the CPU
+/// reference walks its own BVH instead.
 pub const BVH_WALK: u32 = u32::MAX;
 
 /// A ray's origin entity: what its table is keyed by.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum OriginKey {
     /// Primary rays from the camera.
     Eye,
     /// Shadow rays traced from light `i` (index into `Scene::lights`) toward a point.
     Light(usize),
     /// Secondary rays leaving primitive `id` (reflection, refraction, and shadow rays towards
-    /// lights without a table) from point `at` (the ray's origin, relative to the camera's
-    /// eye as on the GPU): classified into the beams by the point and the direction.
-    Surface(u32, Vec3),
+    /// lights without a table): no table; the GPU walks the BVH for them, the tables'
+    /// walker the fallback origin.
+    Surface(u32),
 }
 
 /// The answer of a bounded any-hit walk (WGSL `ANY_CLEAR`, `ANY_BLOCKED`, `ANY_UNFINISHED`).
@@ -69,8 +65,6 @@ pub enum AnyHit {
 pub struct WalkCount {
     /// Intersection tests made (calls of the test closure).
     pub tests: u32,
-    /// Group sphere tests made.
-    pub bounds: u32,
 }
 
 impl FlatTables {
@@ -80,41 +74,14 @@ impl FlatTables {
         let o = match key {
             OriginKey::Eye => self.eye_origin,
             OriginKey::Light(i) => *self.light_origin.get(i)?,
-            OriginKey::Surface(..) => NO_ORIGIN,
+            OriginKey::Surface(_) => NO_ORIGIN,
         };
         (o != NO_ORIGIN).then_some(o)
     }
 
-    /// Whether rays leaving surfaces walk the BVH rather than these tables: the tables have
-    /// no beams (`--accel cube`; WGSL `params.surface_bvh`).
-    pub fn surface_bvh(&self) -> bool {
-        self.beam_nodes.is_empty()
-    }
-
-    /// Whether the rays leaving primitive `id` are classified into the beams.
-    pub fn has_surface(&self, id: u32) -> bool {
-        self.prim_beams.get(id as usize).is_some_and(|&b| b != 0)
-    }
-
-    /// Whether a ray from `key` has a list of its own: a direction cube, or a beam (its origin
-    /// in the beams' box); otherwise it walks the fallback origin, every primitive.
-    pub fn has_table(&self, key: OriginKey) -> bool {
-        match key {
-            OriginKey::Surface(id, at) => self.has_surface(id) && in_beams(self, at),
-            _ => self.cube_of(key).is_some(),
-        }
-    }
-
-    /// The walk of a ray from `key` along `d` (not zero): its cell of its direction cube, its
-    /// beam, or the fallback origin (WGSL `walk_from` and, for lights, `cell_walk` of
-    /// `light_table`).
+    /// The walk of a ray from `key` along `d` (not zero): its cell of its direction cube, or
+    /// the fallback origin (WGSL `walk_from` and, for lights, `cell_walk` of `light_table`).
     pub fn walk_from(&self, key: OriginKey, d: Vec3) -> Walk {
-        if let OriginKey::Surface(_, at) = key {
-            if self.has_table(key) {
-                let [i, iend] = beam_range(self, at, d);
-                return Walk { i, iend, j: 0, jend: 0 };
-            }
-        }
         cell_walk(self, self.cube_of(key).unwrap_or(self.fallback_origin), d)
     }
 }
@@ -153,9 +120,8 @@ pub fn walk_done(w: &Walk) -> bool {
     w.i >= w.iend && w.j >= w.jend
 }
 
-/// Continues the nearest-hit walk `w` of the ray from `o` along unit `d` (f32,
-/// camera-relative) for at most about `budget` loop iterations (an entry, or a group's
-/// members), keeping the nearest hit with `0 < t < t_max` in `best` by the shared rule (ties to
+/// Continues the nearest-hit walk `w` for at most `budget` loop iterations (an entry
+/// each), keeping the nearest hit with `0 < t < t_max` in `best` by the shared rule (ties to
 /// the lower id); `skip` is never tested. `test(id)` intersects primitive `id` and returns its
 /// hit with `t < t_max`, if any. True when the walk is over.
 #[allow(clippy::too_many_arguments)]
@@ -163,8 +129,6 @@ pub fn walk_nearest<F: Dist, H>(
     t: &FlatTables,
     w: &mut Walk,
     best: &mut Closest<F, H>,
-    o: Vec3,
-    d: Vec3,
     t_max: F,
     skip: u32,
     budget: u32,
@@ -185,21 +149,6 @@ pub fn walk_nearest<F: Dist, H>(
         if F::from(e.d_min) > best_t {
             break;
         }
-        if e.id & GROUP_BIT != 0 {
-            let g = &t.groups[(e.id & !GROUP_BIT) as usize];
-            count.bounds += 1;
-            if group_hit(g, o, d, best_t.far_f32()) {
-                left -= left.min(g.count);
-                for k in g.first..g.first + g.count {
-                    let m = t.group_prims[k as usize];
-                    if m != skip {
-                        count.tests += 1;
-                        best_t = consider(best, m, test(m), best_t);
-                    }
-                }
-            }
-            continue;
-        }
         if e.id == skip {
             continue;
         }
@@ -209,7 +158,7 @@ pub fn walk_nearest<F: Dist, H>(
     true
 }
 
-/// Continues the any-hit walk `w` for at most about `budget` loop iterations:
+/// Continues the any-hit walk `w` for at most `budget` loop iterations:
 /// [`AnyHit::Blocked`] when some primitive other than `skip` is hit at `0 < t < t_max`
 /// (`hits(id)`), [`AnyHit::Clear`] when the walk ended without one, [`AnyHit::Unfinished`]
 /// when the budget ran out first.
@@ -217,8 +166,6 @@ pub fn walk_nearest<F: Dist, H>(
 pub fn walk_any<F: Dist>(
     t: &FlatTables,
     w: &mut Walk,
-    o: Vec3,
-    d: Vec3,
     t_max: F,
     skip: u32,
     budget: u32,
@@ -238,23 +185,6 @@ pub fn walk_any<F: Dist>(
         if F::from(e.d_min) >= t_max {
             break;
         }
-        if e.id & GROUP_BIT != 0 {
-            let g = &t.groups[(e.id & !GROUP_BIT) as usize];
-            count.bounds += 1;
-            if group_hit(g, o, d, t_max.far_f32()) {
-                left -= left.min(g.count);
-                for k in g.first..g.first + g.count {
-                    let m = t.group_prims[k as usize];
-                    if m != skip {
-                        count.tests += 1;
-                        if hits(m) {
-                            return AnyHit::Blocked;
-                        }
-                    }
-                }
-            }
-            continue;
-        }
         if e.id == skip {
             continue;
         }
@@ -266,14 +196,13 @@ pub fn walk_any<F: Dist>(
     AnyHit::Clear
 }
 
-/// The nearest hit with `0 < t < t_max` of a ray from `key` ([`FlatTables::walk_from`]),
-/// ties to the lower id, walked to its end; `skip` is never tested. A zero direction hits
-/// nothing.
+/// The nearest hit with `0 < t < t_max` of a ray from `key` along `d`
+/// ([`FlatTables::walk_from`]), ties to the lower id, walked to its end; `skip` is never
+/// tested. A zero direction hits nothing.
 #[allow(clippy::too_many_arguments)]
 pub fn table_nearest<F: Dist, H: Default>(
     t: &FlatTables,
     key: OriginKey,
-    o: Vec3,
     d: Vec3,
     t_max: F,
     skip: u32,
@@ -285,17 +214,15 @@ pub fn table_nearest<F: Dist, H: Default>(
         return best;
     }
     let mut w = t.walk_from(key, d);
-    walk_nearest(t, &mut w, &mut best, o, d, t_max, skip, UNBOUNDED, count, test);
+    walk_nearest(t, &mut w, &mut best, t_max, skip, UNBOUNDED, count, test);
     best
 }
 
-/// True when a ray from `key` hits some primitive other than `skip` at `0 < t < t_max`
-/// (walked to its end).
-#[allow(clippy::too_many_arguments)]
+/// True when a ray from `key` along `d` hits some primitive other than `skip` at
+/// `0 < t < t_max` (walked to its end).
 pub fn table_any<F: Dist>(
     t: &FlatTables,
     key: OriginKey,
-    o: Vec3,
     d: Vec3,
     t_max: F,
     skip: u32,
@@ -306,5 +233,5 @@ pub fn table_any<F: Dist>(
         return false;
     }
     let mut w = t.walk_from(key, d);
-    walk_any(t, &mut w, o, d, t_max, skip, UNBOUNDED, count, hits) == AnyHit::Blocked
+    walk_any(t, &mut w, t_max, skip, UNBOUNDED, count, hits) == AnyHit::Blocked
 }

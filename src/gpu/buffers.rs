@@ -1,4 +1,4 @@
-//! The scene's buffers on the GPU: the packed scene and, with `--accel cube` or `beams`, the
+//! The scene's buffers on the GPU: the packed scene and, with `--accel cube`, the
 //! flattened tables (with `cube` and rays leaving surfaces, the flattened BVH too), or with
 //! `--accel bvh` the flattened BVH (uploaded once), and the kernels' outputs
 //! and the wavefront's queues (sized for a tile), with their one bind group.
@@ -124,7 +124,6 @@ pub fn upload(
     if let Some(t) = tables {
         sizes.push(("cell_start", size(std::mem::size_of_val(t.cell_start.as_slice()))));
         sizes.push(("entries", size(std::mem::size_of_val(t.entries.as_slice()))));
-        sizes.push(("group_prims", size(std::mem::size_of_val(t.group_prims.as_slice()))));
     }
     if let Some(b) = &packed.bvh {
         sizes.push(("bvh_nodes", size(std::mem::size_of_val(b.nodes.as_slice()))));
@@ -162,11 +161,7 @@ pub fn upload(
     let faces = table("faces", tables.map(|f| bytemuck::cast_slice(&f.faces)));
     let cell_start = table("cell_start", tables.map(|f| bytemuck::cast_slice(&f.cell_start)));
     let entries = table("entries", tables.map(|f| bytemuck::cast_slice(&f.entries)));
-    let prim_beams = table("prim_beams", tables.map(|f| bytemuck::cast_slice(&f.prim_beams)));
     let light_origin = table("light_origin", tables.map(|f| bytemuck::cast_slice(&f.light_origin)));
-    let beam_nodes = table("beam_nodes", tables.map(|f| bytemuck::cast_slice(&f.beam_nodes)));
-    let groups = table("groups", tables.map(|f| bytemuck::cast_slice(&f.groups)));
-    let group_prims = table("group_prims", tables.map(|f| bytemuck::cast_slice(&f.group_prims)));
     let bvh = packed.bvh.as_ref();
     let bvh_nodes = table("bvh_nodes", bvh.map(|b| bytemuck::cast_slice(&b.nodes)));
     let bvh_prims = table("bvh_prims", bvh.map(|b| bytemuck::cast_slice(&b.prims)));
@@ -239,11 +234,7 @@ pub fn upload(
             (12, &faces),
             (13, &cell_start),
             (14, &entries),
-            (15, &prim_beams),
-            (16, &light_origin),
-            (17, &beam_nodes),
-            (18, &groups),
-            (19, &group_prims),
+            (15, &light_origin),
             (20, &bvh_nodes),
             (21, &bvh_prims),
             (22, &pass_desc),

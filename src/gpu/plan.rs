@@ -15,7 +15,7 @@ use crate::layout::{
 };
 
 /// The queue a pass names for rays it must not spawn: a push there raises
-/// [`OVERFLOW_UNFINISHED`] (a walk outlasted its passes).
+/// [`crate::layout::structs::OVERFLOW_UNFINISHED`] (a walk outlasted its passes).
 pub const NO_QUEUE: u32 = QUEUE_COUNT;
 
 /// What the waves of one render do: rays to `max_depth` (the eye ray is depth 1), shadow

@@ -3,8 +3,8 @@
 //! over the grid with the one dispatch schedule ([`super::schedule`]) and reads back the
 //! image, the ray and test counters and the kernel time.
 //!
-//! `--accel auto`, `cube` and `beams` trace the tables (`beams` with ray-classification beams
-//! for rays from surfaces), `bvh` the BVH, `brute` tests every primitive.
+//! `--accel auto` and `cube` trace the tables (and the BVH for rays leaving surfaces), `bvh`
+//! the BVH, `brute` tests every primitive.
 //! The three query sets answer the same WGSL calls, and a module contains only one of them
 //! ([`Variant::queries`]).
 
@@ -15,7 +15,7 @@ use indicatif::ProgressBar;
 use super::buffers::{upload, QueueSizes, SceneBuffers};
 use super::kernels::{first_compile_marker, mark_compiled, Kernels};
 use super::schedule::{self, Pacing, Pipelines, Progress, Schedule, WavePlan};
-use super::setup::{accel_name, add_surface_bvh, check, point_at, queue_sizes, walk_bounds};
+use super::setup::{add_surface_bvh, check, point_at, queue_sizes, walk_bounds};
 use super::shaders::{Depths, Kernel, Queries, Stage, Variant};
 use super::GpuContext;
 use crate::coherence::reach::WalkBounds;
@@ -202,7 +202,7 @@ impl GpuRenderer {
             None => self.tables(scene, opts, variant, &mut packed)?.map(TableSet::Built),
             Some(_) if !variant.tables() => {
                 return Err(Error::Options(format!(
-                    "stored tables are for --accel cube, beams or auto; this render traces none (--accel {})",
+                    "stored tables are for --accel cube or auto; this render traces none (--accel {})",
                     variant.queries.name()
                 )))
             }
@@ -212,17 +212,9 @@ impl GpuRenderer {
             }
         };
         debug_assert!(
-            variant.surface_rays || (packed.params.surface_bvh == 0 && packed.params.beam_nodes == 0),
+            variant.surface_rays || packed.params.surface_bvh == 0,
             "the tables send rays leaving surfaces to kernels without their walk"
         );
-        // Kernels without `BEAMS` would take a group entry's id for a primitive's.
-        let beams = tables.as_ref().is_some_and(|t| !t.flat().group_prims.is_empty())
-            || packed.params.beam_nodes != 0;
-        if beams && !variant.beams {
-            return Err(Error::Options(
-                "internal: the tables hold beams, and the kernels do not walk them".into(),
-            ));
-        }
         Ok(Prepared { variant, pipelines, packed, tables, start })
     }
 
@@ -238,13 +230,13 @@ impl GpuRenderer {
     ) -> Result<WalkBounds> {
         t.flat.check_scene(scene.primitives.len(), scene.lights.len())?;
         let params = Self::variant_build_params(scene, opts, variant);
-        let walks = WalkBounds::of(scene, &t.flat, params.effects.unwrap_or(scene.effects()));
+        let walks = WalkBounds::of(scene, &t.flat);
         point_at(&mut packed.params, &t.flat);
-        add_surface_bvh(packed, scene, &t.flat, &params);
+        add_surface_bvh(packed, scene, &params);
         Ok(walks)
     }
 
-    /// The checks a render runs on stored tables before upload ([`Self::take_stored`]),
+    /// The checks a render runs on stored tables before upload (`take_stored`),
     /// without a device: for tests and the tables file's fuzz target.
     pub fn check_stored(scene: &Scene, opts: &RenderOptions, t: &StoredTables) -> Result<()> {
         check(scene, opts)?;
@@ -276,7 +268,7 @@ impl GpuRenderer {
             t.walks.fallback_reachable
         );
         point_at(&mut packed.params, &t.flat);
-        add_surface_bvh(packed, scene, &t.flat, &params);
+        add_surface_bvh(packed, scene, &params);
         Ok(Some(t))
     }
 
@@ -387,7 +379,7 @@ impl GpuRenderer {
 
         let image = grid_image(opts, scene, &run.values, opts.spp);
         let mut stats = Stats::new(
-            opts.settings(scene, "gpu", accel_name(variant, opts.accel)),
+            opts.settings(scene, "gpu", variant.queries.name()),
             simulated_effects(scene, opts.max_depth),
             &run.counters,
             run.times(preprocess_s, trace_s, false, variant.shadows),
@@ -437,7 +429,7 @@ impl GpuRenderer {
         let mut image = Image::new(w, h, true);
         image.pixels = run.values;
         let mut stats = Stats::new(
-            opts.aov_settings(scene, "gpu", accel_name(variant, opts.accel)),
+            opts.aov_settings(scene, "gpu", variant.queries.name()),
             Vec::new(),
             &run.counters,
             times,

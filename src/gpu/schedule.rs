@@ -23,7 +23,7 @@
 //! before a tile and restored when it runs again.
 //!
 //! [`Pacing::Fixed`] (headless renders) times every pass with timestamp queries and sizes each
-//! tile to a third of [`PASS_LIMIT`] ([`TILE_SHARE`]) at the costliest rate per point seen so far;
+//! tile to a third of [`PASS_LIMIT`] (`TILE_SHARE`) at the costliest rate per point seen so far;
 //! [`Pacing::Adaptive`] (the preview) sizes tiles so that one submission (a wave) takes about
 //! a target time, keeping the window responsive.
 

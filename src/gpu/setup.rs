@@ -32,16 +32,14 @@ impl GpuRenderer {
 
     /// `variant` narrowed to what `scene` holds and traces, counted if `opts` ask for the
     /// counts: the intersection code of its kinds of primitive only, and the walk of rays
-    /// leaving surfaces only if the tables built for it trace such rays
+    /// leaving surfaces only if the render traces such rays
     /// (`coherence::traces_surface_rays`: mirrors or glass, or shadow rays towards a
     /// directional light), so that a scene lit by point lights alone, without mirrors, gets
-    /// table kernels without a BVH loop; and the beam lookup and group test only where
-    /// beams are built.
+    /// table kernels without a BVH loop.
     pub fn for_scene(scene: &Scene, opts: &RenderOptions, variant: Variant) -> Variant {
         let variant = variant.with_shapes(scene.shapes()).with_counters(opts.count);
         let params = Self::variant_build_params(scene, opts, variant);
-        let surface_rays = coherence::traces_surface_rays(scene, &params);
-        variant.with_surface_rays(surface_rays).with_beams(params.beams && surface_rays)
+        variant.with_surface_rays(coherence::traces_surface_rays(scene, &params))
     }
 
     /// The parameters the render of `scene` with `opts` builds its tables with (`aov`: the
@@ -55,8 +53,8 @@ impl GpuRenderer {
     /// The parameters of the tables for the kernels of `variant` (all its effects) with
     /// `opts`: the one place that turns render options into a table build.
     pub fn variant_build_params(scene: &Scene, opts: &RenderOptions, variant: Variant) -> BuildParams {
-        let p = table_params(scene, opts.width, opts.height, opts.max_depth, variant.effects(), opts.spawn);
-        BuildParams { eye_n: opts.eye_cells, beams: opts.accel == AccelKind::Beams, ..p }
+        let p = table_params(scene, opts.width, opts.height, variant.effects(), opts.spawn);
+        BuildParams { eye_n: opts.eye_cells, ..p }
     }
 }
 
@@ -70,10 +68,10 @@ pub fn queue_sizes(scene: &Scene, variant: Variant) -> QueueSizes {
     }
 }
 
-/// Adds the BVH that the rays leaving surfaces walk when `flat` has no beams, if the render
-/// the tables were built for (with `params`) traces such rays; else leaves `packed` alone.
-pub fn add_surface_bvh(packed: &mut Packed, scene: &Scene, flat: &FlatTables, params: &BuildParams) {
-    if flat.surface_bvh() && coherence::traces_surface_rays(scene, params) {
+/// Adds the BVH that the rays leaving surfaces walk, if the render the tables were built for
+/// (with `params`) traces such rays; else leaves `packed` alone.
+pub fn add_surface_bvh(packed: &mut Packed, scene: &Scene, params: &BuildParams) {
+    if coherence::traces_surface_rays(scene, params) {
         packed.add_bvh(scene);
         packed.params.surface_bvh = 1;
     }
@@ -88,20 +86,16 @@ pub fn walk_bounds(tables: Option<&WalkBounds>, packed: &Packed) -> Option<WalkB
     }
 }
 
-/// Points the params at the tables' eye and fallback origins and the beams' box.
+/// Points the params at the tables' eye and fallback origins.
 pub fn point_at(params: &mut crate::layout::Params, flat: &FlatTables) {
     params.eye_origin = flat.eye_origin;
     params.fallback_origin = flat.fallback_origin;
-    params.beam_lo = flat.beam_lo;
-    params.beam_hi = flat.beam_hi;
-    params.beam_nodes = flat.beam_nodes.len() as u32;
 }
 
-/// The queries the GPU traces rays with for `accel`: `cube`, `beams` and `auto` the candidate
-/// tables.
+/// The queries the GPU traces rays with for `accel`: `cube` and `auto` the candidate tables.
 pub fn queries(accel: AccelKind) -> Queries {
     match accel {
-        AccelKind::Auto | AccelKind::Cube | AccelKind::Beams => Queries::Tables,
+        AccelKind::Auto | AccelKind::Cube => Queries::Tables,
         AccelKind::Bvh => Queries::Bvh,
         AccelKind::Brute => Queries::Brute,
     }
@@ -110,13 +104,6 @@ pub fn queries(accel: AccelKind) -> Queries {
 /// Whether the GPU traces the candidate tables for `accel`.
 pub fn uses_tables(accel: AccelKind) -> bool {
     queries(accel) == Queries::Tables
-}
-
-pub(super) fn accel_name(variant: Variant, accel: AccelKind) -> &'static str {
-    match accel {
-        AccelKind::Beams => "beams",
-        _ => variant.queries.name(),
-    }
 }
 
 /// Checks that the GPU backend can render `scene` with `opts`.

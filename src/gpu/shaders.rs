@@ -9,14 +9,13 @@
 //! [`Variant`]: `#include "shared/file.wgsl"` pastes a file (once), and `#if NAME` / `#else` /
 //! `#endif` (nestable) keep or drop lines by the variant's flags `SHADOWS`, `REFLECTION`,
 //! `REFRACTION`, `TEXTURES` and `EMISSION`, `SURFACE_RAYS` (rays leave surfaces: reflection
-//! and refraction rays, shadow rays towards a directional light; the BVH or the tables' beams
-//! take them), `COUNTERS` (the statistics counters), `BEAMS` (rays leaving surfaces are
-//! looked up in the beams, whose lists name groups), and `TABLES`, `BVH` and `BRUTE`, of
-//! which exactly one is set: the ray queries, the candidate-table walk of `shared/walk.wgsl`,
-//! the BVH walk of `shared/bvh.wgsl` or the brute force of `shared/brute.wgsl`. The table
-//! walk includes the BVH walk with `SURFACE_RAYS`: rays leaving surfaces walk the BVH when
-//! the tables have no beams. A scene without mirrors thus gets a module with no reflection
-//! code at all, not a branch that is never taken.
+//! and refraction rays, shadow rays towards a directional light; the BVH takes them),
+//! `COUNTERS` (the statistics counters), and `TABLES`, `BVH` and `BRUTE`, of which exactly one
+//! is set: the walk `shared/query.wgsl`'s queries go over, the candidate tables' of
+//! `shared/walk.wgsl`, the BVH's of `shared/bvh.wgsl` or brute force's of
+//! `shared/brute.wgsl`. The table walk includes the BVH walk with `SURFACE_RAYS`. A scene
+//! without mirrors thus gets a module with no reflection code at all, not a branch that is
+//! never taken.
 
 use crate::error::{Error, Result};
 use crate::scene::{Effects, Shapes};
@@ -80,7 +79,7 @@ impl Kernel {
     pub fn wavefront(variant: Variant) -> Vec<Stage> {
         let all = |kernel| Stage { kernel, depths: Depths::All };
         let mut k = Vec::new();
-        if variant.tables() && variant.surface_rays && !variant.beams {
+        if variant.tables() && variant.surface_rays {
             k.push(Stage { kernel: Kernel::Nearest, depths: Depths::Eye });
             k.push(Stage { kernel: Kernel::Nearest, depths: Depths::Later });
         } else {
@@ -150,7 +149,7 @@ impl Stage {
         match self.depths {
             Depths::All => self.kernel.variant_of(variant),
             Depths::Eye => variant.with_surface_rays(false),
-            Depths::Later => Variant { queries: Queries::Bvh, surface_rays: true, beams: false, ..variant },
+            Depths::Later => Variant { queries: Queries::Bvh, surface_rays: true, ..variant },
         }
     }
 
@@ -206,7 +205,7 @@ pub struct Variant {
     /// triangles alone traces faster without the sphere and cylinder tests in its loops.
     pub shapes: Shapes,
     /// Whether rays leave surfaces (`SURFACE_RAYS`), so that the table kernels hold the walk
-    /// of the BVH or of the beams that take such rays. [`Variant::for_effects`] assumes so
+    /// of the BVH that takes such rays. [`Variant::for_effects`] assumes so
     /// wherever reflection or shadows may spawn them; a render narrows it to what its tables
     /// trace (`GpuRenderer::for_scene`): a scene whose shadow rays all leave point lights and
     /// that has no mirror or glass traces none, and its kernels would otherwise run a BVH loop
@@ -218,12 +217,6 @@ pub struct Variant {
     /// lane at every test, workgroup atomics at the end), so a render counts only when asked
     /// to (`RenderOptions::count`); uncounted, its counts are zero.
     pub counters: bool,
-    /// Whether the tables classify rays leaving surfaces into beams (`BEAMS`, `--accel
-    /// beams`): the kernels then look up a ray's beam, and their walks take the group
-    /// entries that only beam lists name. Other renders' kernels leave both out: lavapipe
-    /// would run the beam lookup at every walk's start and the group test in every
-    /// iteration of a walk, taken or not.
-    pub beams: bool,
 }
 
 impl Variant {
@@ -243,7 +236,6 @@ impl Variant {
             shapes: Shapes::ALL,
             surface_rays: reflection || e.shadows,
             counters: true,
-            beams: true,
         }
     }
 
@@ -256,12 +248,6 @@ impl Variant {
     /// may spawn them).
     pub fn with_surface_rays(self, surface_rays: bool) -> Variant {
         Variant { surface_rays: self.surface_rays && surface_rays, ..self }
-    }
-
-    /// The same effects, with the beams looked up and their group entries walked (`true`)
-    /// or not.
-    pub fn with_beams(self, beams: bool) -> Variant {
-        Variant { beams, ..self }
     }
 
     /// The same effects, counted (`true`) or not.
@@ -300,8 +286,8 @@ impl Variant {
     /// bits, the last of each 32 with every effect), then every other set of kinds (none
     /// included: a scene may hold no primitive) with every effect (42), then shadows without
     /// rays leaving surfaces (lights with tables, no mirror), with and without textures and
-    /// emission (12), then every effect uncounted (6), then the tables' kernels with every
-    /// effect and no beams (2), so that each `#if` is compiled both ways.
+    /// emission (12), then every effect uncounted (6), so that each `#if` is compiled both
+    /// ways.
     pub fn all() -> Vec<Variant> {
         let effects = [false, true].into_iter().flat_map(|f64| {
             Queries::ALL.into_iter().flat_map(move |queries| {
@@ -316,7 +302,6 @@ impl Variant {
                     shapes: Shapes::ALL,
                     surface_rays: b & 3 != 0,
                     counters: true,
-                    beams: true,
                 })
             })
         });
@@ -338,7 +323,6 @@ impl Variant {
                     f64,
                     shapes: Shapes::ALL,
                     counters: true,
-                    beams: true,
                     ..Variant::default()
                 })
             })
@@ -348,10 +332,7 @@ impl Variant {
                 .into_iter()
                 .map(move |queries| Variant { f64, ..Variant::full(queries) }.with_counters(false))
         });
-        let beamless = [false, true]
-            .into_iter()
-            .map(|f64| Variant { f64, ..Variant::full(Queries::Tables) }.with_beams(false));
-        effects.chain(shapes).chain(point_lit).chain(uncounted).chain(beamless).collect()
+        effects.chain(shapes).chain(point_lit).chain(uncounted).collect()
     }
 
     /// Every effect with `queries`.
@@ -367,7 +348,6 @@ impl Variant {
             shapes: Shapes::ALL,
             surface_rays: true,
             counters: true,
-            beams: true,
         }
     }
 
@@ -386,7 +366,6 @@ impl Variant {
             // directional lights (which have no table).
             "SURFACE_RAYS" => self.surface_rays,
             "COUNTERS" => self.counters,
-            "BEAMS" => self.beams,
             "TABLES" => self.queries == Queries::Tables,
             "BVH" => self.queries == Queries::Bvh,
             "BRUTE" => self.queries == Queries::Brute,

@@ -7,7 +7,6 @@
 //! the limit, rather than letting it come out silently wrong.
 
 use crate::arith::spawn::SpawnPolicy;
-use crate::coherence::groups::GROUP_SIZE;
 use crate::coherence::reach::WalkBounds;
 use crate::coherence::walk::WALK_CHUNK;
 use crate::coherence::BuildParams;
@@ -42,21 +41,19 @@ fn step_overhead(scene: &Scene) -> u64 {
     scene.lights.len() as u64 + COUNTER_COUNT as u64 + 16
 }
 
-/// Loop iterations of one chunk of a walk: [`WALK_CHUNK`] entries and the members of the last
-/// group entry.
+/// Loop iterations of one chunk of a walk: [`WALK_CHUNK`] entries.
 fn chunk_iterations(scene: &Scene) -> u64 {
-    per_test(scene) * (WALK_CHUNK as u64 + GROUP_SIZE as u64)
+    per_test(scene) * WALK_CHUNK as u64
 }
 
 /// Shadow walks of at most this many entries are traced by the `shade` invocation of the
 /// hit (`Params::shadow_inline`): as many as keep it, with one whole chunk of a walk and
-/// every light's inline walk (each entry possibly a group of `GROUP_SIZE`), within
-/// lavapipe's loop limit. Longer walks become jobs of the shadow queue.
+/// every light's inline walk, within lavapipe's loop limit. Longer walks become jobs of the
+/// shadow queue.
 pub fn shadow_inline(scene: &Scene) -> u32 {
     let lights = scene.lights.len() as u64;
     let step = chunk_iterations(scene) + step_overhead(scene);
-    (LAVAPIPE_LOOP_LIMIT.saturating_sub(step) / (lights.max(1) * per_test(scene) * (1 + GROUP_SIZE as u64)))
-        as u32
+    (LAVAPIPE_LOOP_LIMIT.saturating_sub(step) / (lights.max(1) * per_test(scene))) as u32
 }
 
 /// The BVH's inline shadow walks (`Params::bvh_inline`, with `--accel bvh` and for the rays
@@ -70,7 +67,7 @@ pub fn shadow_inline(scene: &Scene) -> u32 {
 /// budget becomes a job and starts over; a BVH shadow walk takes tens of iterations, so
 /// almost none do.
 pub fn bvh_shadow_inline(scene: &Scene) -> u32 {
-    let iterations = shadow_inline(scene) as u64 * (1 + GROUP_SIZE as u64) / 4;
+    let iterations = shadow_inline(scene) as u64 / 4;
     iterations.saturating_sub(crate::bvh::MAX_LEAF as u64).min(u32::MAX as u64) as u32
 }
 
@@ -94,9 +91,8 @@ pub fn check_loop_budget(scene: &Scene, walks: Option<&WalkBounds>, max_depth: O
     let what = if walks.is_some() { "the longest candidate lists" } else { "brute force" };
     let steps = match max_depth {
         Some(_) => {
-            let group = GROUP_SIZE as u64;
             let chunk = chunk_iterations(scene);
-            let inline = lights * shadow.min(per_test * shadow_inline(scene) as u64 * (1 + group));
+            let inline = lights * shadow.min(per_test * shadow_inline(scene) as u64);
             let pass = closest.max(shadow).min(chunk) + inline;
             // A shadow pass may run a chunk of a table walk and one of a BVH walk (half as
             // many iterations, which lavapipe may count twice) in one SIMD vector.
@@ -144,13 +140,12 @@ pub fn tile_points(scene: &Scene, walks: Option<&WalkBounds>, tests: u64) -> u64
     tile.div_ceil(WORKGROUP as u64) * WORKGROUP as u64
 }
 
-/// How the kernels' tables are built: for the render's image, depth and spawn policy, and
-/// only for the rays kernels with `effects` trace.
+/// How the kernels' tables are built: for the render's image and spawn policy, and only for
+/// the rays kernels with `effects` trace.
 pub fn table_params(
     scene: &Scene,
     width: u32,
     height: u32,
-    max_depth: u32,
     effects: Effects,
     spawn: SpawnPolicy,
 ) -> BuildParams {
@@ -160,11 +155,5 @@ pub fn table_params(
         refraction: effects.refraction,
         ..scene.effects()
     };
-    BuildParams {
-        image: Some((width, height)),
-        max_depth,
-        spawn,
-        effects: Some(effects),
-        ..BuildParams::default()
-    }
+    BuildParams { image: Some((width, height)), spawn, effects: Some(effects), ..BuildParams::default() }
 }

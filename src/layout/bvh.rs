@@ -131,7 +131,7 @@ fn eye_box(b: &Aabb, eye: glam::DVec3) -> ([f32; 3], [f32; 3]) {
     bvh::outward_box(&rel, BVH_PAD_REL * (size + far))
 }
 
-/// Builds the BVH of `scene` re-centred on its eye (as [`super::pack`] packs it) and
+/// Builds the BVH of `scene` re-centred on its eye (as [`super::pack()`] packs it) and
 /// flattens it into six threaded orders.
 pub fn pack_bvh(scene: &Scene) -> GpuBvh {
     let eye = scene.camera.eye;

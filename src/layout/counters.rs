@@ -1,5 +1,5 @@
 //! The kernels' statistics counters: 64-bit slots in the `counters` buffer (low word first),
-//! and decoding them into [`Counters`] and the lane coherence ([`LaneStats`]). The slot
+//! and decoding them into [`crate::stats::Counters`] and the lane coherence ([`LaneStats`]). The slot
 //! numbers are twins of the `C_*` and `LANE_*` constants in `shaders/shared/layout.wgsl`
 //! (keep them in sync).
 

@@ -56,22 +56,16 @@ pub struct Params {
     pub own_h: u32,
     /// `--accel bvh`: the nodes of one threaded order of the BVH ([`crate::layout::bvh`]).
     pub bvh_stride: u32,
-    /// `--accel cube`: the box of ray origins the beams classify (camera-relative), and the
-    /// beam nodes (0: none); rays leaving surfaces from outside it walk the fallback origin.
-    pub beam_lo: [f32; 3],
-    pub beam_nodes: u32,
-    pub beam_hi: [f32; 3],
     /// The wavefront's queues: jobs each ray queue and each shadow queue holds
     /// ([`crate::gpu::schedule`]).
     pub ray_queue: u32,
     pub shadow_queue: u32,
-    /// `--accel cube`: 1 when rays leaving surfaces walk the BVH (the tables have no beams;
+    /// `--accel cube`: 1 when rays leaving surfaces walk the BVH (the render traces some;
     /// `shaders/shared/walk.wgsl`).
     pub surface_bvh: u32,
     /// The BVH's shadow walks traced inline at a hit: a budget of loop iterations (nodes and
     /// primitives, [`super::budget::bvh_shadow_inline`]).
     pub bvh_inline: u32,
-    pub pad_q2: u32,
 }
 
 /// One primitive (WGSL `Prim`, keep in sync with `shaders/shared/layout.wgsl`): sphere `a` =

@@ -136,9 +136,6 @@ fn variant(
     queries: Queries,
 ) -> Variant {
     let v = Variant::for_effects(toggles.apply(scene.effects()), max_depth).with_queries(queries);
-    // The session's tables serve every effect; a toggle that turns reflection off may leave
-    // beams in them for kernels without `BEAMS`, which is safe: without rays leaving
-    // surfaces (`SURFACE_RAYS` off) no walk starts in a beam.
     GpuRenderer::for_scene(scene, opts, v)
 }
 
@@ -302,7 +299,7 @@ impl Session {
                 }
             };
             gpu::point_at(&mut packed.params, &tables.flat);
-            gpu::add_surface_bvh(&mut packed, &self.scene, &tables.flat, &params);
+            gpu::add_surface_bvh(&mut packed, &self.scene, &params);
             self.walks = gpu::walk_bounds(Some(&tables.walks), &packed);
             self.gpu.check_loop_budget(&self.scene, self.walks.as_ref(), Some(MAX_DEPTH))?;
             log::debug!("tables for the new eye in {:.3} s (eye table only: {eye_only})", tables.build_s);
@@ -343,9 +340,6 @@ impl Session {
             bvh_stride: p.bvh_stride,
             bvh_inline: p.bvh_inline,
             surface_bvh: p.surface_bvh,
-            beam_lo: p.beam_lo,
-            beam_hi: p.beam_hi,
-            beam_nodes: p.beam_nodes,
             ray_queue: self.buffers.ray_queue,
             shadow_queue: self.buffers.shadow_queue,
             ..self.base

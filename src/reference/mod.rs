@@ -44,13 +44,12 @@ use shade::Tracer;
 use tables::TableAccel;
 
 /// Builds the accelerator `kind` asks for; the candidate tables cover primary rays of a
-/// `width`×`height` image, and their beams are piloted by ray trees `max_depth` deep.
+/// `width`×`height` image.
 pub fn build_accel<'a>(
     scene: &'a Scene,
     kind: AccelKind,
     width: u32,
     height: u32,
-    max_depth: u32,
 ) -> Result<Box<dyn Accel + 'a>> {
     Ok(match kind {
         AccelKind::Auto if scene.primitives.len() <= AUTO_BRUTE_MAX => {
@@ -58,8 +57,7 @@ pub fn build_accel<'a>(
         }
         AccelKind::Brute => Box::new(Brute::new(&scene.primitives)),
         AccelKind::Auto | AccelKind::Bvh => Box::new(BvhAccel::new(&scene.primitives)),
-        AccelKind::Cube => Box::new(TableAccel::new(scene, width, height, max_depth, false)?),
-        AccelKind::Beams => Box::new(TableAccel::new(scene, width, height, max_depth, true)?),
+        AccelKind::Cube => Box::new(TableAccel::new(scene, width, height)?),
     })
 }
 
@@ -83,7 +81,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions, progress: &ProgressBar) -> Re
     prepare(scene, opts)?;
     let (w, h) = (opts.width, opts.height);
     let start = Instant::now();
-    let accel = build_accel(scene, opts.accel, w, h, opts.max_depth)?;
+    let accel = build_accel(scene, opts.accel, w, h)?;
     let preprocess_s = start.elapsed().as_secs_f64();
     let tracer = Tracer { scene, accel: accel.as_ref(), max_depth: opts.max_depth };
     let cam = &scene.camera;
@@ -167,7 +165,7 @@ pub fn render_aov(scene: &Scene, opts: &RenderOptions, aov: Aov, progress: &Prog
     prepare(scene, opts)?;
     let (w, h) = (opts.width, opts.height);
     let start = Instant::now();
-    let accel = build_accel(scene, opts.accel, w, h, opts.max_depth)?;
+    let accel = build_accel(scene, opts.accel, w, h)?;
     let preprocess_s = start.elapsed().as_secs_f64();
     let tracer = Tracer { scene, accel: accel.as_ref(), max_depth: 1 };
     let start = Instant::now();

@@ -8,11 +8,10 @@ use glam::{DVec3, Vec3};
 use proptest::prelude::*;
 
 use cuberay::arith::closest::{brute_nearest, no_closest, test_prim};
-use cuberay::arith::geometry::{make_ray, Prim32, PrimHit, Ray, Surface};
-use cuberay::arith::spawn::{recentred_magnitude, spawn_origin, SpawnPolicy};
+use cuberay::arith::geometry::{make_ray, Prim32, PrimHit, Ray};
 use cuberay::arith::{FAR, NO_ID};
 use cuberay::coherence::walk::{self, AnyHit};
-use cuberay::coherence::{self, audit, BuildParams, OriginKey, ShadowMode, Tables, WalkCount};
+use cuberay::coherence::{self, audit, BuildParams, OriginKey, Tables, WalkCount};
 use cuberay::scene::{
     Camera, Cylinder, FovSpan, Light, Material, Primitive, Projection, Scene, Sphere, Triangle,
 };
@@ -71,17 +70,9 @@ fn cyl(a: DVec3, ra: f64, b: DVec3, rb: f64, material: u32) -> Primitive {
     })
 }
 
-/// Small resolutions so that debug builds stay fast, and beams split down to one candidate
-/// per pilot ray, so that the trees are deep.
+/// Small resolutions, so that cells are wide and lists long.
 fn small_params() -> BuildParams {
-    BuildParams {
-        eye_n: Some(24),
-        light_n: Some(16),
-        pilot_rays: 1 << 10,
-        beam_target: 1.0,
-        beams: true,
-        ..BuildParams::default()
-    }
+    BuildParams { eye_n: Some(24), light_n: Some(16), ..BuildParams::default() }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -91,9 +82,6 @@ struct World {
     prims: Vec<Prim32>,
     tables: Tables,
     shift: DVec3,
-    /// The largest `scale` of a hit the kernels' spawn offset can see in this scene: some
-    /// rays leave from there, the extreme the tables are inflated for.
-    worst_scale: f32,
 }
 
 impl World {
@@ -105,29 +93,11 @@ impl World {
 
     fn of(scene: &Scene, tables: Tables) -> World {
         let shift = scene.camera.eye;
-        // `offset_bound` assumes scale ≤ M, the scene's re-centred magnitude; rays here take
-        // that largest scale.
-        let m = recentred_magnitude(scene);
-        World { prims: Prim32::from_scene(scene, shift), tables, shift, worst_scale: m as f32 }
+        World { prims: Prim32::from_scene(scene, shift), tables, shift }
     }
 
     fn p(&self, p: DVec3) -> Vec3 {
         (p - self.shift).as_vec3()
-    }
-
-    /// The origin of a ray leaving primitive `id` at `p` (geometric normal `ng`) along `d`,
-    /// by the kernels' spawn model with the policy the tables were built for; `far`: with the
-    /// largest scale a hit in the scene can have, else with the hit's own magnitude.
-    fn spawn(&self, id: usize, p: Vec3, ng: Vec3, d: Vec3, far: bool) -> Vec3 {
-        let extent = match self.prims[id] {
-            Prim32::Sphere { c, r, .. } => c.abs().max_element() + r,
-            Prim32::Triangle { p } => p.iter().map(|v| v.abs().max_element()).fold(0.0, f32::max),
-            Prim32::Cylinder { base, apex, .. } => {
-                base[..3].iter().chain(&apex[..3]).fold(0.0f32, |m, x| m.max(x.abs()))
-            }
-        };
-        let scale = if far { self.worst_scale } else { p.abs().max_element().max(extent) };
-        spawn_origin(&Surface { p, ng, scale }, d, self.tables.spawn)
     }
 
     fn brute(&self, ray: &Ray, t_max: f32) -> (u32, f32) {
@@ -152,13 +122,13 @@ impl World {
     /// distances; all must agree with brute force.
     fn check_nearest(&self, key: OriginKey, o: Vec3, d: Vec3) -> Result<(), String> {
         let f = &self.tables.flat;
-        if !f.has_table(key) {
+        if f.cube_of(key).is_none() {
             return Err(format!("no table for {key:?}"));
         }
         let ray = make_ray(o, d);
         let test = |id: u32| test_prim(&self.prims[id as usize], &ray, FAR);
         let mut count = WalkCount::default();
-        let h = walk::table_nearest(f, key, ray.o, ray.d, FAR, NO_ID, &mut count, test);
+        let h = walk::table_nearest(f, key, ray.d, FAR, NO_ID, &mut count, test);
         let want = self.brute(&ray, FAR);
         if (h.prim, h.best_t(FAR)) != want {
             return Err(format!(
@@ -172,7 +142,7 @@ impl World {
         let mut w = f.walk_from(key, ray.d);
         let mut best = no_closest::<f32, PrimHit>();
         let mut steps = 0;
-        while !walk::walk_nearest(f, &mut w, &mut best, ray.o, ray.d, FAR, NO_ID, 3, &mut count, test) {
+        while !walk::walk_nearest(f, &mut w, &mut best, FAR, NO_ID, 3, &mut count, test) {
             steps += 1;
         }
         if (best.prim, best.best_t(FAR)) != want {
@@ -181,7 +151,7 @@ impl World {
                 (best.prim, best.t)
             ));
         }
-        let g64 = walk::table_nearest(f, key, ray.o, ray.d, f64::MAX, NO_ID, &mut count, |id| {
+        let g64 = walk::table_nearest(f, key, ray.d, f64::MAX, NO_ID, &mut count, |id| {
             test(id).map(|(t, _)| (t as f64, ()))
         });
         if g64.prim != want.0 {
@@ -192,20 +162,20 @@ impl World {
 
     fn check_any(&self, key: OriginKey, o: Vec3, d: Vec3, t_max: f32) -> Result<(), String> {
         let f = &self.tables.flat;
-        if !f.has_table(key) {
+        if f.cube_of(key).is_none() {
             return Err(format!("no table for {key:?}"));
         }
         let ray = make_ray(o, d);
         let hits = |id: u32| self.prims[id as usize].intersect(&ray, t_max).ok;
         let mut count = WalkCount::default();
-        let b = walk::table_any(f, key, ray.o, ray.d, t_max, NO_ID, &mut count, hits);
+        let b = walk::table_any(f, key, ray.d, t_max, NO_ID, &mut count, hits);
         let want = self.brute(&ray, t_max).0 != NO_ID;
         if b != want {
             return Err(format!("{key:?} any o={o} d={d} t_max={t_max}: walker {b} brute {want}"));
         }
         let mut w = f.walk_from(key, ray.d);
         let stepped = loop {
-            match walk::walk_any(f, &mut w, ray.o, ray.d, t_max, NO_ID, 2, &mut count, hits) {
+            match walk::walk_any(f, &mut w, t_max, NO_ID, 2, &mut count, hits) {
                 AnyHit::Unfinished => continue,
                 a => break a == AnyHit::Blocked,
             }
@@ -213,62 +183,11 @@ impl World {
         if stepped != want {
             return Err(format!("{key:?}: stepped any {stepped} brute {want}"));
         }
-        let g = walk::table_any(f, key, ray.o, ray.d, t_max as f64, NO_ID, &mut count, hits);
+        let g = walk::table_any(f, key, ray.d, t_max as f64, NO_ID, &mut count, hits);
         if g != want {
             return Err(format!("{key:?}: f64 any {g} brute {want}"));
         }
         Ok(())
-    }
-
-    /// A point on primitive `id` from two numbers in [0, 1), and its geometric normal.
-    fn surface_point(&self, id: usize, a: f32, b: f32) -> (Vec3, Vec3) {
-        match self.prims[id] {
-            Prim32::Sphere { c, r, .. } => {
-                let z = 2.0 * a - 1.0;
-                let phi = b * std::f32::consts::TAU;
-                let s = (1.0 - z * z).max(0.0).sqrt();
-                let n = Vec3::new(s * phi.cos(), s * phi.sin(), z);
-                (c + r * n, n)
-            }
-            Prim32::Triangle { p } => {
-                let (a, b) = if a + b > 1.0 { (1.0 - a, 1.0 - b) } else { (a, b) };
-                (p[0] + a * (p[1] - p[0]) + b * (p[2] - p[0]), (p[1] - p[0]).cross(p[2] - p[0]).normalize())
-            }
-            Prim32::Cylinder { base, apex, .. } => {
-                let (b3, a3) = (Vec3::from_slice(&base[..3]), Vec3::from_slice(&apex[..3]));
-                let ax = (a3 - b3).normalize();
-                let u = ax.any_orthonormal_vector();
-                let v = ax.cross(u);
-                let phi = b * std::f32::consts::TAU;
-                let radial = u * phi.cos() + v * phi.sin();
-                let r = base[3] + (apex[3] - base[3]) * a;
-                (b3 + (a3 - b3) * a + r * radial, radial)
-            }
-        }
-    }
-}
-
-/// Whether renderers can spawn rays into sphere `id` from its surface: it transmits, or a
-/// ray can be inside it (the eye, a light or another primitive's centre lies inside).
-fn may_go_inward(s: &Scene, id: usize) -> bool {
-    match &s.primitives[id] {
-        Primitive::Sphere(sp) => {
-            let inside = |p: DVec3| (p - sp.center).length() < sp.radius * 0.999;
-            s.materials[sp.material as usize].transmits()
-                || inside(s.camera.eye)
-                || s.lights.iter().any(|l| inside(l.position))
-                || s.primitives.iter().enumerate().any(|(j, q)| j != id && inside(q.bounding_sphere().0))
-        }
-        _ => true,
-    }
-}
-
-/// Flips `d` outward at a sphere surface point when rays cannot go inward there.
-fn legal(s: &Scene, id: usize, ng: Vec3, d: Vec3) -> Vec3 {
-    if d.dot(ng) < 0.0 && !may_go_inward(s, id) {
-        -d
-    } else {
-        d
     }
 }
 
@@ -361,67 +280,6 @@ proptest! {
             }
         }
     }
-
-    /// Secondary rays leaving any reflecting or transmitting primitive from a random surface
-    /// point (offset by the kernels' spawn model, under the scaled policy or a fixed epsilon,
-    /// as far as the tables allow) in a random direction, inward or outward, through beams
-    /// split to different depths (target 0.5, 2 or 8 candidates per pilot ray, or no pilot:
-    /// the roots alone).
-    #[test]
-    fn surface_rays_match_brute_force(
-        s in arb_scene(),
-        k in 0usize..4,
-        grouped in proptest::bool::ANY,
-        fixed in proptest::option::of(1e-4f32..2e-2),
-        rays in proptest::collection::vec((0.0f32..1.0, 0.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0, 0.05f32..2.0), 40),
-    ) {
-        // `grouped`: every surface list of two or more entries names primitive groups.
-        let group_min_list = if grouped { 2 } else { usize::MAX };
-        let spawn = fixed.map_or(SpawnPolicy::Scaled, SpawnPolicy::Fixed);
-        let (pilot_rays, beam_target) = [(0, 1.0), (1 << 10, 0.5), (1 << 10, 2.0), (1 << 10, 8.0)][k];
-        let params = BuildParams { pilot_rays, beam_target, group_min_list, spawn, ..small_params() };
-        let w = World::new(&s, &params);
-        let origins: Vec<usize> = (0..s.primitives.len())
-            .filter(|&i| w.tables.flat.has_surface(i as u32))
-            .collect();
-        // Exactly the reflecting and transmitting primitives have tables.
-        for (i, p) in s.primitives.iter().enumerate() {
-            let m = &s.materials[p.material() as usize];
-            prop_assert_eq!(origins.contains(&i), m.reflects() || m.transmits());
-        }
-        for (n, &(a, b, x, y, z, tm)) in rays.iter().enumerate() {
-            if origins.is_empty() { break; }
-            let id = origins[n % origins.len()];
-            let (p, ng) = w.surface_point(id, a, b);
-            let d = legal(&s, id, ng, dir(x, y, z));
-            let o = w.spawn(id, p, ng, d, n % 2 == 1);
-            w.check_nearest(OriginKey::Surface(id as u32, o), o, d).map_err(TestCaseError::fail)?;
-            w.check_any(OriginKey::Surface(id as u32, o), o, d, tm).map_err(TestCaseError::fail)?;
-        }
-    }
-
-    /// In hit-object shadow mode every primitive's rays are classified into the beams, and
-    /// shadow rays from any surface toward a light agree with brute force.
-    #[test]
-    fn hit_object_shadow_rays(s in arb_scene(), rays in proptest::collection::vec((0.0f32..1.0, 0.0f32..1.0), 20)) {
-        let params = BuildParams { shadow_mode: ShadowMode::HitObject, ..small_params() };
-        let w = World::new(&s, &params);
-        prop_assert!(w.tables.flat.light_origin.iter().all(|&o| o == u32::MAX));
-        for (n, &(a, b)) in rays.iter().enumerate() {
-            let id = n % s.primitives.len();
-            let (p, ng) = w.surface_point(id, a, b);
-            for l in &s.lights {
-                let v = w.p(l.position) - p;
-                let d = v.normalize();
-                if legal(&s, id, ng, d) != d {
-                    continue; // the surface faces away from the light: no shadow ray
-                }
-                let o = w.spawn(id, p, ng, d, n % 2 == 1);
-                w.check_any(OriginKey::Surface(id as u32, o), o, d, (w.p(l.position) - o).length())
-                    .map_err(TestCaseError::fail)?;
-            }
-        }
-    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -494,24 +352,18 @@ fn shell(center: DVec3) -> Vec<Primitive> {
 #[test]
 fn boundary_directions_from_every_origin_kind() {
     let c = DVec3::new(0.25, -0.5, 0.125);
-    let mut prims = shell(c);
-    prims.push(sphere(c, 0.3, 1)); // an origin for surface rays at the centre
-    let mut s = scene(c, c + DVec3::X, &[c], prims);
+    let mut s = scene(c, c + DVec3::X, &[c], shell(c));
     s.camera.projection = Projection::Perspective { fov_y: 170f64.to_radians(), span: FovSpan::ImageEdges };
     for n in [4u32, 8] {
         let params = BuildParams { eye_n: Some(n), light_n: Some(n), ..small_params() };
         let w = World::new(&s, &params);
-        let centre_id = s.primitives.len() as u32 - 1;
         for d in boundary_directions(n) {
-            // Eye and light sit at the centre; surface rays leave the central sphere.
+            // Eye and light sit at the centre.
             if in_frustum(&s, d) {
                 w.check_nearest(OriginKey::Eye, w.p(c), d).unwrap();
             }
             w.check_nearest(OriginKey::Light(0), w.p(c), d).unwrap();
             w.check_any(OriginKey::Light(0), w.p(c), d, 3.2).unwrap();
-            let (p, ng) = (w.p(c) + 0.3 * d, d);
-            let o = w.spawn(centre_id as usize, p, ng, d, false);
-            w.check_nearest(OriginKey::Surface(centre_id, o), o, d).unwrap();
         }
     }
 }
@@ -523,12 +375,11 @@ fn zero_direction_is_rejected() {
     let f = &w.tables.flat;
     let eye = OriginKey::Eye;
     let mut count = WalkCount::default();
-    let h = walk::table_nearest(f, eye, Vec3::ZERO, Vec3::ZERO, FAR, NO_ID, &mut count, |_| Some((0.0, ())));
-    assert_eq!((h.found, h.prim, count.tests, count.bounds), (false, NO_ID, 0, 0));
-    let h =
-        walk::table_nearest(f, eye, Vec3::ZERO, Vec3::ZERO, f64::MAX, NO_ID, &mut count, |_| Some((0.0, ())));
+    let h = walk::table_nearest(f, eye, Vec3::ZERO, FAR, NO_ID, &mut count, |_| Some((0.0, ())));
+    assert_eq!((h.found, h.prim, count.tests), (false, NO_ID, 0));
+    let h = walk::table_nearest(f, eye, Vec3::ZERO, f64::MAX, NO_ID, &mut count, |_| Some((0.0, ())));
     assert!(!h.found && count.tests == 0);
-    assert!(!walk::table_any(f, eye, Vec3::ZERO, Vec3::ZERO, FAR, NO_ID, &mut count, |_| true));
+    assert!(!walk::table_any(f, eye, Vec3::ZERO, FAR, NO_ID, &mut count, |_| true));
 }
 
 /// Rays from many points toward random directions; used by the directed scenes below.
@@ -565,8 +416,8 @@ fn eye_inside_bounding_spheres() {
         sphere(DVec3::new(0.1, 6.2, 0.0), 0.3, 1),
     ];
     let s = scene(DVec3::new(0.05, 0.0, 0.3), DVec3::new(1.0, 0.2, 0.3), &[DVec3::new(0.0, 0.0, 0.9)], prims);
-    for beam_target in [1.0, 8.0] {
-        let w = World::new(&s, &BuildParams { beam_target, ..small_params() });
+    for params in [small_params(), BuildParams::default()] {
+        let w = World::new(&s, &params);
         let eye = w.p(s.camera.eye);
         sweep(&w, &s, OriginKey::Eye, eye, 400);
         sweep(&w, &s, OriginKey::Light(0), w.p(s.lights[0].position), 400);
@@ -577,44 +428,14 @@ fn eye_inside_bounding_spheres() {
                 w.check_nearest(OriginKey::Eye, w.p(o), d.as_vec3().normalize()).unwrap();
             }
         }
-        // Refraction rays inside the glass sphere from its surface, inward.
-        for k in 0..200 {
-            let (p, ng) = w.surface_point(0, (k as f32 * 0.618) % 1.0, (k as f32 * 0.377) % 1.0);
-            let d = dir(-ng.x + 0.3 * (k as f32).sin(), -ng.y, -ng.z + 0.3 * (k as f32).cos());
-            let o = w.spawn(0, p, ng, d, k % 2 == 1);
-            w.check_nearest(OriginKey::Surface(0, o), o, d).unwrap();
-            // The mirror sphere enclosing a smaller one reflects inside itself.
-            let (p, ng) = w.surface_point(5, (k as f32 * 0.618) % 1.0, (k as f32 * 0.377) % 1.0);
-            let d = dir(-ng.x + 0.5 * (k as f32).sin(), -ng.y + 0.5 * (k as f32).cos(), -ng.z);
-            let o = w.spawn(5, p, ng, d, k % 2 == 1);
-            w.check_nearest(OriginKey::Surface(5, o), o, d).unwrap();
-        }
     }
-}
-
-/// Rays leaving primitive `id` (which must have a table) from `count` points of its surface,
-/// outward (reflection) and inward (refraction) where the renderers can spawn them, every
-/// other one at the largest scale the spawn model allows: the walker agrees with brute force.
-fn check_surface_rays(w: &World, s: &Scene, id: usize, count: usize) -> Result<(), String> {
-    for m in 0..count {
-        let (p, ng) = w.surface_point(id, (m as f32 * 0.618 + 0.1) % 1.0, (m as f32 * 0.377 + 0.2) % 1.0);
-        for sgn in [1.0f32, -1.0] {
-            let d = dir(sgn * ng.x + 0.5 * (m as f32).sin(), sgn * ng.y + 0.5 * (m as f32).cos(), sgn * ng.z);
-            if legal(s, id, ng, d) != d {
-                continue;
-            }
-            let o = w.spawn(id, p, ng, d, m % 2 == 1);
-            w.check_nearest(OriginKey::Surface(id as u32, o), o, d)?;
-        }
-    }
-    Ok(())
 }
 
 #[test]
 fn tangent_and_nested_spheres() {
     // A chain of tangent spheres (each touching the next), a sphere nested inside another,
     // and equal-size spheres touching at one point: neighbours list each other in every
-    // cell where they can be seen, and refraction inside lists the sphere itself.
+    // cell where they can be seen from the eye and the light.
     let mut prims = Vec::new();
     let mut x = 0.0;
     for i in 0..6 {
@@ -632,11 +453,9 @@ fn tangent_and_nested_spheres() {
         &[DVec3::new(-3.0, -3.0, 5.0)],
         prims.clone(),
     );
-    for beam_target in [0.5, 2.0, 8.0] {
-        let w = World::new(&s, &BuildParams { beam_target, ..small_params() });
-        for id in 0..prims.len() {
-            check_surface_rays(&w, &s, id, 60).unwrap();
-        }
+    for params in [small_params(), BuildParams::default()] {
+        let w = World::new(&s, &params);
+        sweep(&w, &s, OriginKey::Light(0), w.p(s.lights[0].position), 400);
         for j in 0..16 {
             for i in 0..16 {
                 let (o, d) = s.camera.ray(i as f64 * 4.0 + 1.0, j as f64 * 4.0 + 1.0, 64, 64);
@@ -676,14 +495,6 @@ fn huge_ground_polygon() {
     }
     sweep(&w, &s, OriginKey::Light(0), w.p(s.lights[0].position), 300);
     sweep(&w, &s, OriginKey::Light(1), w.p(s.lights[1].position), 300);
-    for id in 2..prims.len() {
-        for m in 0..40 {
-            let (p, ng) = w.surface_point(id, (m as f32 * 0.618) % 1.0, (m as f32 * 0.377) % 1.0);
-            let d = dir(ng.x + 0.7 * (m as f32).sin(), ng.y + 0.7 * (m as f32).cos(), ng.z);
-            let o = w.spawn(id, p, ng, d, m % 2 == 1);
-            w.check_nearest(OriginKey::Surface(id as u32, o), o, d).unwrap();
-        }
-    }
 }
 
 /// Origins with a table of their own (all but the fallback origin).
@@ -693,12 +504,12 @@ fn tables_of(t: &Tables) -> usize {
 
 #[test]
 fn only_the_effects_the_scene_calls_for() {
-    // No mirrors, no glass: no beams; no lights: no light tables.
+    // No lights: no light tables.
     let prims = vec![sphere(DVec3::new(3.0, 0.0, 0.0), 1.0, 0), tri(DVec3::ZERO, DVec3::X, DVec3::Y, 0)];
     let s = scene(DVec3::new(-3.0, 0.0, 0.5), DVec3::new(3.0, 0.0, 0.0), &[DVec3::Z], prims.clone());
     let t = coherence::build(&s, &small_params()).unwrap();
-    assert!(t.beams.is_none() && t.flat.beam_nodes.is_empty() && t.flat.prim_beams.iter().all(|&b| b == 0));
     assert_eq!(tables_of(&t), 2, "eye and one light");
+    assert!(!coherence::traces_surface_rays(&s, &small_params()), "no mirror, no glass, no sun");
     let mut dark = s.clone();
     dark.lights.clear();
     let t = coherence::build(&dark, &small_params()).unwrap();
@@ -709,62 +520,21 @@ fn only_the_effects_the_scene_calls_for() {
     let s = scene(DVec3::new(-3.0, 0.0, 0.5), DVec3::new(3.0, 0.0, 0.0), &[DVec3::Z], mirror);
     assert!(s.effects().reflection && s.effects().shadows);
     let t = coherence::build(&s, &small_params()).unwrap();
-    assert!(t.flat.has_surface(0) && !t.flat.has_surface(1) && t.flat.light_origin[0] != u32::MAX);
+    assert!(t.flat.light_origin[0] != u32::MAX && coherence::traces_surface_rays(&s, &small_params()));
     let eye_only = BuildParams { effects: Some(cuberay::scene::Effects::default()), ..small_params() };
     let t = coherence::build(&s, &eye_only).unwrap();
     assert_eq!(tables_of(&t), 1, "eye only");
-    assert!(t.beams.is_none() && t.flat.prim_beams.iter().all(|&b| b == 0));
+    assert!(!coherence::traces_surface_rays(&s, &eye_only));
     assert!(t.flat.light_origin.iter().all(|&o| o == u32::MAX));
 }
 
-#[test]
-fn memory_budget_is_respected() {
-    // Many mirror balls: a small budget stops the beams' subdivision early, and the result
-    // stays within it (the eye and light tables are fixed costs, counted too).
-    let mut prims = Vec::new();
-    for i in 0..12 {
-        for j in 0..12 {
-            prims.push(sphere(DVec3::new(i as f64, j as f64, 0.3 * ((i + j) % 3) as f64), 0.35, 1));
-        }
-    }
-    let s =
-        scene(DVec3::new(-4.0, -4.0, 6.0), DVec3::new(6.0, 6.0, 0.0), &[DVec3::new(6.0, 6.0, 10.0)], prims);
-    let base = BuildParams { eye_n: Some(32), light_n: Some(32), beams: true, ..BuildParams::default() };
-    let big = coherence::build(&s, &base).unwrap();
-    let budget = big.flat.bytes() / 3;
-    let small = coherence::build(&s, &BuildParams { budget_bytes: budget, ..base.clone() }).unwrap();
-    small.flat.check(s.primitives.len()).unwrap();
-    assert!(small.flat.bytes() <= budget, "{} bytes over the budget {budget}", small.flat.bytes());
-    let (b, sb) = (big.beams.as_ref().unwrap().stats, small.beams.as_ref().unwrap().stats);
-    assert!(sb.over_budget && !b.over_budget && sb.leaves < b.leaves, "{sb:?} against {b:?}");
-    let w = World::of(&s, small);
-    for id in (0..s.primitives.len()).step_by(7) {
-        for m in 0..20 {
-            let (p, ng) = w.surface_point(id, (m as f32 * 0.618) % 1.0, (m as f32 * 0.377) % 1.0);
-            let o = w.spawn(id, p, ng, ng, m % 2 == 1);
-            w.check_nearest(OriginKey::Surface(id as u32, o), o, dir(ng.x + 0.3, ng.y, ng.z - 0.2)).unwrap();
-        }
-    }
-}
-
-/// A small SPD database at 24×24 corners, depth 5, every eye, shadow, reflection and
-/// refraction ray checked against brute force; surface lists name primitive groups from
-/// `group_min_list` entries.
-fn spd_every_ray_agrees_with_brute_force(name: &str, group_min_list: usize) {
+/// A small SPD database at 24×24 corners, depth 5, every eye and shadow ray (and the rays
+/// leaving surfaces, which walk the fallback origin here) checked against brute force.
+fn spd_every_ray_agrees_with_brute_force(name: &str) {
     let path = crate::common::shared(&format!("spd/nff/{name}.nff"));
     let scene = cuberay::load::load(&path, &Default::default()).unwrap().scene;
-    let params = BuildParams {
-        eye_n: Some(64),
-        light_cells: 1 << 12,
-        group_min_list,
-        beams: true,
-        ..BuildParams::default()
-    };
+    let params = BuildParams { eye_n: Some(64), light_cells: 1 << 12, ..BuildParams::default() };
     let tables = coherence::build(&scene, &params).unwrap();
-    if group_min_list == 2 {
-        let named = tables.flat.entries.iter().filter(|e| e.id & coherence::flat::GROUP_BIT != 0).count();
-        assert!(named > 0 && !tables.flat.groups.is_empty(), "{name}: no list names a group");
-    }
     tables.flat.check(scene.primitives.len()).unwrap();
     let r = audit::trace_counts(
         &scene,
@@ -773,87 +543,24 @@ fn spd_every_ray_agrees_with_brute_force(name: &str, group_min_list: usize) {
     );
     assert_eq!(r.mismatches, 0, "{name}: {r:?}");
     assert!(r.verified >= 625, "{name}: {r:?}");
-    if group_min_list == 2 {
-        assert!(r.reflect.bounds + r.refract.bounds > 0, "{name}: no group was tested");
-    }
     assert_eq!(r.eye.rays, 625);
-    assert_eq!(r.eye.untabled + r.reflect.untabled + r.refract.untabled, 0, "{name}: rays without a table");
+    assert_eq!(r.eye.untabled, 0, "{name}: eye rays without a table");
 }
 
-// The SPD databases at size 1 with the default grouping, and three of them with every
-// surface list of two or more entries grouped.
 cases!(spd_every_ray_agrees_with_brute_force: super::spd_every_ray_agrees_with_brute_force {
-    balls => ("balls_s1", cuberay::coherence::groups::GROUP_MIN_LIST),
-    gears => ("gears_s1", cuberay::coherence::groups::GROUP_MIN_LIST),
-    mount => ("mount_s1", cuberay::coherence::groups::GROUP_MIN_LIST),
-    rings => ("rings_s1", cuberay::coherence::groups::GROUP_MIN_LIST),
-    teapot => ("teapot_s1", cuberay::coherence::groups::GROUP_MIN_LIST),
-    tetra => ("tetra_s1", cuberay::coherence::groups::GROUP_MIN_LIST),
-    tree => ("tree_s1", cuberay::coherence::groups::GROUP_MIN_LIST),
-    gears_grouped => ("gears_s1", 2),
-    teapot_grouped => ("teapot_s1", 2),
-    balls_grouped => ("balls_s1", 2),
+    balls => ("balls_s1"),
+    gears => ("gears_s1"),
+    mount => ("mount_s1"),
+    rings => ("rings_s1"),
+    teapot => ("teapot_s1"),
+    tetra => ("tetra_s1"),
+    tree => ("tree_s1"),
 });
 
 #[test]
-fn mirror_floor_beams_match_brute_force() {
-    // A large mirror floor (two triangles) under small objects, some touching it: the beams
-    // over the floor are split by origin, and rays leaving it from anywhere (on the split
-    // planes too, up and down) find what brute force finds.
-    let (a, b, c, d) = (
-        DVec3::new(-10.0, -10.0, 0.0),
-        DVec3::new(10.0, -10.0, 0.0),
-        DVec3::new(10.0, 10.0, 0.0),
-        DVec3::new(-10.0, 10.0, 0.0),
-    );
-    let mut prims = vec![tri(a, b, c, 1), tri(a, c, d, 1)];
-    for i in 0..6 {
-        for j in 0..6 {
-            let (x, y) = (-7.5 + 3.0 * i as f64, -7.5 + 3.0 * j as f64);
-            prims.push(match (i + j) % 3 {
-                0 => sphere(DVec3::new(x, y, 0.5), 0.5, 0),
-                1 => tri(DVec3::new(x, y, 0.0), DVec3::new(x + 0.8, y, 0.4), DVec3::new(x, y + 0.8, 1.0), 0),
-                _ => sphere(DVec3::new(x, y, 1.5), 0.4, 1),
-            });
-        }
-    }
-    let s = scene(DVec3::new(0.0, -25.0, 12.0), DVec3::ZERO, &[DVec3::new(3.0, 2.0, 15.0)], prims);
-    let w = World::new(&s, &BuildParams { beam_target: 1.0, beams: true, ..BuildParams::default() });
-    let beams = w.tables.beams.as_ref().unwrap();
-    // The origin splits across the floor (x and y), in the walkers' frame.
-    let splits: Vec<(usize, f32)> = beams
-        .nodes
-        .iter()
-        .filter_map(|n| match *n {
-            coherence::beams::BeamNode::Origin { axis, split, .. } if axis < 2 => {
-                Some((axis as usize, (split - s.camera.eye[axis as usize]) as f32))
-            }
-            _ => None,
-        })
-        .collect();
-    assert!(splits.len() >= 4, "the floor's beams are split by origin: {:?}", beams.stats);
-    for k in 0..3000 {
-        let id = k % 2;
-        let (u, v) = ((k as f32 * 0.618_034) % 1.0, (k as f32 * 0.414_214) % 1.0);
-        let (mut p, ng) = w.surface_point(id, u, v);
-        // Every third point sits on a split plane.
-        if k % 3 == 0 {
-            let (axis, at) = splits[k / 3 % splits.len()];
-            p[axis] = at;
-        }
-        let t = k as f32 * 0.7;
-        let dd = dir(t.sin(), t.cos(), if k % 5 == 0 { -0.3 } else { 0.05 + (k % 7) as f32 * 0.2 });
-        let o = w.spawn(id, p, ng, dd, k % 2 == 1);
-        w.check_nearest(OriginKey::Surface(id as u32, o), o, dd).unwrap();
-        w.check_any(OriginKey::Surface(id as u32, o), o, dd, 3.0).unwrap();
-    }
-}
-
-#[test]
 fn moving_the_eye_rebuilds_only_its_table() {
-    // The preview moves the camera: the eye's table is rebuilt, the light tables and the
-    // beams are kept while they hold (the beams move to the new eye's frame), and every ray
-    // still agrees with brute force. A move far away, which grows the spawn offset, rebuilds
+    // The preview moves the camera: the eye's table is rebuilt, the light tables are kept
+    // while they hold, and every ray still agrees with brute force. A move far away, which grows the spawn offset, rebuilds
     // everything.
     let mut prims =
         vec![tri(DVec3::new(-10.0, -10.0, 0.0), DVec3::new(10.0, -10.0, 0.0), DVec3::new(0.0, 10.0, 0.0), 1)];
@@ -875,16 +582,6 @@ fn moving_the_eye_rebuilds_only_its_table() {
             }
         }
         sweep(&w, s, OriginKey::Light(0), w.p(s.lights[0].position), 200);
-        let ids: Vec<usize> =
-            (0..s.primitives.len()).filter(|&i| w.tables.flat.has_surface(i as u32)).collect();
-        assert!(ids.len() >= 4);
-        for k in 0..200 {
-            let id = ids[k % ids.len()];
-            let (p, ng) = w.surface_point(id, (k as f32 * 0.618) % 1.0, (k as f32 * 0.377) % 1.0);
-            let d = legal(s, id, ng, dir((k as f32).sin(), (k as f32).cos(), 0.3));
-            let o = w.spawn(id, p, ng, d, k % 2 == 1);
-            w.check_nearest(OriginKey::Surface(id as u32, o), o, d).unwrap();
-        }
     };
     // A small orbit: only the eye's table changes.
     s.camera = Camera::look_at(
@@ -902,7 +599,7 @@ fn moving_the_eye_rebuilds_only_its_table() {
         assert_eq!((&a.entries, &a.always, &a.starts), (&b.entries, &b.always, &b.starts));
     }
     check(&s, &tables);
-    // Into the glass sphere: the beams do not depend on what holds the eye.
+    // Into the glass sphere: the light tables do not depend on what holds the eye.
     s.camera = Camera::look_at(
         DVec3::new(0.0, 6.0, 2.2),
         DVec3::new(0.0, 0.0, 1.0),
@@ -910,9 +607,7 @@ fn moving_the_eye_rebuilds_only_its_table() {
         Projection::Perspective { fov_y: 50f64.to_radians(), span: FovSpan::ImageEdges },
     )
     .unwrap();
-    let beams = tables.beams.as_ref().unwrap().nodes.clone();
     assert!(tables.rebuild_eye(&s, &p).unwrap(), "the eye entered a sphere, nothing else changed");
-    assert_eq!(tables.beams.as_ref().unwrap().nodes, beams);
     check(&s, &tables);
     // Far away: the offset grows with the distance to the eye.
     s.camera = Camera::look_at(
@@ -927,10 +622,8 @@ fn moving_the_eye_rebuilds_only_its_table() {
 }
 
 /// Every scene of `scenes/hard/` (the hard-case suite of `tests/it/hard.rs`), with the default
-/// build and with small tables: rays from the eye through the image, from every light in
-/// every direction (nearest and any-hit), and leaving every primitive with a table, outward
-/// and inward, at its own scale and at the largest the spawn model allows, all agree with
-/// brute force.
+/// build and with small tables: rays from the eye through the image and from every light in
+/// every direction (nearest and any-hit) all agree with brute force.
 fn hard_scene_tables_match_brute_force(file: &str) {
     let path = crate::common::hard(file);
     let s = cuberay::load::load(&path, &Default::default()).unwrap_or_else(|e| panic!("{e}")).scene;
@@ -943,13 +636,8 @@ fn hard_scene_tables_match_brute_force(file: &str) {
             }
         }
         for (li, l) in s.lights.iter().enumerate() {
-            if w.tables.flat.has_table(OriginKey::Light(li)) {
+            if w.tables.flat.cube_of(OriginKey::Light(li)).is_some() {
                 sweep(&w, &s, OriginKey::Light(li), w.p(l.position), 300);
-            }
-        }
-        for id in 0..s.primitives.len() {
-            if w.tables.flat.has_surface(id as u32) {
-                check_surface_rays(&w, &s, id, 40).unwrap_or_else(|e| panic!("{file}: {e}"));
             }
         }
     }

@@ -112,7 +112,6 @@ fn run(name: &str, scene: Scene, opts: RenderOptions, max_flip: f64, max_ids: us
     let g_bvh = gpu(AccelKind::Bvh);
     assert_eq!(g_bvh.stats.settings.accel, "bvh");
     assert_identical(name, "GPU BVH vs GPU brute force", &g_bvh, &g_brute);
-    assert_identical(name, "GPU beams vs GPU brute force", &gpu(AccelKind::Beams), &g_brute);
     let (gpu_id, gpu_depth) = (gpu_aov(AccelKind::Cube, Aov::Id), gpu_aov(AccelKind::Cube, Aov::Depth));
     let (brute_id, brute_depth) = (gpu_aov(AccelKind::Brute, Aov::Id), gpu_aov(AccelKind::Brute, Aov::Depth));
     assert_identical(name, "GPU id AOV, tables vs brute", &gpu_id, &brute_id);
@@ -123,7 +122,6 @@ fn run(name: &str, scene: Scene, opts: RenderOptions, max_flip: f64, max_ids: us
     let c_bvh = cpu(AccelKind::Bvh);
     assert_identical(name, "CPU BVH vs CPU brute force", &c_bvh, &cpu(AccelKind::Brute));
     assert_identical(name, "CPU BVH vs CPU tables order", &c_bvh, &cpu(AccelKind::Cube));
-    assert_identical(name, "CPU BVH vs CPU beams order", &c_bvh, &cpu(AccelKind::Beams));
     let cpu_id = reference::render_aov(&scene, &with(AccelKind::Bvh), Aov::Id, &hidden()).unwrap();
 
     for (backend, img) in [("GPU", &g_cube.image), ("CPU", &c_bvh.image)] {

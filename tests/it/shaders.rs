@@ -4,7 +4,7 @@
 
 use cuberay::gpu::shaders::{compose, Kernel, Queries, Variant};
 use cuberay::gpu::GpuRenderer;
-use cuberay::job::{AccelKind, RenderOptions};
+use cuberay::job::RenderOptions;
 use cuberay::load;
 use cuberay::scene::Shapes;
 use naga::valid::{Capabilities, ValidationFlags, Validator};
@@ -145,10 +145,6 @@ fn each_kernel_contains_only_its_own_queries() {
             assert_eq!(has_function(&m, f), v.shadows, "{v:?}: {f}");
         }
 
-        // The beams only where rays leave surfaces and the tables classify them.
-        assert_eq!(has_function(&m, "beam_range"), cube && v.surface_rays && v.beams, "{v:?}: beam_range");
-        // The group entries too: only beam lists name them.
-        assert_eq!(has_function(&m, "group_hit"), cube && v.beams, "{v:?}: group_hit");
         assert_eq!(has_function(&m, "walk_any"), v.shadows, "{v:?}");
         let walks_bvh = bvh || (cube && v.surface_rays);
         assert_eq!(has_function(&m, "bvh_nearest"), walks_bvh, "{v:?}");
@@ -157,7 +153,7 @@ fn each_kernel_contains_only_its_own_queries() {
         assert_eq!(has_function(&m, "bvh_walk"), walks_bvh, "{v:?}");
         // Every accelerator traces the one shadow ray, and only where there are shadows.
         assert_eq!(has_function(&m, "shadow_ray"), v.shadows, "{v:?}");
-        for binding in 11..=19 {
+        for binding in 11..=15 {
             assert_eq!(binds(&m, binding), cube, "{v:?}: binding {binding}");
         }
         for binding in 20..=21 {
@@ -225,15 +221,7 @@ fn a_scene_whose_rays_all_leave_the_eye_or_a_light_has_no_bvh_walk() {
         let m = module(v);
         assert_eq!(has_function(&m, "bvh_nearest"), surface, "{name}");
         assert_eq!(has_function(&m, "bvh_any"), surface, "{name}");
-        assert!(
-            !has_function(&m, "beam_range") && !has_function(&m, "group_hit"),
-            "{name}: no beams with cube"
-        );
         assert!(has_function(&m, "walk_any") && has_function(&m, "cell_walk"), "{name}");
-        // With beams, the kernels look rays leaving surfaces up in them.
-        let beams = RenderOptions { accel: AccelKind::Beams, ..o.clone() };
-        let v = GpuRenderer::job_variant(s, &beams, false);
-        assert_eq!((v.beams, has_function(&module(v), "beam_range")), (surface, surface), "{name}");
     }
 }
 
@@ -268,14 +256,14 @@ fn a_scene_compiles_the_intersections_of_its_kinds_only() {
 }
 
 /// Where the tables send rays leaving surfaces to the BVH, the eye's depth runs a `nearest`
-/// without the BVH walk and the later depths one without the table walk; with beams (which
-/// the tables walk) and without rays leaving surfaces, one `nearest` serves every depth.
+/// without the BVH walk and the later depths one without the table walk; without rays
+/// leaving surfaces, one `nearest` serves every depth.
 #[test]
 fn each_depth_runs_a_nearest_with_its_own_walk_only() {
     for v in Variant::all().into_iter().filter(|v| v.tables()) {
         let nearest: Vec<_> =
             Kernel::wavefront(v).into_iter().filter(|s| s.kernel == Kernel::Nearest).collect();
-        if !v.surface_rays || v.beams {
+        if !v.surface_rays {
             assert_eq!(nearest.len(), 1, "{v:?}");
             continue;
         }

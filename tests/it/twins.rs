@@ -9,11 +9,7 @@ use std::collections::BTreeMap;
 use std::mem::{offset_of, size_of};
 
 use cuberay::arith::{FAR, NO_ID, SHADOW_END_REL};
-use cuberay::coherence::flat::{
-    GpuBeamNode, GpuEntry, GpuFace, GpuGroup, GpuOrigin, BEAM_CELLS, BEAM_DEPTH, BEAM_FACE, BEAM_LEAF,
-    GROUP_BIT, NO_ORIGIN,
-};
-use cuberay::coherence::groups::GROUP_SLACK;
+use cuberay::coherence::flat::{GpuEntry, GpuFace, GpuOrigin, NO_ORIGIN};
 use cuberay::coherence::walk::{AnyHit, BVH_WALK, UNBOUNDED, WALK_CHUNK};
 use cuberay::gpu::shaders::{compose, Kernel, Queries, Variant};
 use cuberay::layout::bvh::{BvhNode, BVH_LEAF_SHIFT, BVH_SLACK};
@@ -109,14 +105,10 @@ fn rust_structs() -> BTreeMap<&'static str, Layout> {
             own_w,
             own_h,
             bvh_stride,
-            beam_lo,
-            beam_nodes,
-            beam_hi,
             ray_queue,
             shadow_queue,
             surface_bvh,
             bvh_inline,
-            pad_q2,
         }),
         twin!(Prim { a, b, c, kind, material, flags, attr }),
         twin!(TriAttr { n0, n1, n2, uv01, uv2 }),
@@ -141,8 +133,6 @@ fn rust_structs() -> BTreeMap<&'static str, Layout> {
         twin!(GpuOrigin { n, always_start, always_count, kind }),
         twin!(GpuFace { iu0, iv0, width, height, cell_base, _pad0, _pad1, _pad2 }),
         twin!(GpuEntry { id, d_min }),
-        twin!(GpuGroup { cx, cy, cz, radius, first, count, _pad0, _pad1 }),
-        twin!(GpuBeamNode { axis, split, a, b }),
         twin!(BvhNode { lo, skip, hi, leaf }),
         twin!(Tile { first_point, point_count, pad0, pad1 }),
         twin!(View { width, height, grid_w, samples, corners, encode, pad0, pad1 }),
@@ -227,12 +217,6 @@ fn rust_constants() -> BTreeMap<&'static str, Value> {
         ("NO_ID", U32(NO_ID)),
         ("SHADOW_END_REL", F32(SHADOW_END_REL)),
         ("NO_ORIGIN", U32(NO_ORIGIN)),
-        ("GROUP_BIT", U32(GROUP_BIT)),
-        ("BEAM_LEAF", U32(BEAM_LEAF)),
-        ("BEAM_FACE", U32(BEAM_FACE)),
-        ("BEAM_CELLS", U32(BEAM_CELLS)),
-        ("BEAM_DEPTH", U32(BEAM_DEPTH)),
-        ("GROUP_SLACK", F32(GROUP_SLACK)),
         ("BVH_LEAF_SHIFT", U32(BVH_LEAF_SHIFT)),
         ("BVH_SLACK", F32(BVH_SLACK)),
         ("ACCUMULATE_WORKGROUP", U32(ACCUMULATE_WORKGROUP)),

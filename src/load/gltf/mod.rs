@@ -16,7 +16,7 @@
 //! - cameras: the first camera node in traversal order, or the N-th with
 //!   [`LoadOptions::camera`]; without one, a camera framing the scene (with a warning);
 //! - with [`LoadOptions::time`], the nodes' translation, rotation and scale animation
-//!   channels sampled at that time ([`animation`]), cameras and lights as well as meshes;
+//!   channels sampled at that time (`animation`), cameras and lights as well as meshes;
 //! - KHR_lights_punctual point, spot and directional lights; without any light, the
 //!   documented default headlight ([`Light::default_for`], with a warning);
 //! - metallic-roughness materials with KHR_materials_transmission, KHR_materials_ior and
