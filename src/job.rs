@@ -30,7 +30,8 @@ pub enum AccelKind {
 }
 
 /// The arithmetic of the GPU kernels' intersection tests and hit points (`--precision`):
-/// f32, or f64 where the adapter has `SHADER_F64` (a kernel variant, much slower). The scene,
+/// f32, or f64 where the adapter has `SHADER_F64` (a kernel variant; `cuberay accuracy`
+/// measures its cost). The scene,
 /// the rays and the tables stay in f32; the CPU reference always computes in f64.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Precision {

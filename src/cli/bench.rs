@@ -71,6 +71,8 @@ struct Row {
     scene: String,
     accel: String,
     backend: &'static str,
+    /// Seconds to load and validate the scene file (once per scene, before any render).
+    load_s: f64,
     preprocess_s: f64,
     accel_bytes: u64,
     /// GPU: the kernel time from timestamp queries; CPU: the trace time.
@@ -94,6 +96,9 @@ struct Row {
     /// GPU: the kernel time of depths 2 and deeper (the rays leaving surfaces, their
     /// shading and shadows), the median over the timed runs.
     surface_depths_s: Option<f64>,
+    /// GPU: the `shade` kernel's share of those depths' time (shading, spawning, the inline
+    /// shadow walks): the part a cheaper walk of rays leaving surfaces cannot remove.
+    surface_shade_share: Option<f64>,
     /// GPU: microseconds of `nearest` kernel time per eye ray (depth 1) and per ray leaving
     /// a surface (reflection and refraction, depths 2 and deeper): what a walk costs.
     eye_ray_us: Option<f64>,
@@ -118,8 +123,8 @@ struct Timed {
     kernel_s: f64,
     preprocess_s: f64,
     longest_dispatch_s: Option<f64>,
-    /// Kernel time by depth: all kernels, and `nearest` alone.
-    depths: [(f64, f64); MAX_DEPTH as usize],
+    /// Kernel time by depth: all kernels, `nearest` alone and `shade` alone.
+    depths: [(f64, f64, f64); MAX_DEPTH as usize],
 }
 
 impl Timed {
@@ -135,9 +140,9 @@ impl Timed {
             preprocess_s: t.preprocess_s,
             longest_dispatch_s: t.longest_dispatch_s,
             depths: {
-                let mut d = [(0.0, 0.0); MAX_DEPTH as usize];
+                let mut d = [(0.0, 0.0, 0.0); MAX_DEPTH as usize];
                 for k in t.gpu_depth_s.iter().flatten() {
-                    d[k.depth as usize - 1] = (k.all, k.nearest);
+                    d[k.depth as usize - 1] = (k.all, k.nearest, k.shade);
                 }
                 d
             },
@@ -187,7 +192,9 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     let mut rows = Vec::new();
     let progress = progress_bar("bench");
     for path in &scenes {
+        let load_start = std::time::Instant::now();
         let loaded = super::load_scene(path, None, None)?;
+        let load_s = load_start.elapsed().as_secs_f64();
         let scene = &loaded.scene;
         let name =
             path.file_stem().map_or_else(|| path.display().to_string(), |s| s.to_string_lossy().into());
@@ -245,6 +252,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
                 let surface_depths_s = gpu.then(|| depth_kernel_s.iter().skip(1).sum::<f64>());
                 let eye_nearest = by_depth(&|t: &Timed| t.depths[0].1);
                 let surface_nearest = by_depth(&|t: &Timed| t.depths[1..].iter().map(|d| d.1).sum());
+                let surface_shade = by_depth(&|t: &Timed| t.depths[1..].iter().map(|d| d.2).sum());
                 let per = |secs: f64, rays: u64| (gpu && rays > 0).then(|| secs * 1e6 / rays as f64);
                 rows.push(Row {
                     scene: name.clone(),
@@ -253,6 +261,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
                         BenchBackend::Gpu => "gpu",
                         BenchBackend::Cpu => "cpu",
                     },
+                    load_s,
                     preprocess_s: median(timed.iter().map(|t| t.preprocess_s).collect()),
                     accel_bytes: s.accel_bytes,
                     kernel_s,
@@ -269,6 +278,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
                     longest_dispatch_s: timed.iter().filter_map(|t| t.longest_dispatch_s).reduce(f64::max),
                     depth_kernel_s,
                     surface_depths_s,
+                    surface_shade_share: surface_depths_s.filter(|&s| s > 0.0).map(|s| surface_shade / s),
                     eye_ray_us: per(eye_nearest, s.rays.eye),
                     surface_ray_us: per(surface_nearest, s.rays.reflect + s.rays.refract),
                     lanes: gpu.then(|| s.lanes.clone()),
@@ -370,6 +380,7 @@ mod tests {
             scene: "s".into(),
             accel: "cube".into(),
             backend: "gpu",
+            load_s: 0.0,
             preprocess_s: 0.0,
             accel_bytes: 0,
             kernel_s: 1.0,
@@ -382,6 +393,7 @@ mod tests {
             longest_dispatch_s: None,
             depth_kernel_s: Vec::new(),
             surface_depths_s: None,
+            surface_shade_share: None,
             eye_ray_us: None,
             surface_ray_us: None,
             lanes: None,

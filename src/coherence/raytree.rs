@@ -4,6 +4,11 @@
 //! reflected), up to a maximum depth (the eye ray is depth 1), with the kernels' spawn
 //! offset and skip rule. No shading. [`super::audit`] traces it (tests per ray over a whole
 //! image).
+//!
+//! One difference from the kernels: it reflects and refracts about the geometric normal,
+//! where the kernels use the shading normal (interpolated vertex normals, where a mesh has
+//! them). On such meshes its later rays leave in slightly other directions, so the audit's
+//! counts there describe the tables' cost, not the kernels' exact rays.
 
 use glam::{DVec3, Vec3};
 

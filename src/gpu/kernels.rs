@@ -2,10 +2,9 @@
 //! cached, over the one bind group layout of the scene buffers (`shaders/shared/layout.wgsl`
 //! `shaders/shared/tables.wgsl` and `shaders/shared/bvh.wgsl`: bindings 0 to 23).
 //!
-//! Lavapipe compiles a kernel at its first dispatch, not at pipeline creation (Mesa 22.3 took
-//! 1.7–1.9 s over the four wavefront kernels here, Mesa 25.0 about 6 s; the old stepped
-//! kernel took 25–45 s on Mesa 24–25); Mesa's disk cache then keeps the machine code for
-//! later runs. So the renderer dispatches each pipeline once over no points before timing
+//! Lavapipe compiles a kernel at its first dispatch, not at pipeline creation (seconds over
+//! the wavefront kernels; docs/drivers-and-faults.md has the figures); Mesa's disk cache
+//! then keeps the machine code for later runs. So the renderer dispatches each pipeline once over no points before timing
 //! anything (see [`super::schedule::warm_up`]), and says on stderr, once per machine,
 //! adapter, driver and kernel source, that a kernel is being compiled:
 //! [`first_compile_marker`].

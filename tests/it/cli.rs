@@ -1,6 +1,6 @@
 //! The command line as a user meets it: `info` on real scenes, errors on bad input.
 
-use crate::common::{cuberay, shared};
+use crate::common::{cuberay, renderer, shared};
 
 fn info_json(path: &std::path::Path) -> serde_json::Value {
     let out = cuberay().arg("info").arg("--json").arg(path).output().unwrap();
@@ -283,6 +283,8 @@ fn bench_prints_a_row_per_accelerator_with_ratios_taken_round_by_round() {
         // 25² corner rays at least, and the same ray trees under both.
         assert!(r["rays"].as_u64().unwrap() >= 25 * 25, "{r}");
         assert!(r["longest_dispatch_s"].is_null(), "no dispatches on the CPU: {r}");
+        assert!(r["load_s"].as_f64().unwrap() > 0.0, "{r}");
+        assert!(r["surface_shade_share"].is_null(), "no kernels on the CPU: {r}");
     }
     assert_eq!(cube["rays"], bvh["rays"]);
     assert_eq!(cube["tests_per_ray"]["reflect"], bvh["tests_per_ray"]["reflect"]);
@@ -305,4 +307,25 @@ fn bench_prints_a_row_per_accelerator_with_ratios_taken_round_by_round() {
     let out = cuberay().arg("bench").args(small).args(["--runs", "0"]).arg(&scene).output().unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--runs must be at least 1"));
+}
+
+/// `cuberay bench` on the GPU: the per-depth kernel times add up to the depths' figures,
+/// and `shade`'s share of the depths past the eye's is a share.
+#[test]
+fn bench_on_the_gpu_splits_the_kernel_time_by_depth() {
+    let _ = renderer(); // fails with how to install lavapipe where there is no adapter
+    let scene = shared("spd/nff/balls_s1.nff");
+    let args = ["--backend", "gpu", "--accel", "cube", "--width", "32", "--height", "32", "--runs", "1"];
+    let out = cuberay().arg("bench").args(args).arg("--json").arg(&scene).output().unwrap();
+    assert!(out.status.success(), "bench failed: {}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let r = &v["rows"][0];
+    let depths: Vec<f64> =
+        r["depth_kernel_s"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+    assert_eq!(depths.len(), 5, "{r}");
+    let later: f64 = depths[1..].iter().sum();
+    assert!((r["surface_depths_s"].as_f64().unwrap() - later).abs() <= 1e-12 * later.max(1.0), "{r}");
+    let share = r["surface_shade_share"].as_f64().unwrap();
+    assert!(0.0 < share && share < 1.0, "{r}");
+    assert!(r["surface_ray_us"].as_f64().unwrap() > 0.0 && r["eye_ray_us"].as_f64().unwrap() > 0.0, "{r}");
 }

@@ -235,18 +235,11 @@ model_counts! {
     count_toy_car: "ToyCar/ToyCar.gltf" => 108_936;
 }
 
-/// 1,040,409 triangles: 98 sphere meshes sharing accessors, each instanced by a node. The
-/// count is checked in every build; the time limit only in release builds, where the
-/// issue's "seconds, not minutes" applies (a debug build is several times slower).
+/// 1,040,409 triangles: 98 sphere meshes sharing accessors, each instanced by a node. How
+/// long loading takes is measured by `cuberay bench` (`load_s`), not here.
 #[test]
-fn count_and_speed_metal_rough_spheres() {
-    let start = std::time::Instant::now();
+fn count_metal_rough_spheres() {
     let loaded = check_count("MetalRoughSpheresNoTextures/MetalRoughSpheresNoTextures.gltf", 1_040_409);
-    let elapsed = start.elapsed();
-    eprintln!("MetalRoughSpheresNoTextures loaded in {elapsed:?}");
-    if cfg!(not(debug_assertions)) {
-        assert!(elapsed.as_secs_f64() < 10.0, "loading took {elapsed:?}");
-    }
     // 98 sphere materials and the labels' default material.
     assert_eq!(loaded.scene.materials.len(), 99);
 }
