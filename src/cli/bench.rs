@@ -94,7 +94,8 @@ struct Row {
     /// that depth), medians over the timed runs; empty on the CPU.
     depth_kernel_s: Vec<f64>,
     /// GPU: the kernel time of depths 2 and deeper (the rays leaving surfaces, their
-    /// shading and shadows), the median over the timed runs.
+    /// shading and shadows), the median over the timed runs; `null` where no ray left a
+    /// surface (a scene without mirrors or glass runs depth 1 only).
     surface_depths_s: Option<f64>,
     /// GPU: the `shade` kernel's share of those depths' time (shading, spawning, the inline
     /// shadow walks): the part a cheaper walk of rays leaving surfaces cannot remove.
@@ -249,7 +250,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
                 let ran = s.time.gpu_depth_s.as_ref().map_or(0, |d| d.len());
                 let depth_kernel_s: Vec<f64> =
                     (0..ran).map(|d| by_depth(&|t: &Timed| t.depths[d].0)).collect();
-                let surface_depths_s = gpu.then(|| depth_kernel_s.iter().skip(1).sum::<f64>());
+                let surface_depths_s = (gpu && ran > 1).then(|| depth_kernel_s.iter().skip(1).sum::<f64>());
                 let eye_nearest = by_depth(&|t: &Timed| t.depths[0].1);
                 let surface_nearest = by_depth(&|t: &Timed| t.depths[1..].iter().map(|d| d.1).sum());
                 let surface_shade = by_depth(&|t: &Timed| t.depths[1..].iter().map(|d| d.2).sum());
