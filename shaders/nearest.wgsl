@@ -27,7 +27,7 @@ fn trace_job(job: Job) {
     let stepped = closest_step(ray, FAR, kind, pending.from_prim, skip, job.walking, job.walk);
     var next = job;
     if !stepped.done {
-        next.walking = 1u;
+        next.walking = select(WALK_RESUME, WALK_RESUME_LOST, stepped.c.lost);
         next.walk = stepped.state;
         push_job(pass_desc.retry, next);
         return;
@@ -43,7 +43,7 @@ fn trace_job(job: Job) {
     } else if h.hit.t < SELF_HIT_SPAWNS * pending.spawn {
         count(C_SELF_HITS);
     }
-    next.walk = WalkState(0u, 0u, 0u, 0u, h.prim, h.hit.t, h.hit.b1, h.hit.b2);
+    next.walk = WalkState(0u, 0u, 0u, 0u, h.prim, h.hit.t, h.hit.b1, h.hit.b2, h.window, h.t_min);
     push_job(pass_desc.hit, next);
 }
 

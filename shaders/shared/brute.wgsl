@@ -14,17 +14,17 @@ fn walk_of_ray(from_prim: u32, ray: Ray) -> Walk {
     return Walk(0u, params.prim_count, 0u, 0u);
 }
 
-// Tests the next primitives of walk `w`, at most `budget` of them, keeping the nearest hit
-// in `best` by the table walk's rule (`consider`), so that the answer does not depend on the
+// Tests the next primitives of walk `w`, at most `*left` of them (taken from `*left`),
+// taking the hits into `best` by the tie rule (`consider`), which does not depend on the
 // order of the tests; `skip` is never tested. True when the walk is over.
 fn walk_nearest(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, t_max: f32, skip: u32,
-    ray_kind: u32, budget: u32) -> bool {
-    var best_t = select(t_max, (*best).hit.t, (*best).found);
-    let end = (*w).i + min(budget, (*w).iend - (*w).i);
+    ray_kind: u32, left: ptr<function, u32>) -> bool {
+    let end = (*w).i + min(*left, (*w).iend - (*w).i);
+    *left -= end - (*w).i;
     for (var id = (*w).i; id < end; id++) {
         count_step();
         if id != skip {
-            best_t = consider(id, best, ray, t_max, ray_kind, best_t);
+            _ = consider(id, best, ray, t_max, ray_kind);
         }
     }
     (*w).i = end;

@@ -102,9 +102,9 @@ fn bvh_advance(w: ptr<function, Walk>, n: BvhNode, hit: bool, ray_kind: u32) {
     (*w).i = n.skip;
 }
 
-// Continues the nearest-hit walk `w` for at most `budget` loop iterations, keeping the
-// nearest hit in `best` (ties to the lower id; `skip` never tested). True when the walk is
-// over. One flat loop (lavapipe's loop limit counts a loop's iterations while any lane of
+// Continues the nearest-hit walk `w` for at most `*left` more loop iterations (taken from
+// `*left`), taking the hits into `best` by the tie rule (`consider`; `skip` never tested),
+// and entering the boxes the window reaches. True when the walk is over. One flat loop (lavapipe's loop limit counts a loop's iterations while any lane of
 // the SIMD vector is still in it, so nested loops would count the inner one for every
 // lane), each iteration testing the next queued primitive *and* the next box: lavapipe runs
 // both halves of an iteration whatever its lanes take, so the primitives of a leaf are
@@ -113,29 +113,28 @@ fn bvh_advance(w: ptr<function, Walk>, n: BvhNode, hit: bool, ray_kind: u32) {
 // primitives only sees a farther nearest hit, and is entered more often, never less: the
 // hits are those of the walk that tests them in turn.
 fn bvh_nearest(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, t_max: f32, skip: u32,
-    ray_kind: u32, budget: u32) -> bool {
+    ray_kind: u32, left: ptr<function, u32>) -> bool {
     let r = box_ray(ray);
-    var left = budget;
-    var best_t = select(t_max, (*best).hit.t, (*best).found);
+    var limit = closest_limit(*best, t_max);
     loop {
         if bvh_done(*w) {
             break;
         }
         count_step();
-        if left == 0u {
+        if *left == 0u {
             return false;
         }
-        left -= 1u;
+        *left -= 1u;
         if (*w).j < (*w).jend {
             let id = bvh_prims[(*w).j];
             (*w).j += 1u;
             if id != skip {
-                best_t = consider(id, best, ray, t_max, ray_kind, best_t);
+                limit = consider(id, best, ray, t_max, ray_kind);
             }
         }
         if (*w).i < params.bvh_stride {
             let n = bvh_nodes[r.base + (*w).i];
-            bvh_advance(w, n, box_hit(n, r, best_t), ray_kind);
+            bvh_advance(w, n, box_hit(n, r, limit), ray_kind);
         }
     }
     return true;
@@ -148,8 +147,8 @@ fn walk_of_ray(from_prim: u32, ray: Ray) -> Walk {
 }
 
 fn walk_nearest(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, t_max: f32, skip: u32,
-    ray_kind: u32, budget: u32) -> bool {
-    return bvh_nearest(w, best, ray, t_max, skip, ray_kind, budget);
+    ray_kind: u32, left: ptr<function, u32>) -> bool {
+    return bvh_nearest(w, best, ray, t_max, skip, ray_kind, left);
 }
 
 fn walk_chunk(w: Walk) -> u32 {

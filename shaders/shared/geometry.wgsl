@@ -41,47 +41,169 @@ fn make_ray(o: vec3<f32>, dir: vec3<f32>) -> Ray {
     return Ray(o, d, kx, ky, kz, shear);
 }
 
-// A hit: `ok` says whether there is one; then t and the barycentrics of vertices 1, 2.
+// A hit: `ok` says whether there is one; then t, the barycentrics of vertices 1, 2, and
+// `err`, a bound on the rounding error of t (the tie rule's, below).
 struct PrimHit {
     ok: bool,
     t: f32,
     b1: f32,
     b2: f32,
+    err: f32,
 }
 
 fn no_hit() -> PrimHit {
-    return PrimHit(false, 0.0, 0.0, 0.0);
+    return PrimHit(false, 0.0, 0.0, 0.0, 0.0);
 }
 
-fn hit_at(t: f32) -> PrimHit {
-    return PrimHit(true, t, 0.0, 0.0);
+fn hit_at(t: f32, err: f32) -> PrimHit {
+    return PrimHit(true, t, 0.0, 0.0, err);
 }
 
-// A nearest-hit answer (`closest`, query.wgsl): the primitive and its hit.
+// The unit roundoff of `real` (2⁻²⁴, or 2⁻⁵³ in the F64 variant).
+fn unit_roundoff() -> real {
+#if F64
+    return real(1.0) / real(9007199254740992.0);
+#else
+    return real(1.0) / real(16777216.0);
+#endif
+}
+
+// The widest a hit's error bound may be, relative to the magnitude of its numbers (t and the
+// primitive's size from the ray origin): 2⁻¹⁰. Twin: arith::geometry::TIE_CAP.
+const TIE_CAP: f32 = 0.0009765625;
+
+// γ(n) = n·u / (1 − n·u): the relative error bound of n rounded operations.
+fn gamma(n: real) -> real {
+    let nu = n * unit_roundoff();
+    return nu / (1.0 - nu);
+}
+
+// The error bound handed to the tie rule for a hit at t whose arithmetic bounds `dt`, on
+// numbers of magnitude `scale` from the ray origin: capped at TIE_CAP, rounded up, and
+// widened by an ulp of t for t's own rounding to f32.
+fn hit_err(t: f32, dt: real, scale: real) -> f32 {
+    let capped = f32(min(dt, real(TIE_CAP) * (real(t) + scale)));
+    return capped * (1.0 + 1.0 / 1048576.0) + t * (2.0 / 16777216.0);
+}
+
+// The error of sd = √disc when disc carries at most `dd`: dd / (2·sd), or √dd where that is
+// smaller (a discriminant near zero).
+fn sqrt_err(dd: real, sd: real) -> real {
+    let near_zero = sqrt(dd);
+    if sd > 0.0 {
+        return min(near_zero, dd / (2.0 * sd));
+    }
+    return near_zero;
+}
+
+#if SPHERES
+// The error bound of a root t of Haines' sphere test (q, or k/q; fl = |f|): b carries a few
+// roundings of |f|, the discriminant r² − |g|² a few of r² and r·|f| (|g| ≤ r), its square
+// root that error over 2√disc, and k = |f|² − r² a few of |f|² and r². Twin:
+// arith::geometry::sphere_err.
+fn sphere_err(t: real, q: real, fl: real, radius: real, disc: real) -> f32 {
+    let db = gamma(4.0) * fl;
+    let dd = gamma(8.0) * (radius * radius + 4.0 * radius * fl);
+    let dq = db + sqrt_err(dd, sqrt(disc)) + gamma(1.0) * abs(q);
+    var dt = dq;
+    if t != q {
+        let dk = gamma(4.0) * (fl * fl + radius * radius);
+        dt = (dk + abs(t) * dq) / abs(q);
+    }
+    return hit_err(f32(t), dt + gamma(2.0) * t, fl + radius);
+}
+#endif
+
+#if CYLINDERS
+// The error bound of a root t of the cylinder test (qc/q when `by_q`, else q/qa): the radial
+// parts carry a few roundings of |w| (r_o, s0) and of 1 (r_d), the radius at the origin's
+// height a few of its terms, and each coefficient, the discriminant and its square root
+// what those errors make of them. Twin: arith::geometry::cylinder_err.
+fn cylinder_err(t: real, by_q: bool, lw: real, lro: real, lrd: real, r0_in: real, dr_in: real, slope_in: real,
+    base_r: real, qa: real, q: real, disc: real, scale: real) -> f32 {
+    let r0 = abs(r0_in);
+    let dr = abs(dr_in);
+    let slope = abs(slope_in);
+    let ew = gamma(6.0) * lw;
+    let er0 = gamma(3.0) * abs(base_r) + gamma(4.0) * slope * lw;
+    let erd = gamma(4.0);
+    let edr = gamma(4.0) * slope;
+    let qc_err = 2.0 * lro * ew + 2.0 * r0 * er0 + gamma(3.0) * (lro * lro + r0 * r0);
+    let qb_err = lrd * ew + lro * erd + dr * er0 + r0 * edr + gamma(3.0) * (lro * lrd + r0 * dr);
+    let qa_err = 2.0 * lrd * erd + 2.0 * dr * edr + gamma(3.0) * (lrd * lrd + dr * dr);
+    let e = lrd * r0 + lro * dr;
+    let e_err = lrd * er0 + r0 * erd + lro * edr + dr * ew + gamma(3.0) * e;
+    let x = lro * lrd;
+    let x_err = lrd * ew + lro * erd + gamma(3.0) * x;
+    let dd = 2.0 * e * e_err + 2.0 * x * x_err + gamma(3.0) * (e * e + x * x);
+    let dq = qb_err + sqrt_err(dd, sqrt(disc)) + gamma(1.0) * abs(q);
+    var dt: real;
+    if by_q {
+        dt = (qc_err + abs(t) * dq) / abs(q);
+    } else {
+        dt = (dq + abs(t) * qa_err) / abs(qa);
+    }
+    return hit_err(f32(t), dt + gamma(2.0) * t, scale);
+}
+#endif
+
+// A nearest-hit answer (`closest`, query.wgsl): the winning primitive and its hit, and the
+// tie rule's bookkeeping. Every hit's t comes with `err`; the *window* is the least t + err
+// over the hits, and every hit with t ≤ window ties: the lowest primitive id among them
+// wins, whatever the order of the tests (twin: src/arith/closest.rs, which says why). A
+// walk goes on until its lower bound passes the window (`closest_limit`); `lost` says that
+// a hit narrowed the window past the winner while another hit stayed in it, so that the
+// query walks again from `closest_again`.
 struct Closest {
     found: bool,
     prim: u32,
     hit: PrimHit,
+    window: f32,
+    t_min: f32,
+    lost: bool,
 }
 
 fn no_closest() -> Closest {
-    return Closest(false, NO_ID, no_hit());
+    return Closest(false, NO_ID, no_hit(), FAR, FAR, false);
 }
 
-// Tests primitive `id` for a nearest-hit query (table walk or brute force), keeping the
-// nearest hit in `best`, ties to the lower id; every test is against t_max, so the answer
-// does not depend on the order of the tests. Returns the distance to beat.
-fn consider(id: u32, best: ptr<function, Closest>, ray: Ray, t_max: f32, ray_kind: u32, best_t: f32) -> f32 {
+// The second walk of a ray whose first lost its winner: no hit yet, the final window.
+fn closest_again(c: Closest) -> Closest {
+    var again = no_closest();
+    again.window = c.window;
+    return again;
+}
+
+// How far a walk must go on: no hit beyond this can join the answer.
+fn closest_limit(c: Closest, t_max: f32) -> f32 {
+    return min(c.window, t_max);
+}
+
+// Takes hit `h` of primitive `id` into `best` by the tie rule; returns the new limit.
+fn take_hit(id: u32, best: ptr<function, Closest>, h: PrimHit, t_max: f32) -> f32 {
+    if h.ok {
+        let window = min((*best).window, h.t + h.err);
+        let stays = (*best).found && (*best).hit.t <= window;
+        if (*best).found && !stays && (*best).t_min <= window {
+            (*best).lost = true;
+        }
+        if h.t <= window && (!stays || id < (*best).prim) {
+            (*best).found = true;
+            (*best).prim = id;
+            (*best).hit = h;
+        }
+        (*best).window = window;
+        (*best).t_min = min((*best).t_min, h.t);
+    }
+    return closest_limit(*best, t_max);
+}
+
+// Tests primitive `id` for a nearest-hit query (table walk, BVH or brute force) and takes its
+// hit into `best` by the tie rule. Returns the new limit.
+fn consider(id: u32, best: ptr<function, Closest>, ray: Ray, t_max: f32, ray_kind: u32) -> f32 {
     let p = prims[id];
     count_test(ray_kind, p.kind);
-    let h = intersect_prim(p, ray, t_max);
-    if h.ok && (h.t < best_t || (h.t == best_t && (*best).found && id < (*best).prim)) {
-        (*best).found = true;
-        (*best).prim = id;
-        (*best).hit = h;
-        return h.t;
-    }
-    return best_t;
+    return take_hit(id, best, intersect_prim(p, ray, t_max), t_max);
 }
 
 
@@ -105,13 +227,15 @@ fn intersect_sphere(center: vec3<f32>, radius: f32, inside_only: bool, ray: Ray,
     let r0 = k / q;
     let t0 = min(r0, q);
     let t1 = max(r0, q);
+    var t: real;
     if !inside_only && t0 > 0.0 && t0 < real(t_max) {
-        return hit_at(f32(t0));
+        t = t0;
+    } else if t1 > 0.0 && t1 < real(t_max) {
+        t = t1;
+    } else {
+        return no_hit();
     }
-    if t1 > 0.0 && t1 < real(t_max) {
-        return hit_at(f32(t1));
-    }
-    return no_hit();
+    return hit_at(f32(t), sphere_err(t, q, length(f), real(radius), disc));
 }
 #endif
 
@@ -158,7 +282,22 @@ fn intersect_triangle(p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>, ray: Ray, t_m
     if !(t > 0.0 && t < tm) {
         return no_hit();
     }
-    return PrimHit(true, f32(t), f32(v * inv), f32(w * inv));
+    // The bound of pbrt-v4 on this test's variables: the sheared coordinates carry a few
+    // roundings, the edge functions their products, t their weighted mean over det.
+    let max_z = max(abs(a[ray.kz]), max(abs(b[ray.kz]), abs(c[ray.kz])));
+    let max_zt = abs(s.z) * max_z;
+    let max_xt = max(abs(ax), max(abs(bx), abs(cx)));
+    let max_yt = max(abs(ay), max(abs(by), abs(cy)));
+    let dx = gamma(5.0) * (max_xt + max_z);
+    let dy = gamma(5.0) * (max_yt + max_z);
+    let dz = gamma(4.0) * max_zt;
+    let de = 2.0 * (gamma(2.0) * max_xt * max_yt + dy * max_xt + dx * max_yt);
+    let max_e = max(abs(u), max(abs(v), abs(w)));
+    let dt = 3.0 * (gamma(3.0) * max_e * max_zt + de * max_zt + dz * max_e) * abs(inv);
+    let scale = max(max(abs(a.x), max(abs(a.y), abs(a.z))), max(max(abs(b.x), max(abs(b.y), abs(b.z))),
+        max(abs(c.x), max(abs(c.y), abs(c.z)))));
+    let tf = f32(t);
+    return PrimHit(true, tf, f32(v * inv), f32(w * inv), hit_err(tf, dt, scale));
 }
 #endif
 
@@ -211,7 +350,8 @@ fn intersect_cylinder(base: vec4<f32>, apex: vec4<f32>, inside_only: bool, ray: 
     if q == 0.0 {
         return no_hit();
     }
-    var roots = array<real, 2>(qc / q, 0.0);
+    let t_cq = qc / q;
+    var roots = array<real, 2>(t_cq, 0.0);
     var n_roots = 1u;
     if qa != 0.0 {
         let other = q / qa;
@@ -238,7 +378,10 @@ fn intersect_cylinder(base: vec4<f32>, apex: vec4<f32>, inside_only: bool, ray: 
                 continue;
             }
         }
-        return hit_at(f32(t));
+        let scale = length(w) + height + max(abs(real(base.w)), abs(real(apex.w)));
+        let err = cylinder_err(t, t == t_cq, length(w), length(r_o), length(r_d), r0, dr, slope, real(base.w), qa, q,
+            disc, scale);
+        return hit_at(f32(t), err);
     }
     return no_hit();
 }

@@ -155,7 +155,9 @@ const ANY_UNFINISHED: u32 = 2u;
 
 // A walk interrupted at the end of a pass: the merged lists' positions (`--accel cube`;
 // brute force: `i` the next primitive; the BVH: `i` the node, `j..jend` a leaf's primitives
-// left) and, for a nearest-hit walk, the nearest hit so far (prim NO_ID: none yet).
+// left) and, for a nearest-hit walk, the winner so far (prim NO_ID: none yet) with the tie
+// rule's window and least t (geometry.wgsl `Closest`). A job in the hit queue keeps its hit
+// here.
 struct WalkState {
     i: u32,
     iend: u32,
@@ -165,18 +167,24 @@ struct WalkState {
     t: f32,
     b1: f32,
     b2: f32,
+    window: f32,
+    t_min: f32,
 }
+
+// A job's `walking`: its walk not started, resumed, or resumed after the tie rule lost the
+// winner (the walk is run again once over: query.wgsl).
+const WALK_START: u32 = 0u;
+const WALK_RESUME: u32 = 1u;
+const WALK_RESUME_LOST: u32 = 2u;
 
 // A ray in a queue of the wavefront kernels (src/gpu/schedule.rs): the ray, the tile point
 // whose radiance it adds to (bit POINT_UNOWNED set: the point lies outside the part of the
 // image the window owns, and its rays are not counted), and its walk when a pass ended it
-// unfinished (`walking` 1).
+// unfinished (`walking` not WALK_START).
 struct Job {
     ray: Pending,
     point: u32,
     walking: u32,
-    pad0: u32,
-    pad1: u32,
     walk: WalkState,
 }
 
@@ -485,7 +493,7 @@ fn push_job(q: u32, job: Job) {
 
 // A new job for ray `ray` of tile point `point` (its walk not started).
 fn new_job(ray: Pending, point: u32) -> Job {
-    return Job(ray, point, 0u, 0u, 0u, WalkState(0u, 0u, 0u, 0u, NO_ID, 0.0, 0.0, 0.0));
+    return Job(ray, point, WALK_START, WalkState(0u, 0u, 0u, 0u, NO_ID, 0.0, 0.0, 0.0, 0.0, 0.0));
 }
 
 // The radiance scale of `accum`: 2^32 fixed-point units per unit.

@@ -11,9 +11,11 @@
 //                                     primitive `from_prim` (NO_ID: the eye)
 //   fn walk_of_shadow(sr, light, from_prim) -> Walk
 //                                     the walk of shadow ray `sr` (geometry.wgsl)
-//   fn walk_nearest(w, best, ray, t_max, skip, ray_kind, budget) -> bool
-//                                     goes on for about `budget` loop iterations, keeping
-//                                     the nearest hit in `best` (`consider`); true when over
+//   fn walk_nearest(w, best, ray, t_max, skip, ray_kind, left) -> bool
+//                                     goes on for at most `*left` loop iterations (taken
+//                                     from `*left`), taking the hits into `best` by the tie
+//                                     rule (`consider`) and stopping where no hit can join
+//                                     it (`closest_limit`); true when over
 //   fn walk_any(w, ray, t_max, skip, budget) -> AnyHit
 //                                     the any-hit twin: ANY_BLOCKED (with the blocker's t),
 //                                     ANY_CLEAR, or ANY_UNFINISHED when the budget ran out
@@ -32,18 +34,49 @@ fn any_answer(answer: u32) -> AnyHit {
     return AnyHit(answer, 0.0);
 }
 
-// A walk's state as a job keeps it: the walk, and for a nearest-hit walk the nearest hit so
-// far (prim NO_ID: none).
+// A walk's state as a job keeps it: the walk, and for a nearest-hit walk the winner so far
+// (prim NO_ID: none) and the tie rule's window and least t. Whether the winner was lost is
+// the job's `walking` (WALK_RESUME_LOST).
 fn save_walk(w: Walk, best: Closest) -> WalkState {
-    return WalkState(w.i, w.iend, w.j, w.jend, best.prim, best.hit.t, best.hit.b1, best.hit.b2);
+    return WalkState(w.i, w.iend, w.j, w.jend, best.prim, best.hit.t, best.hit.b1, best.hit.b2, best.window,
+        best.t_min);
 }
 
 fn restored_walk(s: WalkState) -> Walk {
     return Walk(s.i, s.iend, s.j, s.jend);
 }
 
+// The answer so far of a walk saved as `s` by a job whose `walking` is `walking`.
+fn restored_closest(s: WalkState, walking: u32) -> Closest {
+    var c = no_closest();
+    if s.prim != NO_ID {
+        c.found = true;
+        c.prim = s.prim;
+        c.hit = PrimHit(true, s.t, s.b1, s.b2, 0.0);
+    }
+    c.window = s.window;
+    c.t_min = s.t_min;
+    c.lost = walking == WALK_RESUME_LOST;
+    return c;
+}
+
+// Walks on from `w` with the loop iterations `*left`; where the walk ends with its winner
+// lost, walks the ray again from its start within the final window, with what is left.
+fn walk_nearest_to_the_end(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, t_max: f32,
+    ray_kind: u32, from_prim: u32, skip: u32, left: ptr<function, u32>) -> bool {
+    if !walk_nearest(w, best, ray, t_max, skip, ray_kind, left) {
+        return false;
+    }
+    if !(*best).lost {
+        return true;
+    }
+    *best = closest_again(*best);
+    *w = walk_of_ray(from_prim, ray);
+    return walk_nearest(w, best, ray, t_max, skip, ray_kind, left);
+}
+
 // The nearest hit with 0 < t < t_max of a ray leaving primitive `from_prim` (NO_ID: the
-// eye), ties to the lower id (`consider`); `skip` is never tested (NO_ID: none). A zero
+// eye) by the tie rule (`consider`); `skip` is never tested (NO_ID: none). A zero
 // direction hits nothing.
 fn closest(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) -> Closest {
     var best = no_closest();
@@ -51,13 +84,15 @@ fn closest(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32) -> Cl
         return best;
     }
     var w = walk_of_ray(from_prim, ray);
-    walk_nearest(&w, &best, ray, t_max, skip, ray_kind, UNBOUNDED);
+    var left = UNBOUNDED;
+    walk_nearest_to_the_end(&w, &best, ray, t_max, ray_kind, from_prim, skip, &left);
     return best;
 }
 
-// `closest` in bounded passes, for a job: `walking` 0 starts the walk, 1 resumes it from
-// `state` (where the last pass left it); `done` false when it goes on in a later pass, from
-// the answer's `state`.
+// `closest` in bounded passes, for a job: `walking` WALK_START starts the walk,
+// WALK_RESUME or WALK_RESUME_LOST resume it from `state` (where the last pass left it);
+// `done` false when it goes on in a later pass, from the answer's `state` (and with
+// WALK_RESUME_LOST where the answer's `c.lost`).
 struct Stepped {
     done: bool,
     c: Closest,
@@ -68,18 +103,17 @@ fn closest_step(ray: Ray, t_max: f32, ray_kind: u32, from_prim: u32, skip: u32, 
     -> Stepped {
     var best = no_closest();
     var w: Walk;
-    if walking == 0u {
+    if walking == WALK_START {
         if max3(abs(ray.d)) == 0.0 {
             return Stepped(true, best, state);
         }
         w = walk_of_ray(from_prim, ray);
     } else {
         w = restored_walk(state);
-        if state.prim != NO_ID {
-            best = Closest(true, state.prim, PrimHit(true, state.t, state.b1, state.b2));
-        }
+        best = restored_closest(state, walking);
     }
-    let done = walk_nearest(&w, &best, ray, t_max, skip, ray_kind, walk_chunk(w));
+    var left = walk_chunk(w);
+    let done = walk_nearest_to_the_end(&w, &best, ray, t_max, ray_kind, from_prim, skip, &left);
     return Stepped(done, best, save_walk(w, best));
 }
 

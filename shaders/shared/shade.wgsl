@@ -163,7 +163,7 @@ fn trace_shadow(job: Job) {
     let r = occluded_step(ray.o, ray.d, job_depth(ray), ray.from_prim, skip, job.walking, job.walk);
     if r.answer == ANY_UNFINISHED {
         var next = job;
-        next.walking = 1u;
+        next.walking = WALK_RESUME;
         next.walk = r.state;
         push_job(pass_desc.retry, next);
         return;
@@ -216,7 +216,7 @@ fn refract_dir(d: vec3<f32>, n: vec3<f32>, ng: vec3<f32>, entering: bool, ior: f
 fn shade_hit(job: Job) {
     let pending = job.ray;
     let ray = make_ray(pending.o, pending.d);
-    let h = Closest(true, job.walk.prim, PrimHit(true, job.walk.t, job.walk.b1, job.walk.b2));
+    let h = restored_closest(job.walk, WALK_RESUME);
     let prim = prims[h.prim];
     let m = materials[prim.material];
     let s = surface(prim, ray, h.hit);

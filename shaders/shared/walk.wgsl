@@ -76,33 +76,32 @@ fn walk_chunk(w: Walk) -> u32 {
     return select(WALK_CHUNK, WALK_CHUNK / 2u, w.iend == BVH_WALK);
 }
 
-// Continues the nearest-hit walk `w` for at most `budget` loop iterations (an entry each),
-// keeping the nearest hit in `best` (ties to the lower id; `skip` never tested). True when
-// the walk is over.
+// Continues the nearest-hit walk `w` for at most `*left` more loop iterations (an entry
+// each, taken from `*left`), taking the hits into `best` by the tie rule (`consider`;
+// `skip` never tested) until an entry's d_min passes the window. True when the walk is over.
 fn walk_nearest(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, t_max: f32, skip: u32, ray_kind: u32,
-    budget: u32) -> bool {
+    left: ptr<function, u32>) -> bool {
 #if SURFACE_RAYS
     if (*w).iend == BVH_WALK {
-        return bvh_nearest(w, best, ray, t_max, skip, ray_kind, budget);
+        return bvh_nearest(w, best, ray, t_max, skip, ray_kind, left);
     }
 #endif
-    var left = budget;
-    var best_t = select(t_max, (*best).hit.t, (*best).found);
+    var limit = closest_limit(*best, t_max);
     loop {
         count_step();
         if walk_done(*w) {
             break;
         }
-        if left == 0u {
+        if *left == 0u {
             return false;
         }
-        left -= 1u;
+        *left -= 1u;
         let e = walk_next(w);
-        if e.d_min > best_t {
+        if e.d_min > limit {
             break;
         }
         if e.id != skip {
-            best_t = consider(e.id, best, ray, t_max, ray_kind, best_t);
+            limit = consider(e.id, best, ray, t_max, ray_kind);
         }
     }
     return true;

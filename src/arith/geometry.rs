@@ -48,22 +48,101 @@ pub fn make_ray(o: Vec3, dir: Vec3) -> Ray {
     Ray { o, d, kx, ky, kz, shear }
 }
 
-/// A hit: `ok` says whether there is one; then t and the barycentrics of vertices 1 and 2
-/// (WGSL `PrimHit`).
+/// A hit: `ok` says whether there is one; then t, the barycentrics of vertices 1 and 2, and
+/// `err`, a bound on the rounding error of `t` (the tie rule's, [`super::closest`]; WGSL
+/// `PrimHit`).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PrimHit {
     pub ok: bool,
     pub t: f32,
     pub b1: f32,
     pub b2: f32,
+    pub err: f32,
 }
 
 pub fn no_hit() -> PrimHit {
-    PrimHit { ok: false, t: 0.0, b1: 0.0, b2: 0.0 }
+    PrimHit { ok: false, t: 0.0, b1: 0.0, b2: 0.0, err: 0.0 }
 }
 
-pub fn hit_at(t: f32) -> PrimHit {
-    PrimHit { ok: true, t, b1: 0.0, b2: 0.0 }
+pub fn hit_at(t: f32, err: f32) -> PrimHit {
+    PrimHit { ok: true, t, b1: 0.0, b2: 0.0, err }
+}
+
+/// The unit roundoff of f32, `2⁻²⁴` (WGSL `UNIT_ROUNDOFF`).
+pub const UNIT_ROUNDOFF: f32 = 1.0 / 16777216.0;
+/// The widest a hit's error bound may be, relative to the magnitude of its numbers
+/// (`t` + the primitive's size from the ray origin): `2⁻¹⁰`. A hit whose arithmetic bounds
+/// more (a ray grazing a triangle, a near-double root) is that ill-conditioned, and a wider
+/// window would only let farther surfaces tie with it (WGSL `TIE_CAP`).
+pub const TIE_CAP: f32 = 1.0 / 1024.0;
+
+/// `γ(n) = n·u / (1 − n·u)`: the relative error bound of `n` rounded operations (Higham;
+/// WGSL `gamma`).
+pub fn gamma(n: f32) -> f32 {
+    let nu = n * UNIT_ROUNDOFF;
+    nu / (1.0 - nu)
+}
+
+/// The error bound handed to the tie rule for a hit at `t` whose arithmetic bounds `dt`, on
+/// numbers of magnitude `scale` from the ray origin: capped at [`TIE_CAP`], rounded up, and
+/// widened by an ulp of `t` for the rounding of `t` itself (WGSL `hit_err`).
+pub fn hit_err(t: f32, dt: f32, scale: f32) -> f32 {
+    let capped = dt.min(TIE_CAP * (t + scale));
+    capped * (1.0 + 1.0 / 1048576.0) + t * (2.0 * UNIT_ROUNDOFF)
+}
+
+/// The error of `sd = √disc` when `disc` carries an error of at most `dd`: `dd / (2·sd)`,
+/// or `√dd` where that is smaller (a discriminant near zero; WGSL `sqrt_err`).
+pub fn sqrt_err(dd: f32, sd: f32) -> f32 {
+    let near_zero = dd.sqrt();
+    if sd > 0.0 {
+        near_zero.min(dd / (2.0 * sd))
+    } else {
+        near_zero
+    }
+}
+
+/// The error bound of a root `t` of Haines' sphere test (`q`, or `k/q`; `fl` = |f|, the
+/// origin's distance from the centre): b carries a few roundings of |f|, the discriminant
+/// r² − |g|² a few of r² and r·|f| (g is perpendicular to the ray and |g| ≤ r), its square
+/// root that error over 2√disc (or its square root near zero), and k = |f|² − r² a few of
+/// |f|² and r² (WGSL `sphere_err`).
+pub fn sphere_err(t: f32, q: f32, fl: f32, radius: f32, disc: f32) -> f32 {
+    let db = gamma(4.0) * fl;
+    let dd = gamma(8.0) * (radius * radius + 4.0 * radius * fl);
+    let dq = db + sqrt_err(dd, disc.sqrt()) + gamma(1.0) * q.abs();
+    let dt = if t == q {
+        dq
+    } else {
+        let dk = gamma(4.0) * (fl * fl + radius * radius);
+        (dk + t.abs() * dq) / q.abs()
+    };
+    hit_err(t, dt + gamma(2.0) * t, fl + radius)
+}
+
+/// The error bound of a root `t` of the cylinder test (`qc/q` when `by_q`, else `q/qa`),
+/// from `[|w|, |r_o|, |r_d|, r0, dr, slope, base radius, qa, q, disc]`: the radial parts
+/// carry a few roundings of |w| (r_o, s0) and of 1 (r_d), the radius at the origin's height
+/// a few of its terms, and each coefficient, the discriminant and its square root what
+/// those errors make of them (WGSL `cylinder_err`).
+pub fn cylinder_err(t: f32, by_q: bool, parts: [f32; 10], scale: f32) -> f32 {
+    let [lw, lro, lrd, r0, dr, slope, base_r, qa, q, disc] = parts;
+    let (r0, dr, slope) = (r0.abs(), dr.abs(), slope.abs());
+    let ew = gamma(6.0) * lw;
+    let er0 = gamma(3.0) * base_r.abs() + gamma(4.0) * slope * lw;
+    let erd = gamma(4.0);
+    let edr = gamma(4.0) * slope;
+    let qc_err = 2.0 * lro * ew + 2.0 * r0 * er0 + gamma(3.0) * (lro * lro + r0 * r0);
+    let qb_err = lrd * ew + lro * erd + dr * er0 + r0 * edr + gamma(3.0) * (lro * lrd + r0 * dr);
+    let qa_err = 2.0 * lrd * erd + 2.0 * dr * edr + gamma(3.0) * (lrd * lrd + dr * dr);
+    let e = lrd * r0 + lro * dr;
+    let e_err = lrd * er0 + r0 * erd + lro * edr + dr * ew + gamma(3.0) * e;
+    let x = lro * lrd;
+    let x_err = lrd * ew + lro * erd + gamma(3.0) * x;
+    let dd = 2.0 * e * e_err + 2.0 * x * x_err + gamma(3.0) * (e * e + x * x);
+    let dq = qb_err + sqrt_err(dd, disc.sqrt()) + gamma(1.0) * q.abs();
+    let dt = if by_q { (qc_err + t.abs() * dq) / q.abs() } else { (dq + t.abs() * qa_err) / qa.abs() };
+    hit_err(t, dt + gamma(2.0) * t, scale)
 }
 
 /// Ray/sphere, Haines' precise form (*Ray Tracing Gems* ch. 7): the discriminant as
@@ -85,13 +164,14 @@ pub fn intersect_sphere(center: Vec3, radius: f32, inside_only: bool, ray: &Ray,
     let r0 = k / q;
     let t0 = r0.min(q);
     let t1 = r0.max(q);
-    if !inside_only && t0 > 0.0 && t0 < t_max {
-        return hit_at(t0);
-    }
-    if t1 > 0.0 && t1 < t_max {
-        return hit_at(t1);
-    }
-    no_hit()
+    let t = if !inside_only && t0 > 0.0 && t0 < t_max {
+        t0
+    } else if t1 > 0.0 && t1 < t_max {
+        t1
+    } else {
+        return no_hit();
+    };
+    hit_at(t, sphere_err(t, q, f.length(), radius, disc))
 }
 
 /// Ray/triangle, watertight (Woop, Benthin and Wald, JCGT 2013); both sides are hit. Edge
@@ -131,7 +211,35 @@ pub fn intersect_triangle(p0: Vec3, p1: Vec3, p2: Vec3, ray: &Ray, t_max: f32) -
     if !(t > 0.0 && t < t_max) {
         return no_hit();
     }
-    PrimHit { ok: true, t, b1: v * inv, b2: w * inv }
+    let sheared = [ax, ay, bx, by, cx, cy];
+    let zs = [a[ray.kz], b[ray.kz], c[ray.kz]];
+    let scale = a.abs().max_element().max(b.abs().max_element()).max(c.abs().max_element());
+    PrimHit {
+        ok: true,
+        t,
+        b1: v * inv,
+        b2: w * inv,
+        err: triangle_err(t, sheared, zs, s.z, [u, v, w], inv, scale),
+    }
+}
+
+/// The error bound of the watertight test's `t` (as pbrt-v4 bounds it, on this test's
+/// variables): the vertices' sheared coordinates `[ax, ay, bx, by, cx, cy]` and depths `zs`
+/// carry a few roundings each, the edge functions `e` the products of those, and `t` is
+/// their weighted mean over `det` (`inv` = 1/det; WGSL `triangle_err`).
+fn triangle_err(t: f32, sheared: [f32; 6], zs: [f32; 3], sz: f32, e: [f32; 3], inv: f32, scale: f32) -> f32 {
+    let max_z = zs[0].abs().max(zs[1].abs()).max(zs[2].abs());
+    let max_zt = sz.abs() * max_z;
+    let max_xt = sheared[0].abs().max(sheared[2].abs()).max(sheared[4].abs());
+    let max_yt = sheared[1].abs().max(sheared[3].abs()).max(sheared[5].abs());
+    // The shear's factors are at most 1: kz is the direction's largest axis.
+    let dx = gamma(5.0) * (max_xt + max_z);
+    let dy = gamma(5.0) * (max_yt + max_z);
+    let dz = gamma(4.0) * max_zt;
+    let de = 2.0 * (gamma(2.0) * max_xt * max_yt + dy * max_xt + dx * max_yt);
+    let max_e = e[0].abs().max(e[1].abs()).max(e[2].abs());
+    let dt = 3.0 * (gamma(3.0) * max_e * max_zt + de * max_zt + dz * max_e) * inv.abs();
+    hit_err(t, dt, scale)
 }
 
 /// Outward unit normal of a cone; at a cone's tip any direction across the axis serves.
@@ -183,7 +291,8 @@ pub fn intersect_cylinder(
     if q == 0.0 {
         return no_hit();
     }
-    let mut roots = [qc / q, 0.0];
+    let t_cq = qc / q;
+    let mut roots = [t_cq, 0.0];
     let mut n_roots = 1;
     if qa != 0.0 {
         let other = q / qa;
@@ -209,7 +318,9 @@ pub fn intersect_cylinder(
                 continue;
             }
         }
-        return hit_at(t);
+        let scale = w.length() + height + base[3].abs().max(apex[3].abs());
+        let parts = [w.length(), r_o.length(), r_d.length(), r0, dr, slope, base[3], qa, q, disc];
+        return hit_at(t, cylinder_err(t, t == t_cq, parts, scale));
     }
     no_hit()
 }

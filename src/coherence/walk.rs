@@ -21,7 +21,7 @@ use glam::Vec3;
 
 use super::cube::cube_cell_range;
 use super::flat::{FlatTables, GpuEntry, NO_ORIGIN};
-use crate::arith::closest::{consider, no_closest, Closest, Dist};
+use crate::arith::closest::{consider, no_closest, Closest, Dist, TestHit};
 
 /// Loop iterations one kernel pass spends on a walk, at most: lavapipe ends an invocation's
 /// loops after 65535 iterations in all (WGSL `WALK_CHUNK`, keep them in sync).
@@ -121,9 +121,11 @@ pub fn walk_done(w: &Walk) -> bool {
 }
 
 /// Continues the nearest-hit walk `w` for at most `budget` loop iterations (an entry
-/// each), keeping the nearest hit with `0 < t < t_max` in `best` by the shared rule (ties to
-/// the lower id); `skip` is never tested. `test(id)` intersects primitive `id` and returns its
-/// hit with `t < t_max`, if any. True when the walk is over.
+/// each), keeping the hits with `0 < t < t_max` in `best` by the shared tie rule
+/// ([`crate::arith::closest`]); `skip` is never tested. `test(id)` intersects primitive `id`
+/// and returns its hit with `t < t_max`, if any. The walk ends once an entry's `d_min` passes
+/// the tie window. True when the walk is over (then, with `best.lost`, walk again from
+/// [`Closest::again`]).
 #[allow(clippy::too_many_arguments)]
 pub fn walk_nearest<F: Dist, H>(
     t: &FlatTables,
@@ -133,10 +135,10 @@ pub fn walk_nearest<F: Dist, H>(
     skip: u32,
     budget: u32,
     count: &mut WalkCount,
-    mut test: impl FnMut(u32) -> Option<(F, H)>,
+    mut test: impl FnMut(u32) -> Option<TestHit<F, H>>,
 ) -> bool {
     let mut left = budget;
-    let mut best_t = best.best_t(t_max);
+    let mut limit = best.limit(t_max);
     loop {
         if walk_done(w) {
             break;
@@ -146,14 +148,14 @@ pub fn walk_nearest<F: Dist, H>(
         }
         left -= 1;
         let e = walk_next(t, w);
-        if F::from(e.d_min) > best_t {
+        if F::from(e.d_min) > limit {
             break;
         }
         if e.id == skip {
             continue;
         }
         count.tests += 1;
-        best_t = consider(best, e.id, test(e.id), best_t);
+        limit = consider(best, e.id, test(e.id), t_max);
     }
     true
 }
@@ -197,8 +199,8 @@ pub fn walk_any<F: Dist>(
 }
 
 /// The nearest hit with `0 < t < t_max` of a ray from `key` along `d`
-/// ([`FlatTables::walk_from`]), ties to the lower id, walked to its end; `skip` is never
-/// tested. A zero direction hits nothing.
+/// ([`FlatTables::walk_from`]) by the tie rule, walked to its end (twice where the first walk
+/// lost its winner); `skip` is never tested. A zero direction hits nothing.
 #[allow(clippy::too_many_arguments)]
 pub fn table_nearest<F: Dist, H: Default>(
     t: &FlatTables,
@@ -207,14 +209,19 @@ pub fn table_nearest<F: Dist, H: Default>(
     t_max: F,
     skip: u32,
     count: &mut WalkCount,
-    test: impl FnMut(u32) -> Option<(F, H)>,
+    mut test: impl FnMut(u32) -> Option<TestHit<F, H>>,
 ) -> Closest<F, H> {
     let mut best = no_closest();
     if d.abs().max_element() == 0.0 {
         return best;
     }
     let mut w = t.walk_from(key, d);
-    walk_nearest(t, &mut w, &mut best, t_max, skip, UNBOUNDED, count, test);
+    walk_nearest(t, &mut w, &mut best, t_max, skip, UNBOUNDED, count, &mut test);
+    if best.lost {
+        best = best.again();
+        let mut w = t.walk_from(key, d);
+        walk_nearest(t, &mut w, &mut best, t_max, skip, UNBOUNDED, count, &mut test);
+    }
     best
 }
 

@@ -166,7 +166,8 @@ pub struct Pending {
 pub const MAX_DEPTH: u32 = 16;
 
 /// A walk interrupted between passes (WGSL `WalkState`, keep in sync with
-/// `shaders/shared/layout.wgsl`).
+/// `shaders/shared/layout.wgsl`): where the walk stands, and for a nearest-hit walk the
+/// winner so far with the tie rule's window and least t ([`crate::arith::closest`]).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct WalkState {
@@ -178,19 +179,28 @@ pub struct WalkState {
     pub t: f32,
     pub b1: f32,
     pub b2: f32,
+    pub window: f32,
+    pub t_min: f32,
 }
+
+/// A job's walk not started (WGSL `WALK_START`).
+pub const WALK_START: u32 = 0;
+/// A job's walk resumed (WGSL `WALK_RESUME`).
+pub const WALK_RESUME: u32 = 1;
+/// A job's walk resumed after the tie rule lost its winner: run again once over (WGSL
+/// `WALK_RESUME_LOST`).
+pub const WALK_RESUME_LOST: u32 = 2;
 
 /// A ray in a queue of the wavefront kernels (WGSL `Job`, keep in sync with
 /// `shaders/shared/layout.wgsl`): the ray, the tile point it adds to (with
-/// [`POINT_UNOWNED`]), and its walk when a pass ended it unfinished (`walking` 1).
+/// [`POINT_UNOWNED`]), and its walk when a pass ended it unfinished (`walking` not
+/// [`WALK_START`]). 96 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct Job {
     pub ray: Pending,
     pub point: u32,
     pub walking: u32,
-    pub pad0: u32,
-    pub pad1: u32,
     pub walk: WalkState,
 }
 

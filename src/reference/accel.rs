@@ -1,12 +1,14 @@
 //! The queries every accelerator of the reference answers ([`Accel`]), and what they share:
 //! the ray's origin entity, the hit record, the shadow query, and the nearest-hit rule for
-//! the reference's own f64 tests (ties in `t` go to the lower primitive id, so that every
-//! accelerator gives the same image). Primitive intersection tests are counted into the
+//! the reference's own f64 tests (the tie rule of [`crate::arith::closest`]: ties within
+//! the error bound go to the lower primitive id, so that every accelerator gives the same
+//! image). Primitive intersection tests are counted into the
 //! [`TestCounts`] the caller passes (one per ray kind).
 
 use glam::DVec3;
 
 use super::geometry::{intersect, Intersection, Ray};
+use crate::arith::closest::{consider, no_closest, Closest, TestHit};
 use crate::scene::Primitive;
 use crate::stats::TestCounts;
 
@@ -67,34 +69,36 @@ pub fn count(prim: &Primitive, tests: &mut TestCounts) {
     }
 }
 
-/// Relative room above the best distance so far within which hits are still tested (ties).
-const TIE_ROOM: f64 = 1.0 + 8.0 * f64::EPSILON;
+/// A nearest-hit query's state: the tie rule's ([`crate::arith::closest`]), over the
+/// reference's own f64 hits.
+pub type Best = Closest<f64, Intersection>;
 
-/// Tests primitive `id` and keeps the hit if it is nearer (or as near with a lower id).
+/// Tests primitive `id` for a nearest-hit query and takes its hit into `best` by the tie
+/// rule (ties within the error bound go to the lower id). Returns the distance past which
+/// no hit can join the answer ([`Closest::limit`]).
 #[inline]
 pub fn test_closest(
     prims: &[Primitive],
     id: u32,
     ray: &Ray,
     t_max: f64,
-    best: &mut Option<NearestHit>,
+    best: &mut Best,
     tests: &mut TestCounts,
-) {
+) -> f64 {
     let prim = &prims[id as usize];
     count(prim, tests);
-    // Let t == best.t through so that ties can go to the lower id. The intersection tests
-    // compare scaled distances (`t·det` against `t_max·det`), whose rounding can turn away a
-    // hit at exactly `best.t` when the limit is only one ulp above it: a BVH that met a
-    // primitive's exact twin first then kept the twin (`tests/it/hard.rs`, coplanar triangles).
-    // A few ulps of room let every tie through; `better` below decides exactly.
-    let limit = best.map_or(t_max, |b| b.hit.t * TIE_ROOM);
-    if let Some(h) = intersect(prim, ray, limit) {
-        let better = match best {
-            None => true,
-            Some(b) => h.t < b.hit.t || (h.t == b.hit.t && id < b.prim),
-        };
-        if better {
-            *best = Some(NearestHit { prim: id, hit: h });
-        }
+    let hit = intersect(prim, ray, t_max).map(|h| TestHit { t: h.t, err: h.err, hit: h });
+    consider(best, id, hit, t_max)
+}
+
+/// The answer of a nearest-hit query whose walk `walk` runs: once, or a second time from
+/// [`Closest::again`] where the first walk lost its winner.
+pub fn nearest_by_rule(mut walk: impl FnMut(&mut Best)) -> Option<NearestHit> {
+    let mut best = no_closest();
+    walk(&mut best);
+    if best.lost {
+        best = best.again();
+        walk(&mut best);
     }
+    best.found.then_some(NearestHit { prim: best.prim, hit: best.hit })
 }

@@ -1,6 +1,6 @@
 //! Brute force: every primitive for every ray.
 
-use super::accel::{count, test_closest, Accel, NearestHit, OriginKey, ShadowQuery};
+use super::accel::{count, nearest_by_rule, test_closest, Accel, NearestHit, OriginKey, ShadowQuery};
 use super::geometry::{intersect, Ray};
 use crate::scene::Primitive;
 use crate::stats::TestCounts;
@@ -28,11 +28,11 @@ impl Accel for Brute<'_> {
         t_max: f64,
         tests: &mut TestCounts,
     ) -> Option<NearestHit> {
-        let mut best = None;
-        for id in 0..self.prims.len() as u32 {
-            test_closest(self.prims, id, ray, t_max, &mut best, tests);
-        }
-        best
+        nearest_by_rule(|best| {
+            for id in 0..self.prims.len() as u32 {
+                test_closest(self.prims, id, ray, t_max, best, tests);
+            }
+        })
     }
 
     fn occluded(&self, q: &ShadowQuery, tests: &mut TestCounts) -> bool {

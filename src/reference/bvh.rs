@@ -2,7 +2,7 @@
 
 use glam::DVec3;
 
-use super::accel::{count, test_closest, Accel, NearestHit, OriginKey, ShadowQuery};
+use super::accel::{count, nearest_by_rule, test_closest, Accel, NearestHit, OriginKey, ShadowQuery};
 use super::geometry::{intersect, Ray};
 use crate::bvh::{build, outward_box};
 use crate::scene::Primitive;
@@ -157,18 +157,20 @@ impl Accel for BvhAccel<'_> {
         t_max: f64,
         tests: &mut TestCounts,
     ) -> Option<NearestHit> {
-        let best = std::cell::Cell::new(None::<NearestHit>);
-        // Boxes entered exactly at the best distance are still visited (ties).
-        let limit = || best.get().map_or(t_max, |b| b.hit.t);
-        self.traverse(ray, &limit, &mut |ids| {
-            let mut b = best.get();
-            for &id in ids {
-                test_closest(self.prims, id, ray, t_max, &mut b, tests);
-            }
-            best.set(b);
-            true
-        });
-        best.get()
+        nearest_by_rule(|best| {
+            // Boxes entered exactly at the limit are still visited (ties).
+            let state = std::cell::Cell::new(*best);
+            let limit = || state.get().limit(t_max);
+            self.traverse(ray, &limit, &mut |ids| {
+                let mut b = state.get();
+                for &id in ids {
+                    test_closest(self.prims, id, ray, t_max, &mut b, tests);
+                }
+                state.set(b);
+                true
+            });
+            *best = state.get();
+        })
     }
 
     fn occluded(&self, q: &ShadowQuery, tests: &mut TestCounts) -> bool {

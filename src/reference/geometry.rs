@@ -60,32 +60,62 @@ impl Ray {
     }
 }
 
-/// Where a ray met a primitive: distance and, for triangles, the barycentric weights of
-/// vertices 1 and 2.
+/// Where a ray met a primitive: distance, for triangles the barycentric weights of vertices
+/// 1 and 2, and `err`, a bound on the rounding error of `t` (for the tie rule,
+/// [`crate::arith::closest`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Intersection {
     pub t: f64,
     pub b1: f64,
     pub b2: f64,
+    pub err: f64,
 }
 
 impl Intersection {
-    fn at(t: f64) -> Intersection {
-        Intersection { t, b1: 0.0, b2: 0.0 }
+    fn at(t: f64, err: f64) -> Intersection {
+        Intersection { t, b1: 0.0, b2: 0.0, err }
+    }
+}
+
+/// The unit roundoff of f64, `2⁻⁵³`.
+const UNIT_ROUNDOFF: f64 = 1.0 / 9007199254740992.0;
+/// The widest a hit's error bound may be, relative to the magnitude of its numbers, as on
+/// the GPU (`arith::geometry::TIE_CAP`).
+const TIE_CAP: f64 = 1.0 / 1024.0;
+
+/// `γ(n) = n·u / (1 − n·u)` in f64.
+fn gamma(n: f64) -> f64 {
+    let nu = n * UNIT_ROUNDOFF;
+    nu / (1.0 - nu)
+}
+
+/// A hit's error bound from its arithmetic's `dt`: capped at [`TIE_CAP`] of `t + scale`, and
+/// widened by the rounding of `t` itself.
+fn hit_err(t: f64, dt: f64, scale: f64) -> f64 {
+    dt.min(TIE_CAP * (t + scale)) * (1.0 + 1e-9) + t * (2.0 * UNIT_ROUNDOFF)
+}
+
+/// The error of `√disc` when `disc` carries at most `dd`: `dd / (2·√disc)`, or `√dd` where
+/// that is smaller (a discriminant near zero).
+fn sqrt_err(dd: f64, sd: f64) -> f64 {
+    if sd > 0.0 {
+        dd.sqrt().min(dd / (2.0 * sd))
+    } else {
+        dd.sqrt()
     }
 }
 
 /// Intersects `ray` with `prim` for `0 < t < t_max`; the nearest such hit.
 pub fn intersect(prim: &Primitive, ray: &Ray, t_max: f64) -> Option<Intersection> {
     match prim {
-        Primitive::Sphere(s) => intersect_sphere(s, ray, t_max).map(Intersection::at),
+        Primitive::Sphere(s) => intersect_sphere(s, ray, t_max),
         Primitive::Triangle(t) => intersect_triangle(t, ray, t_max),
-        Primitive::Cylinder(c) => intersect_cylinder(c, ray, t_max).map(Intersection::at),
+        Primitive::Cylinder(c) => intersect_cylinder(c, ray, t_max),
     }
 }
 
 /// Ray/sphere, Haines' precise form.
-pub fn intersect_sphere(s: &Sphere, ray: &Ray, t_max: f64) -> Option<f64> {
+pub fn intersect_sphere(s: &Sphere, ray: &Ray, t_max: f64) -> Option<Intersection> {
     let f = ray.origin - s.center;
     let b = -f.dot(ray.dir);
     let r2 = s.radius * s.radius;
@@ -110,10 +140,21 @@ pub fn intersect_sphere(s: &Sphere, ray: &Ray, t_max: f64) -> Option<f64> {
         }
     };
     // The near root enters the solid, the far root leaves it.
-    if !s.inside_only && t0 > 0.0 && t0 < t_max {
-        return Some(t0);
-    }
-    (t1 > 0.0 && t1 < t_max).then_some(t1)
+    let t = if !s.inside_only && t0 > 0.0 && t0 < t_max {
+        t0
+    } else if t1 > 0.0 && t1 < t_max {
+        t1
+    } else {
+        return None;
+    };
+    // The error bound of the root (as `arith::geometry::sphere_err` bounds the f32 test's):
+    // b carries a few roundings of |f|, the discriminant a few of r² and r·|f|, its square
+    // root that over 2√disc, k = |f|² − r² a few of |f|² and r².
+    let (fl, r) = (f.length(), s.radius);
+    let dd = gamma(8.0) * (r2 + 4.0 * r * fl);
+    let dq = gamma(4.0) * fl + sqrt_err(dd, disc.sqrt()) + gamma(1.0) * q.abs();
+    let dt = if t == q { dq } else { (gamma(4.0) * (fl * fl + r2) + t.abs() * dq) / q.abs() };
+    Some(Intersection::at(t, hit_err(t, dt + gamma(2.0) * t, fl + r)))
 }
 
 /// Ray/triangle, Woop, Benthin and Wald's watertight test; both sides are hit.
@@ -154,7 +195,20 @@ pub fn intersect_triangle(tri: &Triangle, ray: &Ray, t_max: f64) -> Option<Inter
     if !(t > 0.0 && t < t_max) {
         return None;
     }
-    Some(Intersection { t, b1: v * inv, b2: w * inv })
+    // The bound of pbrt-v4 on this test's variables: the sheared coordinates carry a few
+    // roundings, the edge functions their products, t their weighted mean over det.
+    let max3 = |x: f64, y: f64, z: f64| x.abs().max(y.abs()).max(z.abs());
+    let max_z = max3(a[kz], b[kz], c[kz]);
+    let max_zt = s.z.abs() * max_z;
+    let (max_xt, max_yt) = (max3(ax, bx, cx), max3(ay, by, cy));
+    let dx = gamma(5.0) * (max_xt + max_z);
+    let dy = gamma(5.0) * (max_yt + max_z);
+    let dz = gamma(4.0) * max_zt;
+    let de = 2.0 * (gamma(2.0) * max_xt * max_yt + dy * max_xt + dx * max_yt);
+    let max_e = max3(u, v, w);
+    let dt = 3.0 * (gamma(3.0) * max_e * max_zt + de * max_zt + dz * max_e) * inv.abs();
+    let scale = a.abs().max_element().max(b.abs().max_element()).max(c.abs().max_element());
+    Some(Intersection { t, b1: v * inv, b2: w * inv, err: hit_err(t, dt, scale) })
 }
 
 /// The local frame of a cylinder or cone: unit axis, length and the slope of the radius.
@@ -173,7 +227,7 @@ fn cone_frame(c: &Cylinder) -> ConeFrame {
 
 /// Ray/cylinder or truncated cone without end caps; both sides are hit unless
 /// `inside_only`.
-pub fn intersect_cylinder(c: &Cylinder, ray: &Ray, t_max: f64) -> Option<f64> {
+pub fn intersect_cylinder(c: &Cylinder, ray: &Ray, t_max: f64) -> Option<Intersection> {
     let ConeFrame { axis, height, slope } = cone_frame(c);
     // Height along the axis and the radial part, at the origin (s0, r_o) and per unit t.
     let w = ray.origin - c.base;
@@ -197,7 +251,8 @@ pub fn intersect_cylinder(c: &Cylinder, ray: &Ray, t_max: f64) -> Option<f64> {
     if q == 0.0 {
         return None;
     }
-    let mut roots = [qc / q, if qa != 0.0 { q / qa } else { f64::NAN }];
+    let t_cq = qc / q;
+    let mut roots = [t_cq, if qa != 0.0 { q / qa } else { f64::NAN }];
     if roots[1] < roots[0] {
         roots.swap(0, 1);
     }
@@ -215,7 +270,28 @@ pub fn intersect_cylinder(c: &Cylinder, ray: &Ray, t_max: f64) -> Option<f64> {
                 continue;
             }
         }
-        return Some(t);
+        // The error bound of the root (as `arith::geometry::cylinder_err` bounds the f32
+        // test's): the radial parts carry a few roundings of |w| and of 1, the radius at the
+        // origin's height a few of its terms, and the coefficients, the discriminant and its
+        // square root what those make of them.
+        let (lw, lro, lrd) = (w.length(), r_o.length(), r_d.length());
+        let (ar0, adr, aslope) = (r0.abs(), dr.abs(), slope.abs());
+        let ew = gamma(6.0) * lw;
+        let er0 = gamma(3.0) * c.base_radius.abs() + gamma(4.0) * aslope * lw;
+        let (erd, edr) = (gamma(4.0), gamma(4.0) * aslope);
+        let qc_err = 2.0 * lro * ew + 2.0 * ar0 * er0 + gamma(3.0) * (lro * lro + ar0 * ar0);
+        let qb_err = lrd * ew + lro * erd + adr * er0 + ar0 * edr + gamma(3.0) * (lro * lrd + ar0 * adr);
+        let qa_err = 2.0 * lrd * erd + 2.0 * adr * edr + gamma(3.0) * (lrd * lrd + adr * adr);
+        let e = lrd * ar0 + lro * adr;
+        let e_err = lrd * er0 + ar0 * erd + lro * edr + adr * ew + gamma(3.0) * e;
+        let x = lro * lrd;
+        let x_err = lrd * ew + lro * erd + gamma(3.0) * x;
+        let dd = 2.0 * e * e_err + 2.0 * x * x_err + gamma(3.0) * (e * e + x * x);
+        let dq = qb_err + sqrt_err(dd, disc.sqrt()) + gamma(1.0) * q.abs();
+        let dt =
+            if t == t_cq { (qc_err + t.abs() * dq) / q.abs() } else { (dq + t.abs() * qa_err) / qa.abs() };
+        let scale = w.length() + height + c.base_radius.abs().max(c.apex_radius.abs());
+        return Some(Intersection::at(t, hit_err(t, dt + gamma(2.0) * t, scale)));
     }
     None
 }
@@ -325,23 +401,23 @@ mod tests {
     fn sphere_hits_near_and_far() {
         let s = sphere(DVec3::ZERO, 1.0, false);
         let r = Ray::new(DVec3::new(0.0, 0.0, 5.0), DVec3::NEG_Z);
-        assert_eq!(intersect_sphere(&s, &r, f64::INFINITY), Some(4.0));
+        assert_eq!(intersect_sphere(&s, &r, f64::INFINITY).map(|h| h.t), Some(4.0));
         // From inside: the far side.
         let r = Ray::new(DVec3::ZERO, DVec3::X);
-        assert_eq!(intersect_sphere(&s, &r, f64::INFINITY), Some(1.0));
+        assert_eq!(intersect_sphere(&s, &r, f64::INFINITY).map(|h| h.t), Some(1.0));
         // Limited by t_max.
         let r = Ray::new(DVec3::new(0.0, 0.0, 5.0), DVec3::NEG_Z);
-        assert_eq!(intersect_sphere(&s, &r, 3.9), None);
+        assert_eq!(intersect_sphere(&s, &r, 3.9).map(|h| h.t), None);
         // Pointing away.
         let r = Ray::new(DVec3::new(0.0, 0.0, 5.0), DVec3::Z);
-        assert_eq!(intersect_sphere(&s, &r, f64::INFINITY), None);
+        assert_eq!(intersect_sphere(&s, &r, f64::INFINITY).map(|h| h.t), None);
     }
 
     #[test]
     fn inside_only_sphere_shows_only_its_inside() {
         let s = sphere(DVec3::ZERO, 1.0, true);
         let r = Ray::new(DVec3::new(0.0, 0.0, 5.0), DVec3::NEG_Z);
-        assert_eq!(intersect_sphere(&s, &r, f64::INFINITY), Some(6.0));
+        assert_eq!(intersect_sphere(&s, &r, f64::INFINITY).map(|h| h.t), Some(6.0));
     }
 
     #[test]
@@ -349,7 +425,7 @@ mod tests {
         // r/distance = 1e-7: the naive b² − c form loses every digit here.
         let s = sphere(DVec3::new(0.0, 0.0, -1e7), 1.0, false);
         let r = Ray::new(DVec3::ZERO, DVec3::new(0.5e-7, 0.0, -1.0));
-        let t = intersect_sphere(&s, &r, f64::INFINITY).expect("hit");
+        let t = intersect_sphere(&s, &r, f64::INFINITY).map(|h| h.t).expect("hit");
         let p = r.at(t);
         assert!(((p - s.center).length() - 1.0).abs() < 1e-8, "{}", (p - s.center).length());
     }
@@ -430,22 +506,22 @@ mod tests {
     fn cylinder_and_cone() {
         let c = cyl(1.0, 1.0, false);
         let r = Ray::new(DVec3::new(5.0, 0.0, 1.0), DVec3::NEG_X);
-        assert!((intersect_cylinder(&c, &r, f64::INFINITY).unwrap() - 4.0).abs() < 1e-12);
+        assert!((intersect_cylinder(&c, &r, f64::INFINITY).map(|h| h.t).unwrap() - 4.0).abs() < 1e-12);
         // No caps: along the axis misses.
         let r = Ray::new(DVec3::new(0.0, 0.0, 5.0), DVec3::NEG_Z);
-        assert_eq!(intersect_cylinder(&c, &r, f64::INFINITY), None);
+        assert_eq!(intersect_cylinder(&c, &r, f64::INFINITY).map(|h| h.t), None);
         // Above the top: misses.
         let r = Ray::new(DVec3::new(5.0, 0.0, 2.5), DVec3::NEG_X);
-        assert_eq!(intersect_cylinder(&c, &r, f64::INFINITY), None);
+        assert_eq!(intersect_cylinder(&c, &r, f64::INFINITY).map(|h| h.t), None);
         // Inside only: the far wall.
         let ci = cyl(1.0, 1.0, true);
         let r = Ray::new(DVec3::new(5.0, 0.0, 1.0), DVec3::NEG_X);
-        assert!((intersect_cylinder(&ci, &r, f64::INFINITY).unwrap() - 6.0).abs() < 1e-12);
+        assert!((intersect_cylinder(&ci, &r, f64::INFINITY).map(|h| h.t).unwrap() - 6.0).abs() < 1e-12);
         // A cone from radius 1 to 0.5: at height 1 the radius is 0.75.
         let k = cyl(1.0, 0.5, false);
-        let t = intersect_cylinder(&k, &r, f64::INFINITY).unwrap();
+        let t = intersect_cylinder(&k, &r, f64::INFINITY).map(|h| h.t).unwrap();
         assert!((t - 4.25).abs() < 1e-12, "{t}");
-        let h = Intersection::at(t);
+        let h = Intersection::at(t, 0.0);
         let s = surface(&Primitive::Cylinder(k), &r, &h);
         // Normal leans up (towards the apex) as the cone narrows.
         let expect = DVec3::new(1.0, 0.0, 0.25).normalize();

@@ -16,10 +16,10 @@
 
 use glam::Vec3;
 
-use super::accel::{count, Accel, NearestHit, OriginKey, ShadowQuery};
+use super::accel::{count, nearest_by_rule, Accel, NearestHit, OriginKey, ShadowQuery};
 use super::bvh::BvhAccel;
-use super::geometry::{intersect, Intersection, Ray};
-use crate::arith::closest::no_closest;
+use super::geometry::{intersect, Ray};
+use crate::arith::closest::TestHit;
 use crate::coherence::walk::{walk_any, walk_nearest, AnyHit, Walk, WALK_CHUNK};
 use crate::coherence::{self, BuildParams, FlatTables, Tables, WalkCount};
 use crate::error::Result;
@@ -110,16 +110,16 @@ impl Accel for TableAccel<'_> {
         }
         let d = ray.dir.as_vec3().normalize();
         let mut walked = WalkCount::default();
-        let mut best = no_closest::<f64, Intersection>();
-        let mut w = flat.walk_from(Self::key(origin), d);
         let mut test = |id: u32| {
             let prim = &self.prims[id as usize];
             count(prim, tests);
-            intersect(prim, ray, t_max).map(|h| (h.t, h))
+            intersect(prim, ray, t_max).map(|h| TestHit { t: h.t, err: h.err, hit: h })
         };
-        // In steps, as the GPU walks, each resuming where the last stopped.
-        while !walk_nearest(flat, &mut w, &mut best, t_max, u32::MAX, WALK_CHUNK, &mut walked, &mut test) {}
-        best.found.then_some(NearestHit { prim: best.prim, hit: best.hit })
+        nearest_by_rule(|best| {
+            // In steps, as the GPU walks, each resuming where the last stopped.
+            let mut w = flat.walk_from(Self::key(origin), d);
+            while !walk_nearest(flat, &mut w, best, t_max, u32::MAX, WALK_CHUNK, &mut walked, &mut test) {}
+        })
     }
 
     fn occluded(&self, q: &ShadowQuery, tests: &mut TestCounts) -> bool {

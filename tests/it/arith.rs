@@ -56,7 +56,8 @@ fn twins(@builtin(global_invocation_id) gid: vec3<u32>) {
     let h = intersect_prim(prims[c.prim], ray, c.t_max);
     let boxed = box_hit(bvh_nodes[c.prim], box_ray(ray), c.t_max);
     let flags = select(0u, 1u, h.ok) | select(0u, 2u, boxed);
-    answers[i] = vec4<u32>(flags, bitcast<u32>(h.t), bitcast<u32>(h.b1), bitcast<u32>(h.b2));
+    answers[2u * i] = vec4<u32>(flags, bitcast<u32>(h.t), bitcast<u32>(h.b1), bitcast<u32>(h.b2));
+    answers[2u * i + 1u] = vec4<u32>(bitcast<u32>(h.err), 0u, 0u, 0u);
 }
 "#;
 
@@ -241,8 +242,8 @@ fn cases(n: usize) -> (Vec<Shape>, Vec<Case>) {
     (shapes, cases)
 }
 
-/// What the GPU answered for each case: (hit, box hit, t, b1, b2 bits).
-fn on_the_gpu(shapes: &[Shape], cases: &[Case]) -> Vec<[u32; 4]> {
+/// What the GPU answered for each case: (hit, box hit, t, b1, b2, err bits).
+fn on_the_gpu(shapes: &[Shape], cases: &[Case]) -> Vec<[u32; 5]> {
     let ctx = GpuContext::new().unwrap_or_else(|e| panic!("{e}"));
     let variant = Variant { counters: false, ..Variant::full(Queries::Bvh) };
     let source = compose_root(KERNEL, variant).expect("the test kernel composes");
@@ -271,7 +272,7 @@ fn on_the_gpu(shapes: &[Shape], cases: &[Case]) -> Vec<[u32; 4]> {
     let params = Params { bvh_stride: 0, ..Params::default() };
     let prims: Vec<Prim> = shapes.iter().map(|s| s.packed).collect();
     let nodes: Vec<BvhNode> = shapes.iter().map(|s| s.node).collect();
-    let answer_bytes = (cases.len() * 16) as u64;
+    let answer_bytes = (cases.len() * 32) as u64;
     let buffers = [
         (0, storage("params", bytemuck::bytes_of(&params), read)),
         (1, storage("prims", bytemuck::cast_slice(&prims), read)),
@@ -307,7 +308,8 @@ fn on_the_gpu(shapes: &[Shape], cases: &[Case]) -> Vec<[u32; 4]> {
     enc.copy_buffer_to_buffer(&buffers[4].1, 0, &readback, 0, answer_bytes);
     ctx.queue.submit([enc.finish()]);
     let bytes = ctx.read(&readback, answer_bytes).expect("the answers read back");
-    bytemuck::cast_slice(&bytes).to_vec()
+    let words: &[[u32; 8]] = bytemuck::cast_slice(&bytes);
+    words.iter().map(|w| [w[0], w[1], w[2], w[3], w[4]]).collect()
 }
 
 /// Where a hit at distance `t` along `c`'s ray lies on `s`, computed in f64: the cosine
@@ -355,6 +357,55 @@ fn margin(s: &Shape, c: &Case, t: f32) -> f64 {
 /// a hit's t is ill-conditioned (a grazing ray's root).
 const NEAR: f64 = 1e-3;
 
+/// How far the twins' error bounds (`PrimHit::err`) may differ, relative: they are computed
+/// alike from t and numbers that differ by the ulps above, but a quadric's bound divides by
+/// the square root of its discriminant, which is itself ill-conditioned where the ray comes
+/// near grazing (a fused multiply-add moves it most there). Measured on lavapipe (Mesa
+/// 22.3): 2.7e-2. Each bound is also checked for what it claims: t lies within it of the
+/// exact root of the same f32 inputs, on the GPU and the CPU.
+const ERR_REL: f64 = 5e-2;
+
+/// The exact root, in f64, of the f32 inputs a test computes `t` from: `c`'s origin and the
+/// ray's f32 unit direction taken as they are, and the primitive's f32 numbers; of two
+/// roots, the one nearer `t`.
+fn exact_root(s: &Shape, c: &Case, ray: &cuberay::arith::geometry::Ray, t: f32) -> f64 {
+    let o = Vec3::from(c.o).as_dvec3();
+    let d = ray.d.as_dvec3();
+    let nearer = |a: f64, b: f64, cc: f64| {
+        // a·t² + 2b·t + cc = 0
+        let disc = (b * b - a * cc).max(0.0).sqrt();
+        let (r0, r1) = ((-b - disc) / a, (-b + disc) / a);
+        if (r0 - t as f64).abs() <= (r1 - t as f64).abs() {
+            r0
+        } else {
+            r1
+        }
+    };
+    match s.prim {
+        Prim32::Sphere { c: centre, r, .. } => {
+            let f = o - centre.as_dvec3();
+            let r = r as f64;
+            nearer(d.dot(d), f.dot(d), f.dot(f) - r * r)
+        }
+        Prim32::Triangle { p } => {
+            let [a, b, cc] = p.map(|x| x.as_dvec3());
+            let n = (b - a).cross(cc - a);
+            n.dot(a - o) / n.dot(d)
+        }
+        Prim32::Cylinder { base, apex, .. } => {
+            let (b, a) = (Vec3::from_slice(&base).as_dvec3(), Vec3::from_slice(&apex).as_dvec3());
+            let height = (a - b).length();
+            let axis = (a - b) / height;
+            let slope = (apex[3] as f64 - base[3] as f64) / height;
+            let w = o - b;
+            let (s0, ds) = (w.dot(axis), d.dot(axis));
+            let (r_o, r_d) = (w - axis * s0, d - axis * ds);
+            let (r0, dr) = (base[3] as f64 + slope * s0, slope * ds);
+            nearer(r_d.dot(r_d) - dr * dr, r_o.dot(r_d) - r0 * dr, r_o.dot(r_o) - r0 * r0)
+        }
+    }
+}
+
 #[test]
 fn the_intersection_tests_and_the_box_test_match_their_rust_twins_on_the_gpu() {
     let (shapes, cases) = cases(24_000);
@@ -362,6 +413,7 @@ fn the_intersection_tests_and_the_box_test_match_their_rust_twins_on_the_gpu() {
     let (mut hits, mut boxes, mut exact, mut boundary, mut ill) = (0, 0, 0, 0, 0);
     let mut worst_t = [0u32; 3];
     let mut worst_b = 0.0f32;
+    let (mut worst_err_diff, mut worst_used) = (0.0f64, 0.0f64);
     let mut failures = Vec::new();
     for (c, g) in cases.iter().zip(&gpu) {
         let s = &shapes[c.prim as usize];
@@ -402,6 +454,26 @@ fn the_intersection_tests_and_the_box_test_match_their_rust_twins_on_the_gpu() {
             exact += (g_t == cpu.t && b_err == 0.0) as u32;
             worst_t[kind] = worst_t[kind].max(t_ulps);
             worst_b = worst_b.max(b_err);
+            // The tie rule's error bound: the twins compute it alike, and it bounds how far
+            // each t lies from the exact root of the same f32 inputs.
+            let g_err = f32::from_bits(g[4]);
+            let err_diff = ((g_err - cpu.err).abs() / cpu.err) as f64;
+            worst_err_diff = worst_err_diff.max(err_diff);
+            if err_diff > ERR_REL {
+                failures.push(format!("{:?}: GPU err {g_err}, CPU {}; {c:?}", s.prim, cpu.err));
+            }
+            let exact_t = exact_root(s, c, &ray, cpu.t);
+            for (who, t, err) in [("GPU", g_t, g_err), ("CPU", cpu.t, cpu.err)] {
+                let used = (t as f64 - exact_t).abs() / err as f64;
+                worst_used = worst_used.max(used);
+                if used > 1.0 {
+                    failures.push(format!(
+                        "{:?}: {who} t {t} is {} from the exact {exact_t}, over its bound {err}; {c:?}",
+                        s.prim,
+                        (t as f64 - exact_t).abs()
+                    ));
+                }
+            }
             if t_ulps > T_ULPS[kind] || b_err > B_ULPS {
                 failures.push(format!(
                     "{:?}: GPU (t, b1, b2) {:?} against CPU {cpu:?}: t {t_ulps} ulps, b {b_err} ulps of 1; {c:?}",
@@ -426,7 +498,8 @@ fn the_intersection_tests_and_the_box_test_match_their_rust_twins_on_the_gpu() {
     let n = cases.len();
     eprintln!(
         "arith twins: {n} cases, {hits} hits ({exact} bit for bit; t within {worst_t:?} ulps for spheres, triangles, cylinders, barycentrics within {worst_b} ulps of 1), {boxes} boxes hit, all as on the CPU; \
-         {boundary} hit-or-miss answers differ, all near the boundary; {ill} shared hits near it unchecked"
+         {boundary} hit-or-miss answers differ, all near the boundary; {ill} shared hits near it unchecked; \
+         error bounds within {worst_err_diff:.1e} of each other, t from the exact root at most {worst_used:.3} of its bound"
     );
     assert!(
         failures.is_empty(),

@@ -7,7 +7,7 @@
 use glam::{DVec3, Vec3};
 use proptest::prelude::*;
 
-use cuberay::arith::closest::{brute_nearest, no_closest, test_prim};
+use cuberay::arith::closest::{brute_nearest, no_closest, test_prim, TestHit};
 use cuberay::arith::geometry::{make_ray, Prim32, PrimHit, Ray};
 use cuberay::arith::{FAR, NO_ID};
 use cuberay::coherence::walk::{self, AnyHit};
@@ -138,12 +138,21 @@ impl World {
                 self.candidates(key, ray.d)
             ));
         }
-        // Stepped, as the GPU walks long lists: three iterations per step, resumed.
-        let mut w = f.walk_from(key, ray.d);
+        // Stepped, as the GPU walks long lists: three iterations per step, resumed; walked
+        // again where the tie rule lost the winner.
         let mut best = no_closest::<f32, PrimHit>();
         let mut steps = 0;
-        while !walk::walk_nearest(f, &mut w, &mut best, FAR, NO_ID, 3, &mut count, test) {
-            steps += 1;
+        for again in [false, true] {
+            if again {
+                if !best.lost {
+                    break;
+                }
+                best = best.again();
+            }
+            let mut w = f.walk_from(key, ray.d);
+            while !walk::walk_nearest(f, &mut w, &mut best, FAR, NO_ID, 3, &mut count, test) {
+                steps += 1;
+            }
         }
         if (best.prim, best.best_t(FAR)) != want {
             return Err(format!(
@@ -152,7 +161,7 @@ impl World {
             ));
         }
         let g64 = walk::table_nearest(f, key, ray.d, f64::MAX, NO_ID, &mut count, |id| {
-            test(id).map(|(t, _)| (t as f64, ()))
+            test(id).map(|h| TestHit { t: h.t as f64, err: h.err as f64, hit: () })
         });
         if g64.prim != want.0 {
             return Err(format!("{key:?}: f64 walker {:?} brute {want:?}", (g64.prim, g64.t)));
@@ -375,9 +384,13 @@ fn zero_direction_is_rejected() {
     let f = &w.tables.flat;
     let eye = OriginKey::Eye;
     let mut count = WalkCount::default();
-    let h = walk::table_nearest(f, eye, Vec3::ZERO, FAR, NO_ID, &mut count, |_| Some((0.0, ())));
+    let h = walk::table_nearest(f, eye, Vec3::ZERO, FAR, NO_ID, &mut count, |_| {
+        Some(TestHit { t: 0.0, err: 0.0, hit: () })
+    });
     assert_eq!((h.found, h.prim, count.tests), (false, NO_ID, 0));
-    let h = walk::table_nearest(f, eye, Vec3::ZERO, f64::MAX, NO_ID, &mut count, |_| Some((0.0, ())));
+    let h = walk::table_nearest(f, eye, Vec3::ZERO, f64::MAX, NO_ID, &mut count, |_| {
+        Some(TestHit { t: 0.0, err: 0.0, hit: () })
+    });
     assert!(!h.found && count.tests == 0);
     assert!(!walk::table_any(f, eye, Vec3::ZERO, FAR, NO_ID, &mut count, |_| true));
 }

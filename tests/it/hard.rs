@@ -910,69 +910,64 @@ fn a_light_on_and_inside_geometry() {
     assert!(lit > 100 && dark > 100);
 }
 
-/// Coplanar triangles: where the first and its exact twin (id 2) overlap, the lower id
-/// wins; where the first and second overlap, the winner is the same on every accelerator
-/// (asserted by `run`) and on a second render.
+/// Coplanar triangles: every ray through an overlap ties within the error bound (their
+/// distances differ only by rounding), so the lowest id wins there, on both backends and
+/// every accelerator (asserted by `run`): triangle 0 over 1 and over its exact twin 2, at
+/// every pixel of the overlaps. GPU and CPU see the same id at every pixel but those whose
+/// ray passes within a hair of a triangle's edge (where f32 and f64 may decide the edge
+/// apart), and shade alike wherever they see the same.
 #[test]
 fn coplanar_overlapping_triangles() {
-    // Where triangles 0 and 1 overlap, f32 and f64 rounding pick their winners apart: the
-    // GPU-vs-CPU FLIP is measured on those pixels too, so it is bounded loosely here; the
-    // ids are checked pixel by pixel instead, and the colours wherever the ids agree.
-    let c = run_file("coplanar_triangles.nff", 0.06, 80);
+    let c = run_file("coplanar_triangles.nff", 0.01, 80);
     let tri = |id: usize| match &c.scene.primitives[id] {
         Primitive::Triangle(t) => t.p,
         p => panic!("{p:?}"),
     };
-    // Whether p lies inside triangle v (in z = 0, counter-clockwise), by `margin` in units of
-    // edge length × distance; a negative margin reaches outside it.
-    let inside = |p: DVec3, v: [DVec3; 3], margin: f64| {
-        (0..3).all(|i| {
-            let (a, b) = (v[i], v[(i + 1) % 3]);
-            (b - a).truncate().perp_dot((p - a).truncate()) > margin
-        })
+    // How far p lies inside triangle v (in z = 0, counter-clockwise), in units of edge
+    // length × distance: the least of its edge functions (negative outside).
+    let inside = |p: DVec3, v: [DVec3; 3]| {
+        (0..3)
+            .map(|i| {
+                let (a, b) = (v[i], v[(i + 1) % 3]);
+                (b - a).truncate().perp_dot((p - a).truncate())
+            })
+            .fold(f64::MAX, f64::min)
     };
-    let mut fights = 0;
-    let mut counts = [0usize; 3];
+    const EDGE: f64 = 1e-5;
+    let (mut overlap, mut near_edges, mut counts) = (0, 0, [0usize; 3]);
     for (x, y) in c.pixels() {
         let (g, k) = (Case::id(&c.gpu_id, x, y), Case::id(&c.cpu_id, x, y));
-        if g != k {
-            let (o, d) = c.ray(x, y);
-            let p = on_plane_z(o, d, 0.0).unwrap();
-            assert!(
-                inside(p, tri(0), 1e-6) && inside(p, tri(1), 1e-6),
-                "GPU {g:?} and CPU {k:?} differ at ({x}, {y}) outside the overlap of triangles 0 and 1"
-            );
-            fights += 1;
-        }
-        for (backend, ids) in [("GPU", &c.gpu_id), ("CPU", &c.cpu_id)] {
-            let id = Case::id(ids, x, y);
-            assert_ne!(id, Some(2), "{backend}: the later twin won at ({x}, {y})");
-            if backend == "GPU" {
-                if let Some(i) = id {
-                    counts[i as usize] += 1;
-                }
-            }
-        }
-    }
-    // Outside the overlap of triangles 0 and 1 both backends shade alike. (Inside it even
-    // one backend's render and AOV kernels may resolve a pixel differently: the id AOV is
-    // its own compiled kernel.)
-    let mut worst = 0.0f32;
-    for (x, y) in c.pixels() {
         let (o, d) = c.ray(x, y);
         let p = on_plane_z(o, d, 0.0).unwrap();
-        if !(inside(p, tri(0), -0.05) && inside(p, tri(1), -0.05)) {
+        let (in0, in1) = (inside(p, tri(0)), inside(p, tri(1)));
+        let near_edge = in0.abs() < EDGE || in1.abs() < EDGE;
+        near_edges += near_edge as u32;
+        if in0 > EDGE && in1 > EDGE {
+            overlap += 1;
+            assert_eq!((g, k), (Some(0), Some(0)), "({x}, {y}) lies in the overlap: the lowest id, 0, wins");
+        }
+        if !near_edge {
+            assert_eq!(g, k, "GPU and CPU ids differ at ({x}, {y})");
+        }
+        assert_ne!(g, Some(2), "GPU: the later twin won at ({x}, {y})");
+        if let Some(i) = g {
+            counts[i as usize] += 1;
+        }
+    }
+    let mut worst = 0.0f32;
+    for (x, y) in c.pixels() {
+        if Case::id(&c.gpu_id, x, y) == Case::id(&c.cpu_id, x, y) {
             let (g, k) = (c.gpu.image.get(x, y), c.cpu.image.get(x, y));
             worst = (0..3).map(|i| (g[i] - k[i]).abs()).fold(worst, f32::max);
         }
     }
-    assert!(worst <= 2.0 / 255.0, "GPU and CPU differ by {worst} outside the overlap");
+    assert!(worst <= 2.0 / 255.0, "GPU and CPU differ by {worst} where they see the same triangle");
     let again = renderer().render_aov(&c.scene, &c.opts, Aov::Id, &hidden()).unwrap();
     assert_eq!(crate::common::first_difference(&again.image, &c.gpu_id), None, "a second render differs");
     eprintln!(
-        "hard-case coplanar_triangles: GPU pixels by id {counts:?} (id 2, the twin, never); GPU and CPU pick \
-         apart triangles 0 and 1 at {fights} pixels of their overlap, nowhere else; elsewhere they differ by \
-         {worst:.2e} at most"
+        "hard-case coplanar_triangles: {overlap} pixels in the overlap of triangles 0 and 1, all id 0 on both \
+         backends; GPU pixels by id {counts:?}; GPU = CPU ids at every pixel ({near_edges} within {EDGE:e} of an \
+         edge checked by colour only); colours within {worst:.2e}"
     );
-    assert!(counts[0] > 200 && counts[1] > 200);
+    assert!(overlap > 200 && counts[1] > 100);
 }

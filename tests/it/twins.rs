@@ -8,6 +8,7 @@ use std::any::type_name;
 use std::collections::BTreeMap;
 use std::mem::{offset_of, size_of};
 
+use cuberay::arith::geometry::TIE_CAP;
 use cuberay::arith::{FAR, NO_ID, SHADOW_END_REL};
 use cuberay::coherence::flat::{GpuEntry, GpuFace, GpuOrigin, NO_ORIGIN};
 use cuberay::coherence::walk::{AnyHit, BVH_WALK, UNBOUNDED, WALK_CHUNK};
@@ -127,8 +128,8 @@ fn rust_structs() -> BTreeMap<&'static str, Layout> {
         }),
         twin!(TextureInfo { offset, width, height, flags }),
         twin!(Pending { o, kind, d, spawn, weight, from_prim }),
-        twin!(WalkState { i, iend, j, jend, prim, t, b1, b2 }),
-        twin!(Job { ray, point, walking, pad0, pad1, walk }),
+        twin!(WalkState { i, iend, j, jend, prim, t, b1, b2, window, t_min }),
+        twin!(Job { ray, point, walking, walk }),
         twin!(PassDesc { src, next, shadow, retry, sample, hit, depth, pad1 }),
         twin!(GpuOrigin { n, always_start, always_count, kind }),
         twin!(GpuFace { iu0, iv0, width, height, cell_base, _pad0, _pad1, _pad2 }),
@@ -169,6 +170,10 @@ fn rust_constants() -> BTreeMap<&'static str, Value> {
         ("POINT_UNOWNED", U32(POINT_UNOWNED)),
         ("ACCUM_ONE", F32(ACCUM_ONE)),
         ("WALK_CHUNK", U32(WALK_CHUNK)),
+        ("WALK_START", U32(WALK_START)),
+        ("WALK_RESUME", U32(WALK_RESUME)),
+        ("WALK_RESUME_LOST", U32(WALK_RESUME_LOST)),
+        ("TIE_CAP", F32(TIE_CAP)),
         ("UNBOUNDED", U32(UNBOUNDED)),
         ("BVH_WALK", U32(BVH_WALK)),
         ("ANY_CLEAR", U32(AnyHit::Clear as u32)),
