@@ -12,7 +12,7 @@
 fn eye_job(k: u32) -> Job {
     let point = window_point(params.first_point + k);
     let eye = camera_ray(sample_position(point.x, point.y, pass_desc.sample));
-    let ray = Pending(eye.o, RAY_EYE | (1u << RAY_DEPTH_SHIFT), eye.d, 0.0, vec3<f32>(1.0), NO_ID);
+    let ray = new_pending(eye.o, RAY_EYE | (1u << RAY_DEPTH_SHIFT), eye.d, 0.0, vec3<f32>(1.0), NO_ID);
     return new_job(ray, k | select(POINT_UNOWNED, 0u, point.z != 0u));
 }
 

@@ -50,7 +50,9 @@ fn box_ray(ray: Ray) -> BoxRay {
     }
     let order = 2u * axis + select(0u, 1u, ray.d[axis] < 0.0);
     let d = select(ray.d, vec3<f32>(1e-20), a < vec3<f32>(1e-20));
-    return BoxRay(ray.o, 1.0 / d, BVH_SLACK * max3(abs(ray.o)), order * params.bvh_stride);
+    // An f64 origin rounded to f32 moves by 2⁻²⁴ of its magnitude, far inside BVH_SLACK.
+    let o = vec3<f32>(ray.o);
+    return BoxRay(o, 1.0 / d, BVH_SLACK * max3(abs(o)), order * params.bvh_stride);
 }
 
 // Whether the ray meets node `n`'s box, grown by `r.pad`, at some t in [0, t_far].

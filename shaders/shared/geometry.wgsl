@@ -1,18 +1,11 @@
 // Rays and primitive intersection in f32, the surface at a hit and the spawn offset. Keep in
 // sync with their Rust twins of the same names in src/arith/geometry.rs, closest.rs and
-// spawn.rs. The intersection tests and the hit points compute in `real`: f32, or f64 in the
-// F64 variant (`--precision f64`), from the f32 scene and rays, rounding their answers to
-// f32.
-
-#if F64
-alias real = f64;
-#else
-alias real = f32;
-#endif
-alias vec3r = vec3<real>;
+// spawn.rs. Positions (the primitives, ray origins, hit points) and the intersection
+// arithmetic are `real` (layout.wgsl): f32, or f64 in the F64 variant (`--precision f64`);
+// directions, distances and their error bounds are f32.
 
 struct Ray {
-    o: vec3<f32>,
+    o: vec3r,
     d: vec3<f32>,
     // Watertight triangle test: axis permutation and shear (Woop, Benthin, Wald 2013).
     kx: u32,
@@ -21,7 +14,7 @@ struct Ray {
     shear: vec3<f32>,
 }
 
-fn make_ray(o: vec3<f32>, dir: vec3<f32>) -> Ray {
+fn make_ray(o: vec3r, dir: vec3<f32>) -> Ray {
     let d = normalize(dir);
     let a = abs(d);
     var kz = 2u;
@@ -209,11 +202,11 @@ fn consider(id: u32, best: ptr<function, Closest>, ray: Ray, t_max: f32, ray_kin
 
 #if SPHERES
 // Ray/sphere, Haines' precise form: the discriminant as r² − |f + b·d|².
-fn intersect_sphere(center: vec3<f32>, radius: f32, inside_only: bool, ray: Ray, t_max: f32) -> PrimHit {
+fn intersect_sphere(center: vec3r, radius: real, inside_only: bool, ray: Ray, t_max: f32) -> PrimHit {
     let d = vec3r(ray.d);
-    let f = vec3r(ray.o) - vec3r(center);
+    let f = ray.o - center;
     let b = -dot(f, d);
-    let r2 = real(radius) * real(radius);
+    let r2 = radius * radius;
     let g = f + d * b;
     let disc = r2 - dot(g, g);
     if disc < 0.0 {
@@ -235,23 +228,23 @@ fn intersect_sphere(center: vec3<f32>, radius: f32, inside_only: bool, ray: Ray,
     } else {
         return no_hit();
     }
-    return hit_at(f32(t), sphere_err(t, q, length(f), real(radius), disc));
+    return hit_at(f32(t), sphere_err(t, q, length(f), radius, disc));
 }
 #endif
 
 #if TRIANGLES
 // Ray/triangle, watertight; both sides are hit.
-fn intersect_triangle(p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>, ray: Ray, t_max: f32) -> PrimHit {
+fn intersect_triangle(p0: vec3r, p1: vec3r, p2: vec3r, ray: Ray, t_max: f32) -> PrimHit {
 #if F64
     let dr = vec3r(ray.d);
     let s = vec3r(dr[ray.kx] / dr[ray.kz], dr[ray.ky] / dr[ray.kz], 1.0 / dr[ray.kz]);
 #else
     let s = ray.shear;
 #endif
-    let o = vec3r(ray.o);
-    let a = vec3r(p0) - o;
-    let b = vec3r(p1) - o;
-    let c = vec3r(p2) - o;
+    let o = ray.o;
+    let a = p0 - o;
+    let b = p1 - o;
+    let c = p2 - o;
     let ax = a[ray.kx] - s.x * a[ray.kz];
     let ay = a[ray.ky] - s.y * a[ray.kz];
     let bx = b[ray.kx] - s.x * b[ray.kz];
@@ -324,18 +317,18 @@ fn any_orthonormal(v: vec3r) -> vec3r {
 
 // Ray/cylinder or truncated cone without caps; the discriminant as a difference of
 // squared lengths.
-fn intersect_cylinder(base: vec4<f32>, apex: vec4<f32>, inside_only: bool, ray: Ray, t_max: f32) -> PrimHit {
+fn intersect_cylinder(base: vec4r, apex: vec4r, inside_only: bool, ray: Ray, t_max: f32) -> PrimHit {
     let d = vec3r(ray.d);
-    let v = vec3r(apex.xyz) - vec3r(base.xyz);
+    let v = apex.xyz - base.xyz;
     let height = length(v);
     let axis = v / height;
-    let slope = (real(apex.w) - real(base.w)) / height;
-    let w = vec3r(ray.o) - vec3r(base.xyz);
+    let slope = (apex.w - base.w) / height;
+    let w = ray.o - base.xyz;
     let s0 = dot(w, axis);
     let ds = dot(d, axis);
     let r_o = w - axis * s0;
     let r_d = d - axis * ds;
-    let r0 = real(base.w) + slope * s0;
+    let r0 = base.w + slope * s0;
     let dr = slope * ds;
     let qa = dot(r_d, r_d) - dr * dr;
     let qb = dot(r_o, r_d) - r0 * dr;
@@ -378,8 +371,8 @@ fn intersect_cylinder(base: vec4<f32>, apex: vec4<f32>, inside_only: bool, ray: 
                 continue;
             }
         }
-        let scale = length(w) + height + max(abs(real(base.w)), abs(real(apex.w)));
-        let err = cylinder_err(t, t == t_cq, length(w), length(r_o), length(r_d), r0, dr, slope, real(base.w), qa, q,
+        let scale = length(w) + height + max(abs(base.w), abs(apex.w));
+        let err = cylinder_err(t, t == t_cq, length(w), length(r_o), length(r_d), r0, dr, slope, base.w, qa, q,
             disc, scale);
         return hit_at(f32(t), err);
     }
@@ -414,7 +407,7 @@ fn intersect_prim(p: Prim, ray: Ray, t_max: f32) -> PrimHit {
 
 // The surface at a hit.
 struct Surface {
-    p: vec3<f32>,
+    p: vec3r,
     // Unit geometric normal, outward (not flipped toward the ray).
     ng: vec3<f32>,
     // Unit shading normal on the side of `ng`.
@@ -427,6 +420,12 @@ struct Surface {
 
 fn max3(v: vec3<f32>) -> f32 {
     return max(v.x, max(v.y, v.z));
+}
+
+// The largest magnitude of a position's coordinates, as f32.
+fn magnitude(v: vec3r) -> f32 {
+    let a = abs(v);
+    return f32(max(a.x, max(a.y, a.z)));
 }
 
 #if SHADOWS
@@ -452,15 +451,16 @@ struct ShadowRay {
     from_light: bool,
 }
 
-fn shadow_ray(q: vec3<f32>, to_light: vec3<f32>, light: u32) -> ShadowRay {
+fn shadow_ray(q: vec3r, to_light: vec3<f32>, light: u32) -> ShadowRay {
     let l = lights[light];
     if l.kind != LIGHT_DIRECTIONAL {
-        let v = q - l.position;
+        let lp = vec3r(l.position);
+        let v = vec3<f32>(q - lp);
         let dist = length(v);
         if !(dist > 0.0) {
-            return ShadowRay(make_ray(l.position, to_light), 0.0, 0.0, true, true);
+            return ShadowRay(make_ray(lp, to_light), 0.0, 0.0, true, true);
         }
-        let ray = make_ray(l.position, v);
+        let ray = make_ray(lp, v);
         return ShadowRay(ray, dist * (1.0 - SHADOW_END_REL), dist, max3(abs(ray.d)) == 0.0, true);
     }
     let ray = make_ray(q, to_light);
@@ -477,41 +477,41 @@ fn surface(prim: Prim, ray: Ray, h: PrimHit) -> Surface {
     var s: Surface;
     s.has_uv = false;
     s.uv = vec2<f32>(0.0);
-    let o = vec3r(ray.o);
+    let o = ray.o;
     let d = vec3r(ray.d);
     switch prim.kind {
 #if SPHERES
         case KIND_SPHERE: {
-            let c = vec3r(prim.a.xyz);
+            let c = prim.a.xyz;
             let v = o + d * real(h.t) - c;
             let ng = v / length(v);
             s.ng = vec3<f32>(ng);
-            s.p = vec3<f32>(c + ng * real(prim.a.w));
+            s.p = c + ng * prim.a.w;
             s.ns = s.ng;
-            s.scale = max(max3(abs(s.p)), max3(abs(prim.a.xyz)) + prim.a.w);
+            s.scale = max(magnitude(s.p), magnitude(c) + f32(prim.a.w));
         }
 #endif
 #if CYLINDERS
         case KIND_CYLINDER: {
-            let base = vec3r(prim.a.xyz);
-            let v = vec3r(prim.b.xyz) - base;
+            let base = prim.a.xyz;
+            let v = prim.b.xyz - base;
             let height = length(v);
             let axis = v / height;
-            let slope = (real(prim.b.w) - real(prim.a.w)) / height;
+            let slope = (prim.b.w - prim.a.w) / height;
             let w = o + d * real(h.t) - base;
             let along = dot(w, axis);
             let radial = w - axis * along;
             s.ng = vec3<f32>(cone_normal(axis, slope, radial));
             s.ns = s.ng;
             let len = length(radial);
-            let radius = real(prim.a.w) + slope * along;
+            let radius = prim.a.w + slope * along;
             if len > 0.0 {
-                s.p = vec3<f32>(base + axis * along + radial * (radius / len));
+                s.p = base + axis * along + radial * (radius / len);
             } else {
-                s.p = vec3<f32>(base + w);
+                s.p = base + w;
             }
-            let extent = max(max3(abs(prim.a.xyz)), max3(abs(prim.b.xyz)));
-            s.scale = max(max3(abs(s.p)), extent);
+            let extent = max(magnitude(prim.a.xyz), magnitude(prim.b.xyz));
+            s.scale = max(magnitude(s.p), extent);
         }
 #endif
         default: {
@@ -519,8 +519,8 @@ fn surface(prim: Prim, ray: Ray, h: PrimHit) -> Surface {
             let b1 = real(h.b1);
             let b2 = real(h.b2);
             let b0 = 1.0 - b1 - b2;
-            s.p = vec3<f32>(vec3r(prim.a.xyz) * b0 + vec3r(prim.b.xyz) * b1 + vec3r(prim.c.xyz) * b2);
-            s.ng = normalize(cross(prim.b.xyz - prim.a.xyz, prim.c.xyz - prim.a.xyz));
+            s.p = prim.a.xyz * b0 + prim.b.xyz * b1 + prim.c.xyz * b2;
+            s.ng = vec3<f32>(normalize(cross(prim.b.xyz - prim.a.xyz, prim.c.xyz - prim.a.xyz)));
             s.ns = s.ng;
             if (prim.flags & FLAG_NORMALS) != 0u {
                 let at = tri_attrs[prim.attr];
@@ -537,8 +537,8 @@ fn surface(prim: Prim, ray: Ray, h: PrimHit) -> Surface {
                 s.uv = at.uv01.xy * f32(b0) + at.uv01.zw * h.b1 + at.uv2.xy * h.b2;
                 s.has_uv = true;
             }
-            let extent = max(max3(abs(prim.a.xyz)), max(max3(abs(prim.b.xyz)), max3(abs(prim.c.xyz))));
-            s.scale = max(max3(abs(s.p)), extent);
+            let extent = max(magnitude(prim.a.xyz), max(magnitude(prim.b.xyz), magnitude(prim.c.xyz)));
+            s.scale = max(magnitude(s.p), extent);
 #endif
         }
     }
@@ -549,9 +549,9 @@ fn surface(prim: Prim, ray: Ray, h: PrimHit) -> Surface {
 // geometric normal to the side `dir` goes to, by `s.scale * params.spawn_rel +
 // params.spawn_abs` (the render's spawn policy; by default 2⁻²¹ of the magnitude of the
 // numbers behind the hit point, 4 f32 ulps of that magnitude: kernel::spawn says why).
-fn spawn_origin(s: Surface, dir: vec3<f32>) -> vec3<f32> {
+fn spawn_origin(s: Surface, dir: vec3<f32>) -> vec3r {
     let side = select(-s.ng, s.ng, dot(dir, s.ng) >= 0.0);
-    return s.p + side * spawn_offset(s);
+    return s.p + vec3r(side) * real(spawn_offset(s));
 }
 
 // How far `spawn_origin` moves a ray's origin off surface `s`.

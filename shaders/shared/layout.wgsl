@@ -59,9 +59,36 @@ struct Params {
     bvh_inline: u32,
 }
 
+// The precision of positions and of the intersection arithmetic: f32, or f64 in the F64
+// variant (`--precision f64`), where the primitives' coordinates and the queued rays'
+// origins are f64 too, so that nothing on a ray's way from one hit to the next is rounded
+// to f32 but its direction. Structs holding `real` have one Rust twin per layout: `Prim`,
+// `Pending` and `Job`, and `Prim64`, `Pending64` and `Job64` (named so here, and aliased).
+#if F64
+alias real = f64;
+#else
+alias real = f32;
+#endif
+alias vec3r = vec3<real>;
+alias vec4r = vec4<real>;
+
 // One primitive (kind KIND_*). Sphere: a = (centre, radius). Triangle: a, b, c = vertices.
 // Cylinder: a = (base, base radius), b = (apex, apex radius). `attr` indexes `tri_attrs`
 // (triangles with normals or texture coordinates); `flags` holds FLAG_* bits.
+#if F64
+struct Prim64 {
+    a: vec4<f64>,
+    b: vec4<f64>,
+    c: vec4<f64>,
+    kind: u32,
+    material: u32,
+    flags: u32,
+    attr: u32,
+    // A vec4<f64> aligns the struct to 32 bytes: the padding, spelt out for the twin.
+    pad: array<u32, 4>,
+}
+alias Prim = Prim64;
+#else
 struct Prim {
     a: vec4<f32>,
     b: vec4<f32>,
@@ -71,6 +98,7 @@ struct Prim {
     flags: u32,
     attr: u32,
 }
+#endif
 
 struct TriAttr {
     n0: vec4<f32>,
@@ -120,20 +148,41 @@ struct TextureInfo {
 
 // A ray of a grid point's ray tree, with the weight its radiance counts with. A shadow ray
 // (kind RAY_SHADOW) keeps its light's index in place of the depth and, in `weight`, what
-// the light adds unless blocked.
-struct Pending {
-    o: vec3<f32>,
-    // Ray kind (bits 0-1, RAY_KIND_MASK); RAY_SKIP_FROM: `from_prim` need not be tested
-    // (the ray leaves a triangle, or a sphere outwards); from bit RAY_DEPTH_SHIFT on, the
-    // ray's depth (the eye ray: 1), or a shadow job's light (`job_depth`).
+// the light adds unless blocked. Fields: `kind`: the ray kind (bits 0-1, RAY_KIND_MASK);
+// RAY_SKIP_FROM: `from_prim` need not be tested (the ray leaves a triangle, or a sphere
+// outwards); from bit RAY_DEPTH_SHIFT on, the ray's depth (the eye ray: 1), or a shadow
+// job's light (`job_depth`). `spawn`: how far `o` was moved off the surface it leaves (0 for
+// the eye): a hit nearer than SELF_HIT_SPAWNS of these is counted as a self-hit.
+// `from_prim`: the primitive the ray leaves (the eye: 0xffffffff).
+#if F64
+struct Pending64 {
+    o: vec3<f64>,
     kind: u32,
+    pad0: u32,
     d: vec3<f32>,
-    // How far `o` was moved off the surface it leaves (0 for the eye): a hit nearer than
-    // SELF_HIT_SPAWNS of these is counted as a self-hit.
     spawn: f32,
     weight: vec3<f32>,
-    // The primitive the ray leaves (the eye: 0xffffffff).
     from_prim: u32,
+}
+alias Pending = Pending64;
+#else
+struct Pending {
+    o: vec3<f32>,
+    kind: u32,
+    d: vec3<f32>,
+    spawn: f32,
+    weight: vec3<f32>,
+    from_prim: u32,
+}
+#endif
+
+// A new pending ray.
+fn new_pending(o: vec3r, kind: u32, d: vec3<f32>, spawn: f32, weight: vec3<f32>, from_prim: u32) -> Pending {
+#if F64
+    return Pending64(o, kind, 0u, d, spawn, weight, from_prim);
+#else
+    return Pending(o, kind, d, spawn, weight, from_prim);
+#endif
 }
 
 // The deepest ray tree the kernels trace (--max-depth, checked on the CPU).
@@ -181,12 +230,24 @@ const WALK_RESUME_LOST: u32 = 2u;
 // whose radiance it adds to (bit POINT_UNOWNED set: the point lies outside the part of the
 // image the window owns, and its rays are not counted), and its walk when a pass ended it
 // unfinished (`walking` not WALK_START).
+#if F64
+struct Job64 {
+    ray: Pending64,
+    point: u32,
+    walking: u32,
+    walk: WalkState,
+    // Pending64 aligns the struct to 32 bytes: the padding, spelt out for the twin.
+    pad: array<u32, 4>,
+}
+alias Job = Job64;
+#else
 struct Job {
     ray: Pending,
     point: u32,
     walking: u32,
     walk: WalkState,
 }
+#endif
 
 // What one pass of the wavefront kernels does, copied into `pass_desc` before its dispatch:
 // the queue it works through (`src`), where the jobs it makes go (`hit`: rays whose nearest
@@ -493,7 +554,12 @@ fn push_job(q: u32, job: Job) {
 
 // A new job for ray `ray` of tile point `point` (its walk not started).
 fn new_job(ray: Pending, point: u32) -> Job {
-    return Job(ray, point, WALK_START, WalkState(0u, 0u, 0u, 0u, NO_ID, 0.0, 0.0, 0.0, 0.0, 0.0));
+    let walk = WalkState(0u, 0u, 0u, 0u, NO_ID, 0.0, 0.0, 0.0, 0.0, 0.0);
+#if F64
+    return Job64(ray, point, WALK_START, walk, array<u32, 4>(0u, 0u, 0u, 0u));
+#else
+    return Job(ray, point, WALK_START, walk);
+#endif
 }
 
 // The radiance scale of `accum`: 2^32 fixed-point units per unit.

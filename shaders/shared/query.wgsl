@@ -137,7 +137,7 @@ fn occlusion(sr: ShadowRay, any: AnyHit, w: Walk) -> Occlusion {
 // `from_prim` (the one shadow ray of `shadow_ray`, geometry.wgsl, whatever the accelerator),
 // when its walk is short enough to trace at the hit (`walk_inline`); ANY_UNFINISHED,
 // without walking on, when it is not: the shadow ray becomes a job.
-fn occluded_short(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> Occlusion {
+fn occluded_short(q: vec3r, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32) -> Occlusion {
     let sr = shadow_ray(q, to_light, light);
     var w = Walk(0u, 0u, 0u, 0u);
     if sr.empty {
@@ -149,7 +149,7 @@ fn occluded_short(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32,
 
 // Whether light `light` is blocked from `q`, for a shadow job, in bounded passes: `walking`
 // 0 starts the walk, 1 resumes it from `state`.
-fn occluded_step(q: vec3<f32>, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32, walking: u32,
+fn occluded_step(q: vec3r, to_light: vec3<f32>, light: u32, from_prim: u32, skip: u32, walking: u32,
     state: WalkState) -> Occlusion {
     let sr = shadow_ray(q, to_light, light);
     var w = Walk(0u, 0u, 0u, 0u);

@@ -36,7 +36,7 @@ fn camera_ray(xy: vec2<f32>) -> Ray {
     let sx = (xy.x - params.half_w) * params.cam_scale;
     let sy = (params.half_h - xy.y) * params.cam_scale;
     if params.ortho != 0u {
-        return make_ray(params.cam_right * sx + params.cam_up * sy, params.cam_forward);
+        return make_ray(vec3r(params.cam_right * sx + params.cam_up * sy), params.cam_forward);
     }
-    return make_ray(vec3<f32>(0.0), params.cam_forward + params.cam_right * sx + params.cam_up * sy);
+    return make_ray(vec3r(0.0), params.cam_forward + params.cam_right * sx + params.cam_up * sy);
 }

@@ -12,7 +12,7 @@ struct Incidence {
 }
 
 // How light `l` reaches point `p`; `ok` false where it contributes nothing.
-fn incidence(l: Light, p: vec3<f32>) -> Incidence {
+fn incidence(l: Light, p: vec3r) -> Incidence {
     var inc: Incidence;
     inc.ok = false;
     inc.positional = l.kind != LIGHT_DIRECTIONAL;
@@ -22,7 +22,7 @@ fn incidence(l: Light, p: vec3<f32>) -> Incidence {
         inc.ok = max3(l.radiance) > 0.0;
         return inc;
     }
-    let to = l.position - p;
+    let to = vec3<f32>(vec3r(l.position) - p);
     let d = length(to);
     if !(d > 0.0) {
         return inc;
@@ -130,7 +130,7 @@ fn push_shadow_rays(id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>
         let r = occluded_short(o, lit.dir, i, id, skip);
         if r.answer == ANY_UNFINISHED {
             let flags = select(0u, RAY_SKIP_FROM, skip != NO_ID);
-            let ray = Pending(o, RAY_SHADOW | flags | (i << RAY_DEPTH_SHIFT), lit.dir, spawn, weight * lit.c, id);
+            let ray = new_pending(o, RAY_SHADOW | flags | (i << RAY_DEPTH_SHIFT), lit.dir, spawn, weight * lit.c, id);
             push_job(pass_desc.shadow, new_job(ray, point));
             continue;
         }
@@ -248,7 +248,7 @@ fn shade_hit(job: Job) {
         }
         if refracted.ok {
             let flags = select(0u, RAY_SKIP_FROM, leave_skip(h.prim, refracted.dir, s.ng) != NO_ID);
-            let child = Pending(spawn_origin(s, refracted.dir),
+            let child = new_pending(spawn_origin(s, refracted.dir),
                 RAY_REFRACT | flags | ((depth + 1u) << RAY_DEPTH_SHIFT), refracted.dir, spawn_offset(s),
                 pending.weight * transmitted, h.prim);
             push_job(pass_desc.next, new_job(child, job.point));
@@ -260,7 +260,7 @@ fn shade_hit(job: Job) {
                 r = reflect_dir(d, ng);
             }
             let flags = select(0u, RAY_SKIP_FROM, leave_skip(h.prim, r, s.ng) != NO_ID);
-            let child = Pending(spawn_origin(s, r), RAY_REFLECT | flags | ((depth + 1u) << RAY_DEPTH_SHIFT), r,
+            let child = new_pending(spawn_origin(s, r), RAY_REFLECT | flags | ((depth + 1u) << RAY_DEPTH_SHIFT), r,
                 spawn_offset(s), pending.weight * weight, h.prim);
             push_job(pass_desc.next, new_job(child, job.point));
         }

@@ -26,6 +26,11 @@ use crate::scene::{LightKind, Scene};
 /// touches the surface lies within the self-hit counter's reach, and leak light at contacts.
 pub const SPAWN_OFFSET_REL: f32 = 1.0 / 2_097_152.0;
 
+/// The relative offset of [`SpawnPolicy::Scaled`] in the F64 kernel variant, `2⁻⁵⁰`: the
+/// same 4 ulps of the magnitude behind the hit point, of f64 (its primitives, hit points and
+/// queued ray origins are f64 end to end, so nothing rounds them to f32).
+pub const SPAWN_OFFSET_REL_F64: f32 = 1.0 / 1_125_899_906_842_624.0;
+
 /// How far spawned rays start from their surface.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum SpawnPolicy {
@@ -46,6 +51,15 @@ impl SpawnPolicy {
             SpawnPolicy::Scaled => (SPAWN_OFFSET_REL, 0.0),
             SpawnPolicy::Relative(r) => (r, 0.0),
             SpawnPolicy::Fixed(e) => (0.0, e),
+        }
+    }
+
+    /// [`SpawnPolicy::rel_abs`] for the F64 kernel variant: `Scaled` takes
+    /// [`SPAWN_OFFSET_REL_F64`]; an offset the user set stays as set.
+    pub fn rel_abs_f64(self) -> (f32, f32) {
+        match self {
+            SpawnPolicy::Scaled => (SPAWN_OFFSET_REL_F64, 0.0),
+            other => other.rel_abs(),
         }
     }
 }

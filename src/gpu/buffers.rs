@@ -7,7 +7,7 @@ use super::GpuContext;
 use crate::coherence::FlatTables;
 use crate::error::{Error, Result};
 use crate::layout::counters::COUNTER_BYTES;
-use crate::layout::{Job, Packed, Params, PassDesc, QUEUE_SHADOW, QUEUE_WORDS, WORKGROUP};
+use crate::layout::{Packed, Params, PassDesc, QUEUE_SHADOW, QUEUE_WORDS, WORKGROUP};
 
 /// A packed scene's buffers on the GPU with their bind group (the bindings of
 /// `shaders/shared/layout.wgsl`, `shaders/shared/tables.wgsl` and `shaders/shared/bvh.wgsl`),
@@ -107,7 +107,7 @@ pub fn upload(
     queues: Option<QueueSizes>,
 ) -> Result<SceneBuffers> {
     let device = &ctx.device;
-    let job_bytes = std::mem::size_of::<Job>() as u64;
+    let job_bytes = packed.job_bytes();
     let per_point = queues.map_or(16, |q| (q.jobs_per_point() * job_bytes).max(24));
     let tile = fit_tile(tile, per_point, &device.limits());
     let ray_queue = queues.map_or(0, |q| tile * q.rays_per_point as u64) as u32;
@@ -115,7 +115,7 @@ pub fn upload(
     let jobs_bytes = (QUEUE_SHADOW as u64 * ray_queue as u64 + 3 * shadow_queue as u64) * job_bytes;
     let size = |bytes: usize| bytes as u64;
     let mut sizes = vec![
-        ("prims", size(std::mem::size_of_val(packed.prims.as_slice()))),
+        ("prims", size(packed.prim_bytes().len())),
         ("tri_attrs", size(std::mem::size_of_val(packed.tri_attrs.as_slice()))),
         ("texels", size(std::mem::size_of_val(packed.texels.as_slice()))),
         ("out", tile * 16),
@@ -150,7 +150,7 @@ pub fn upload(
         buffer
     };
     let none = wgpu::BufferUsages::empty();
-    let prims = storage("prims", bytemuck::cast_slice(&packed.prims), none);
+    let prims = storage("prims", packed.prim_bytes(), none);
     let materials = storage("materials", bytemuck::cast_slice(&packed.materials), none);
     let lights = storage("lights", bytemuck::cast_slice(&packed.lights), none);
     let attrs = storage("tri_attrs", bytemuck::cast_slice(&packed.tri_attrs), none);

@@ -195,6 +195,9 @@ impl GpuRenderer {
         let pipelines = self.pipelines(&stages, variant)?;
         let start = Instant::now();
         let mut packed = pack(scene, opts.width, opts.height, opts.spawn);
+        if variant.f64 {
+            packed.use_f64(scene, opts.spawn);
+        }
         if variant.queries == Queries::Bvh {
             packed = packed.with_bvh(scene);
         }

@@ -24,6 +24,9 @@ fn v4(v: DVec3, w: f64) -> [f32; 4] {
 /// A scene packed for the GPU, re-centred on the camera's eye.
 pub struct Packed {
     pub prims: Vec<Prim>,
+    /// The primitives in f64, for the F64 kernel variant ([`Packed::use_f64`]); empty
+    /// otherwise. The kernels get these in place of `prims`.
+    pub prims64: Vec<Prim64>,
     pub tri_attrs: Vec<TriAttr>,
     pub materials: Vec<Material>,
     pub lights: Vec<Light>,
@@ -45,6 +48,36 @@ impl Packed {
         self
     }
 
+    /// Readies `self` (packed from `scene` under `spawn`) for the F64 kernel variant
+    /// (`--precision f64`): the primitives in f64, and the spawn offset scaled to f64's
+    /// rounding ([`SpawnPolicy::rel_abs_f64`]). The BVH's boxes and the candidate tables
+    /// stay as they are: both are conservative for the f64 primitives (see
+    /// `docs/architecture.md`, "Precision").
+    pub fn use_f64(&mut self, scene: &Scene, spawn: SpawnPolicy) {
+        let eye = scene.camera.eye;
+        self.prims64 =
+            scene.primitives.iter().zip(&self.prims).map(|(p, n)| wide_prim(p, eye, n.attr)).collect();
+        (self.params.spawn_rel, self.params.spawn_abs) = spawn.rel_abs_f64();
+    }
+
+    /// The primitives as the kernels read them: f64 after [`Packed::use_f64`], else f32.
+    pub fn prim_bytes(&self) -> &[u8] {
+        if self.prims64.is_empty() {
+            bytemuck::cast_slice(&self.prims)
+        } else {
+            bytemuck::cast_slice(&self.prims64)
+        }
+    }
+
+    /// The bytes of one queued ray ([`Job`], or [`Job64`] after [`Packed::use_f64`]).
+    pub fn job_bytes(&self) -> u64 {
+        if self.prims64.is_empty() {
+            std::mem::size_of::<Job>() as u64
+        } else {
+            std::mem::size_of::<Job64>() as u64
+        }
+    }
+
     /// [`Packed::with_bvh`] in place.
     pub fn add_bvh(&mut self, scene: &Scene) {
         let bvh = pack_bvh(scene);
@@ -62,51 +95,25 @@ pub fn pack(scene: &Scene, width: u32, height: u32, spawn: SpawnPolicy) -> Packe
     let prims = scene
         .primitives
         .iter()
-        .map(|p| match p {
-            Primitive::Sphere(s) => Prim {
-                a: v4(s.center - eye, s.radius),
-                kind: KIND_SPHERE,
-                material: s.material,
-                flags: if s.inside_only { FLAG_INSIDE_ONLY } else { 0 },
-                ..Prim::default()
-            },
-            Primitive::Triangle(t) => {
-                let mut flags = 0;
-                let mut attr = 0;
+        .map(|p| {
+            let mut attr = 0;
+            if let Primitive::Triangle(t) = p {
                 if t.n.is_some() || t.uv.is_some() {
                     let mut a = TriAttr::default();
                     if let Some(n) = t.n {
-                        flags |= FLAG_NORMALS;
                         a.n0 = v4(n[0], 0.0);
                         a.n1 = v4(n[1], 0.0);
                         a.n2 = v4(n[2], 0.0);
                     }
                     if let Some(uv) = t.uv {
-                        flags |= FLAG_UVS;
                         a.uv01 = [uv[0].x as f32, uv[0].y as f32, uv[1].x as f32, uv[1].y as f32];
                         a.uv2 = [uv[2].x as f32, uv[2].y as f32, 0.0, 0.0];
                     }
                     attr = tri_attrs.len() as u32;
                     tri_attrs.push(a);
                 }
-                Prim {
-                    a: v4(t.p[0] - eye, 0.0),
-                    b: v4(t.p[1] - eye, 0.0),
-                    c: v4(t.p[2] - eye, 0.0),
-                    kind: KIND_TRIANGLE,
-                    material: t.material,
-                    flags,
-                    attr,
-                }
             }
-            Primitive::Cylinder(c) => Prim {
-                a: v4(c.base - eye, c.base_radius),
-                b: v4(c.apex - eye, c.apex_radius),
-                kind: KIND_CYLINDER,
-                material: c.material,
-                flags: if c.inside_only { FLAG_INSIDE_ONLY } else { 0 },
-                ..Prim::default()
-            },
+            Prim::from(&wide_prim(p, eye, attr))
         })
         .collect();
     let materials = scene
@@ -193,7 +200,67 @@ pub fn pack(scene: &Scene, width: u32, height: u32, spawn: SpawnPolicy) -> Packe
         spawn_abs: spawn.rel_abs().1,
         ..Params::default()
     };
-    Packed { prims, tri_attrs, materials, lights, texture_infos, texels, params, bvh: None }
+    Packed {
+        prims,
+        prims64: Vec::new(),
+        tri_attrs,
+        materials,
+        lights,
+        texture_infos,
+        texels,
+        params,
+        bvh: None,
+    }
+}
+
+/// Primitive `p` re-centred on `eye`, in f64, its triangle attributes at `attr`: the one
+/// packing of a primitive, which [`Prim`] rounds to f32.
+fn wide_prim(p: &Primitive, eye: DVec3, attr: u32) -> Prim64 {
+    let w4 = |v: DVec3, w: f64| [v.x, v.y, v.z, w];
+    let inside = |inside_only: bool| if inside_only { FLAG_INSIDE_ONLY } else { 0 };
+    match p {
+        Primitive::Sphere(s) => Prim64 {
+            a: w4(s.center - eye, s.radius),
+            kind: KIND_SPHERE,
+            material: s.material,
+            flags: inside(s.inside_only),
+            ..Prim64::default()
+        },
+        Primitive::Triangle(t) => Prim64 {
+            a: w4(t.p[0] - eye, 0.0),
+            b: w4(t.p[1] - eye, 0.0),
+            c: w4(t.p[2] - eye, 0.0),
+            kind: KIND_TRIANGLE,
+            material: t.material,
+            flags: if t.n.is_some() { FLAG_NORMALS } else { 0 } | if t.uv.is_some() { FLAG_UVS } else { 0 },
+            attr,
+            ..Prim64::default()
+        },
+        Primitive::Cylinder(c) => Prim64 {
+            a: w4(c.base - eye, c.base_radius),
+            b: w4(c.apex - eye, c.apex_radius),
+            kind: KIND_CYLINDER,
+            material: c.material,
+            flags: inside(c.inside_only),
+            ..Prim64::default()
+        },
+    }
+}
+
+impl From<&Prim64> for Prim {
+    /// Rounds the coordinates to f32.
+    fn from(p: &Prim64) -> Prim {
+        let narrow = |v: [f64; 4]| v.map(|x| x as f32);
+        Prim {
+            a: narrow(p.a),
+            b: narrow(p.b),
+            c: narrow(p.c),
+            kind: p.kind,
+            material: p.material,
+            flags: p.flags,
+            attr: p.attr,
+        }
+    }
 }
 
 /// `base` (the scene's part of the params, from [`pack`]) with what a render job sets: the

@@ -84,6 +84,22 @@ pub struct Prim {
     pub attr: u32,
 }
 
+/// [`Prim`] in the F64 kernel variant (`--precision f64`; WGSL `Prim64`): the coordinates in
+/// f64, and the 32-byte alignment of a `vec4<f64>` spelt out as `pad`. 128 bytes, against
+/// [`Prim`]'s 64.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct Prim64 {
+    pub a: [f64; 4],
+    pub b: [f64; 4],
+    pub c: [f64; 4],
+    pub kind: u32,
+    pub material: u32,
+    pub flags: u32,
+    pub attr: u32,
+    pub pad: [u32; 4],
+}
+
 /// Per-vertex normals and texture coordinates of a triangle (WGSL `TriAttr`, keep in sync with
 /// `shaders/shared/layout.wgsl`).
 #[repr(C)]
@@ -162,6 +178,21 @@ pub struct Pending {
     pub from_prim: u32,
 }
 
+/// [`Pending`] in the F64 kernel variant (WGSL `Pending64`): the origin in f64, so that a
+/// ray leaving a surface starts where the f64 arithmetic put it; `pad0` is where WGSL's
+/// `vec3<f32>` alignment puts `d`. 64 bytes, against [`Pending`]'s 48.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct Pending64 {
+    pub o: [f64; 3],
+    pub kind: u32,
+    pub pad0: u32,
+    pub d: [f32; 3],
+    pub spawn: f32,
+    pub weight: [f32; 3],
+    pub from_prim: u32,
+}
+
 /// The deepest ray tree the kernels trace (WGSL `MAX_DEPTH`).
 pub const MAX_DEPTH: u32 = 16;
 
@@ -202,6 +233,18 @@ pub struct Job {
     pub point: u32,
     pub walking: u32,
     pub walk: WalkState,
+}
+
+/// [`Job`] in the F64 kernel variant (WGSL `Job64`), with the 32-byte alignment of
+/// [`Pending64`] spelt out as `pad`. 128 bytes, against [`Job`]'s 96.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct Job64 {
+    pub ray: Pending64,
+    pub point: u32,
+    pub walking: u32,
+    pub walk: WalkState,
+    pub pad: [u32; 4],
 }
 
 /// One pass of the wavefront kernels (WGSL `PassDesc`, keep in sync with

@@ -24,7 +24,7 @@ use crate::gpu::kernels::compute_pipeline;
 use crate::gpu::schedule::{Pacing, Pipelines, Progress, Schedule, WavePlan};
 use crate::gpu::shaders::{Kernel, Queries, Stage, Variant};
 use crate::gpu::{self, GpuRenderer, SceneBuffers};
-use crate::job::{grid_image, RenderOptions};
+use crate::job::{grid_image, Precision, RenderOptions};
 use crate::layout::budget::{retry_passes, tile_points, MAX_DEPTH, TESTS_PER_DISPATCH};
 use crate::layout::{job_params, pack, Packed, Params};
 use crate::output::Image;
@@ -135,8 +135,19 @@ fn variant(
     max_depth: u32,
     queries: Queries,
 ) -> Variant {
-    let v = Variant::for_effects(toggles.apply(scene.effects()), max_depth).with_queries(queries);
+    let v = Variant::for_effects(toggles.apply(scene.effects()), max_depth)
+        .with_queries(queries)
+        .with_f64(opts.precision == Precision::F64);
     GpuRenderer::for_scene(scene, opts, v)
+}
+
+/// `scene` packed for a `w`×`h` image under `opts` (in f64 for `--precision f64`).
+fn pack_scene(scene: &Scene, opts: &RenderOptions, w: u32, h: u32) -> Packed {
+    let mut packed = pack(scene, w, h, opts.spawn);
+    if opts.precision == Precision::F64 {
+        packed.use_f64(scene, opts.spawn);
+    }
+    packed
 }
 
 impl Session {
@@ -150,7 +161,13 @@ impl Session {
         limit: u32,
     ) -> Result<Session> {
         gpu::check(&scene, &opts)?;
-        let mut packed = pack(&scene, opts.width, opts.height, opts.spawn);
+        if opts.precision == Precision::F64 && !gpu.ctx.f64 {
+            return Err(Error::Options(format!(
+                "--precision f64 needs 64-bit floats in shaders (SHADER_F64), which {} does not offer",
+                gpu.ctx.info.name
+            )));
+        }
+        let mut packed = pack_scene(&scene, &opts, opts.width, opts.height);
         // Tables for every effect the scene has at any depth, so that toggling one back on
         // or deepening the trees needs none.
         let all = GpuRenderer::variant(scene.effects(), MAX_DEPTH, opts.accel);
@@ -281,7 +298,7 @@ impl Session {
         if let Some(mut tables) = self.tables.take() {
             // The eye's table is rebuilt (the light and surface tables kept while they hold)
             // and uploaded with the re-centred scene.
-            packed = pack(&self.scene, w, h, self.opts.spawn);
+            packed = pack_scene(&self.scene, &self.opts, w, h);
             let all = Variant::for_effects(self.scene.effects(), MAX_DEPTH).with_queries(Queries::Tables);
             let params = GpuRenderer::variant_build_params(&self.scene, &self.opts, all);
             let eye_only = match tables.rebuild_eye(&self.scene, &params) {
@@ -308,7 +325,7 @@ impl Session {
             self.rebind();
         } else if self.queries == Queries::Bvh {
             // The BVH is rebuilt over the re-centred scene (in milliseconds) and uploaded with it.
-            packed = pack(&self.scene, w, h, self.opts.spawn).with_bvh(&self.scene);
+            packed = pack_scene(&self.scene, &self.opts, w, h).with_bvh(&self.scene);
             self.walks = gpu::walk_bounds(None, &packed);
             self.gpu.check_loop_budget(&self.scene, self.walks.as_ref(), Some(MAX_DEPTH))?;
             self.buffers = self.upload(&mut packed, None)?;
@@ -316,11 +333,11 @@ impl Session {
         } else {
             // Brute force: only the geometry moves (textures do not depend on the eye).
             let textures = std::mem::take(&mut self.scene.textures);
-            packed = pack(&self.scene, w, h, self.opts.spawn);
+            packed = pack_scene(&self.scene, &self.opts, w, h);
             self.scene.textures = textures;
             let queue = &self.gpu.ctx.queue;
             if !packed.prims.is_empty() {
-                queue.write_buffer(&self.buffers.prims, 0, bytemuck::cast_slice(&packed.prims));
+                queue.write_buffer(&self.buffers.prims, 0, packed.prim_bytes());
             }
             if !packed.lights.is_empty() {
                 queue.write_buffer(&self.buffers.lights, 0, bytemuck::cast_slice(&packed.lights));

@@ -8,7 +8,7 @@ use std::process::{Child, Command, Stdio};
 use std::sync::Arc;
 
 use cuberay::gpu::GpuRenderer;
-use cuberay::job::RenderOptions;
+use cuberay::job::{Precision, RenderOptions};
 use cuberay::load;
 use cuberay::preview::session::{Session, Toggles};
 use cuberay::scene::Camera;
@@ -29,35 +29,39 @@ fn max_abs(a: &cuberay::output::Image, b: &cuberay::output::Image) -> f32 {
 }
 
 /// After N passes the session holds the headless render's N samples; after a camera move
-/// (the eye-dependent rebuild) it renders what the headless renderer renders from there.
+/// (the eye-dependent rebuild) it renders what the headless renderer renders from there. In
+/// f32 and with `--precision f64` (whose primitives the rebuild packs in f64 again).
 #[test]
 fn session_converges_to_the_headless_render() {
     let gpu = Arc::new(GpuRenderer::new().expect("a GPU adapter (run `bash .ci/setup`)"));
     let scene = load::showcase().unwrap().scene;
-    let o = opts(40, 30, 5);
-    let reference = gpu.render(&scene, &o, &ProgressBar::hidden()).unwrap().image;
-    let mut s = Session::new(gpu.clone(), scene.clone(), o.clone(), Toggles::default(), o.spp).unwrap();
-    s.finish().unwrap();
-    assert_eq!(s.passes(), 5);
-    let img = s.image().unwrap();
-    let d = max_abs(&reference, &img);
-    assert!(d < 1e-4, "session differs from the headless render by {d}");
-    // Not trivially equal: something was rendered.
-    assert!(img.pixels.iter().any(|p| p[0] > 0.05), "the image is black");
+    for precision in [Precision::F32, Precision::F64] {
+        let o = RenderOptions { precision, ..opts(40, 30, 5) };
+        let reference = gpu.render(&scene, &o, &ProgressBar::hidden()).unwrap().image;
+        let mut s = Session::new(gpu.clone(), scene.clone(), o.clone(), Toggles::default(), o.spp).unwrap();
+        s.finish().unwrap();
+        assert_eq!(s.passes(), 5);
+        let img = s.image().unwrap();
+        let d = max_abs(&reference, &img);
+        assert!(d < 1e-4, "{precision:?}: session differs from the headless render by {d}");
+        // Not trivially equal: something was rendered.
+        assert!(img.pixels.iter().any(|p| p[0] > 0.05), "{precision:?}: the image is black");
 
-    // Move the eye: the session restarts and matches a headless render from the new eye.
-    let c = &scene.camera;
-    let moved =
-        Camera::from_basis(c.eye + c.right * 0.7 - c.forward * 0.5, c.forward, c.up, c.projection).unwrap();
-    s.set_camera(moved.clone());
-    assert_eq!(s.passes(), 0);
-    s.finish().unwrap();
-    let mut there = scene.clone();
-    there.camera = moved;
-    let reference2 = gpu.render(&there, &o, &ProgressBar::hidden()).unwrap().image;
-    let d = max_abs(&reference2, &s.image().unwrap());
-    assert!(d < 1e-4, "after the camera move: differs by {d}");
-    assert!(max_abs(&reference, &reference2) > 0.05, "the move changed nothing");
+        // Move the eye: the session restarts and matches a headless render from the new eye.
+        let c = &scene.camera;
+        let moved =
+            Camera::from_basis(c.eye + c.right * 0.7 - c.forward * 0.5, c.forward, c.up, c.projection)
+                .unwrap();
+        s.set_camera(moved.clone());
+        assert_eq!(s.passes(), 0);
+        s.finish().unwrap();
+        let mut there = scene.clone();
+        there.camera = moved;
+        let reference2 = gpu.render(&there, &o, &ProgressBar::hidden()).unwrap().image;
+        let d = max_abs(&reference2, &s.image().unwrap());
+        assert!(d < 1e-4, "{precision:?}: after the camera move: differs by {d}");
+        assert!(max_abs(&reference, &reference2) > 0.05, "{precision:?}: the move changed nothing");
+    }
 }
 
 /// Effects switched off render as the headless renderer does without them.

@@ -40,10 +40,12 @@ struct Layout {
 fn wgsl_type(rust: &str) -> String {
     let short = |s: &str| s.rsplit("::").next().unwrap().to_string();
     match rust {
-        "f32" | "u32" | "i32" => rust.to_string(),
+        "f32" | "u32" | "i32" | "f64" => rust.to_string(),
         "[f32; 2]" => "vec2<f32>".into(),
         "[f32; 3]" => "vec3<f32>".into(),
         "[f32; 4]" => "vec4<f32>".into(),
+        "[f64; 3]" => "vec3<f64>".into(),
+        "[f64; 4]" => "vec4<f64>".into(),
         _ if rust.starts_with('[') => {
             let inner = &rust[1..rust.len() - 1];
             let (t, n) = inner.rsplit_once("; ").expect("an array type");
@@ -112,6 +114,7 @@ fn rust_structs() -> BTreeMap<&'static str, Layout> {
             bvh_inline,
         }),
         twin!(Prim { a, b, c, kind, material, flags, attr }),
+        twin!(Prim64 { a, b, c, kind, material, flags, attr, pad }),
         twin!(TriAttr { n0, n1, n2, uv01, uv2 }),
         twin!(Material { color, kd, mirror, ks, emission, shine, transmittance, ior, texture, flags }),
         twin!(Light {
@@ -128,8 +131,10 @@ fn rust_structs() -> BTreeMap<&'static str, Layout> {
         }),
         twin!(TextureInfo { offset, width, height, flags }),
         twin!(Pending { o, kind, d, spawn, weight, from_prim }),
+        twin!(Pending64 { o, kind, pad0, d, spawn, weight, from_prim }),
         twin!(WalkState { i, iend, j, jend, prim, t, b1, b2, window, t_min }),
         twin!(Job { ray, point, walking, walk }),
+        twin!(Job64 { ray, point, walking, walk, pad }),
         twin!(PassDesc { src, next, shadow, retry, sample, hit, depth, pad1 }),
         twin!(GpuOrigin { n, always_start, always_count, kind }),
         twin!(GpuFace { iu0, iv0, width, height, cell_base, _pad0, _pad1, _pad2 }),
@@ -237,13 +242,16 @@ fn is_trace_kernel(k: Kernel) -> bool {
 }
 
 /// Every kernel, with every effect and each set of queries (every shared file included),
-/// through naga.
+/// in f32 and f64 (each layout of the structs that hold positions), through naga.
 fn modules() -> Vec<(Kernel, naga::Module)> {
     Kernel::ALL
         .iter()
         .flat_map(|&k| {
             let variants: Vec<Variant> = if is_trace_kernel(k) {
-                Queries::ALL.into_iter().map(Variant::full).collect()
+                Queries::ALL
+                    .into_iter()
+                    .flat_map(|q| [false, true].map(|f64| Variant::full(q).with_f64(f64)))
+                    .collect()
             } else {
                 vec![Variant::default()]
             };
@@ -262,6 +270,7 @@ fn wgsl_type_of(m: &naga::Module, ty: naga::Handle<naga::Type>) -> String {
     use naga::{ScalarKind, TypeInner};
     let scalar = |s: naga::Scalar| match (s.kind, s.width) {
         (ScalarKind::Float, 4) => "f32".to_string(),
+        (ScalarKind::Float, 8) => "f64".to_string(),
         (ScalarKind::Uint, 4) => "u32".to_string(),
         (ScalarKind::Sint, 4) => "i32".to_string(),
         other => format!("{other:?}"),
