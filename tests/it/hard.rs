@@ -993,10 +993,24 @@ fn a_light_on_and_inside_geometry() {
 /// every accelerator (asserted by `run`): triangle 0 over 1 and over its exact twin 2, at
 /// every pixel of the overlaps. GPU and CPU see the same id at every pixel but those whose
 /// ray passes within a hair of a triangle's edge (where f32 and f64 may decide the edge
-/// apart), and shade alike wherever they see the same.
+/// apart), and shade alike wherever they see the same. In f32 and with `--precision f64`.
 #[test]
 fn coplanar_overlapping_triangles() {
-    let c = run_file("coplanar_triangles.nff", 0.01, 80);
+    for precision in [Precision::F32, Precision::F64] {
+        coplanar_overlaps(precision);
+    }
+}
+
+fn coplanar_overlaps(precision: Precision) {
+    let scene = load_case("coplanar_triangles.nff").scene;
+    let (w, h) = scene.resolution.expect("hard-case scenes give their resolution");
+    let c = run(
+        "coplanar_triangles.nff",
+        scene,
+        RenderOptions { precision, ..RenderOptions::new(w, h) },
+        0.01,
+        80,
+    );
     let tri = |id: usize| match &c.scene.primitives[id] {
         Primitive::Triangle(t) => t.p,
         p => panic!("{p:?}"),
@@ -1043,7 +1057,7 @@ fn coplanar_overlapping_triangles() {
     let again = renderer().render_aov(&c.scene, &c.opts, Aov::Id, &hidden()).unwrap();
     assert_eq!(crate::common::first_difference(&again.image, &c.gpu_id), None, "a second render differs");
     eprintln!(
-        "hard-case coplanar_triangles: {overlap} pixels in the overlap of triangles 0 and 1, all id 0 on both \
+        "hard-case coplanar_triangles ({precision:?}): {overlap} pixels in the overlap of triangles 0 and 1, all id 0 on both \
          backends; GPU pixels by id {counts:?}; GPU = CPU ids at every pixel ({near_edges} within {EDGE:e} of an \
          edge checked by colour only); colours within {worst:.2e}"
     );
