@@ -7,7 +7,7 @@ use anyhow::{bail, Context};
 use clap::Args;
 
 use cuberay::output::OutputFormat;
-use cuberay::preview::{self, Config};
+use cuberay::preview::{self, Config, Orbit};
 
 use super::render::TraceArgs;
 
@@ -27,6 +27,18 @@ pub struct PreviewArgs {
     /// Save the last frame to this PNG file when the preview exits (written atomically).
     #[arg(long)]
     pub screenshot: Option<PathBuf>,
+    /// Scripted motion: turn the camera by DEG degrees about the look-at point every frame,
+    /// as a left drag would, from the second frame on, for --orbit-frames frames; then the
+    /// camera rests (and --frames counts the samples accumulated after that).
+    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
+    pub orbit: Option<f64>,
+    /// Frames the --orbit turns the camera on.
+    #[arg(long, value_name = "N", default_value_t = 30, requires = "orbit")]
+    pub orbit_frames: u32,
+    /// Write one JSON object per frame to this file: frame, ms, moved, points_traced,
+    /// passes, depth, eye_table ("building", "ready" or "none").
+    #[arg(long, value_name = "FILE")]
+    pub frame_log: Option<PathBuf>,
 }
 
 pub fn run(args: PreviewArgs) -> anyhow::Result<()> {
@@ -37,6 +49,11 @@ pub fn run(args: PreviewArgs) -> anyhow::Result<()> {
     }
     if args.frames == Some(0) {
         bail!("--frames must be at least 1");
+    }
+    if let Some(deg) = args.orbit {
+        if !deg.is_finite() || deg.abs() > 360.0 {
+            bail!("--orbit {deg}: give the degrees per frame as a number from -360 to 360");
+        }
     }
     let (scene_name, loaded, mut opts) = args.trace.load(&args.scene)?;
     if args.trace.spp.is_none() && opts.sampling != cuberay::sampling::Sampling::Corners {
@@ -56,6 +73,8 @@ pub fn run(args: PreviewArgs) -> anyhow::Result<()> {
         opts,
         frames: args.frames,
         screenshot: args.screenshot,
+        orbit: args.orbit.map(|degrees| Orbit { degrees, frames: args.orbit_frames }),
+        frame_log: args.frame_log,
     };
     preview::run(config).with_context(|| format!("cannot preview {}", scene_name.display()))
 }

@@ -307,6 +307,11 @@ impl Schedule {
         self.restart();
     }
 
+    /// Whether the next step starts a pass at its first point (no tile in flight).
+    pub fn at_pass_start(&self) -> bool {
+        self.next_point == 0 && self.current.is_none()
+    }
+
     /// Drops the current tile and starts again from the first point.
     pub fn restart(&mut self) {
         self.next_point = 0;

@@ -93,6 +93,12 @@ impl Controller {
         self.look(pivot + offset, -offset);
     }
 
+    /// Orbits about the pivot by `degrees` sideways, as a left drag of that angle would
+    /// (`--orbit`).
+    pub fn orbit_degrees(&mut self, degrees: f64) {
+        self.orbit(degrees.to_radians() / ORBIT_RATE, 0.0);
+    }
+
     /// Pans by a mouse drag of (dx, dy) pixels in a `height`-pixel-high view: the point
     /// under the cursor at the pivot's depth follows the cursor.
     pub fn pan(&mut self, dx: f64, dy: f64, height: u32) {

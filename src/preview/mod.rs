@@ -55,6 +55,18 @@ pub struct Config {
     pub frames: Option<u32>,
     /// Save the last frame here on exit.
     pub screenshot: Option<PathBuf>,
+    /// Scripted motion (`--orbit`), for tests and measurement.
+    pub orbit: Option<Orbit>,
+    /// One JSON object per frame goes here (`--frame-log`).
+    pub frame_log: Option<PathBuf>,
+}
+
+/// Scripted motion: `degrees` about the look-at point every frame, as a left drag would,
+/// from the second frame (whose kernels are compiled and warm) for `frames` frames.
+#[derive(Clone, Copy, Debug)]
+pub struct Orbit {
+    pub degrees: f64,
+    pub frames: u32,
 }
 
 /// Opens the window and runs until it is closed, Escape is pressed or `--frames` passes
@@ -109,6 +121,12 @@ struct View {
     last_frame: Instant,
     stats: FrameStats,
     screenshots_saved: u32,
+    orbit: Option<Orbit>,
+    /// Frames drawn so far.
+    frame: u64,
+    frame_log: Option<std::io::BufWriter<std::fs::File>>,
+    /// Grid points traced when the last frame ended.
+    points_at: u64,
 }
 
 /// Frame times and ray throughput for the title, over about half a second.
@@ -172,7 +190,13 @@ enum Flow {
 
 impl View {
     fn open(event_loop: &ActiveEventLoop, config: Config) -> Result<View> {
-        let Config { scene, name, opts, frames, screenshot } = config;
+        let Config { scene, name, opts, frames, screenshot, orbit, frame_log } = config;
+        let frame_log = match frame_log {
+            Some(path) => Some(std::io::BufWriter::new(
+                std::fs::File::create(&path).map_err(|source| Error::Io { path, source })?,
+            )),
+            None => None,
+        };
         let attrs = Window::default_attributes()
             .with_title(format!("cuberay preview: {name}"))
             .with_inner_size(PhysicalSize::new(opts.width, opts.height));
@@ -243,7 +267,16 @@ impl View {
                 rays_per_s: 0.0,
             },
             screenshots_saved: 0,
+            orbit,
+            frame: 0,
+            frame_log,
+            points_at: 0,
         })
+    }
+
+    /// Whether the scripted orbit turns the camera in frame `frame` (0: the first).
+    fn orbits_in(&self, frame: u64) -> bool {
+        self.orbit.is_some_and(|o| frame >= 1 && frame <= o.frames as u64)
     }
 
     /// Whether redraws are needed without new input.
@@ -252,6 +285,8 @@ impl View {
             || !self.held.is_empty()
             || self.camera_moved
             || self.pending_size.is_some()
+            || self.orbits_in(self.frame)
+            || self.session.eye_table() == session::EyeTable::Building
     }
 
     fn handle(&mut self, event: WindowEvent) -> Result<Flow> {
@@ -364,10 +399,16 @@ impl View {
             self.controller.fly(fly, dt);
             self.camera_moved = true;
         }
+        if let Some(o) = self.orbit.filter(|_| self.orbits_in(self.frame)) {
+            self.controller.orbit_degrees(o.degrees);
+            self.camera_moved = true;
+        }
+        let moved = self.camera_moved;
         if self.camera_moved {
             self.camera_moved = false;
             let took = self.session.set_camera(self.controller.camera().clone());
             log::debug!("eye-dependent update: {:.3} ms", took.as_secs_f64() * 1e3);
+            self.update_title();
         }
         let t_advance = Instant::now();
         self.session.advance(FRAME_BUDGET)?;
@@ -379,6 +420,8 @@ impl View {
             t_draw.elapsed().as_secs_f64() * 1e3,
             self.session.passes()
         );
+        self.log_frame(frame_start.elapsed(), moved)?;
+        self.frame += 1;
         self.stats.frames += 1;
         self.stats.busy += frame_start.elapsed();
         let elapsed = self.stats.since.elapsed();
@@ -392,10 +435,36 @@ impl View {
             self.stats.busy = Duration::ZERO;
             self.update_title();
         }
-        if self.frames.is_some_and(|f| self.session.passes() >= f) {
+        // A scripted run ends once the camera rests, its samples are in, and the eye's
+        // table (if any) is back.
+        let orbit_done = self.orbit.is_none_or(|o| self.frame > o.frames as u64);
+        let settled = self.session.eye_table() != session::EyeTable::Building;
+        if orbit_done && settled && self.frames.is_some_and(|f| self.session.passes() >= f) {
             return Ok(Flow::Exit);
         }
         Ok(Flow::Continue)
+    }
+
+    /// One line of `--frame-log` for the frame that took `took`.
+    fn log_frame(&mut self, took: Duration, moved: bool) -> Result<()> {
+        let points = self.session.points_traced();
+        let traced = points - self.points_at;
+        self.points_at = points;
+        let Some(log) = self.frame_log.as_mut() else { return Ok(()) };
+        let line = serde_json::json!({
+            "frame": self.frame,
+            "ms": took.as_secs_f64() * 1e3,
+            "moved": moved,
+            "block": 1,
+            "points_traced": traced,
+            "passes": self.session.passes(),
+            "depth": self.session.options().max_depth,
+            "eye_table": self.session.eye_table().name(),
+        });
+        use std::io::Write;
+        writeln!(log, "{line}")
+            .and_then(|_| log.flush())
+            .map_err(|e| Error::Window(format!("cannot write the frame log: {e}")))
     }
 
     fn fly_direction(&self) -> DVec3 {
@@ -457,6 +526,9 @@ impl View {
             if has {
                 flags.push(format!("{name} {}", if on { "on" } else { "off" }));
             }
+        }
+        if self.session.eye_table() == session::EyeTable::Building {
+            flags.push("eye table building (BVH meanwhile)".into());
         }
         let title = format!(
             "cuberay preview: {} | {}/{} spp | {:.1} ms/frame | {} rays/s | depth {} | {}x{}{}{}",

@@ -10,14 +10,20 @@
 //!
 //! The tiles, waves and their pacing are the headless renderer's own schedule
 //! ([`crate::gpu::schedule`]) with adaptive pacing. Only [`Session::set_camera`] does the work
-//! that depends on the eye (packing the geometry relative to the eye again and, with the
-//! direction-cube tables, rebuilding the eye's table), and it restarts the accumulation.
+//! that depends on the eye (packing the geometry relative to the eye again), and it restarts
+//! the accumulation. With the direction-cube tables, a move never waits for the eye's table:
+//! the session traces with the BVH at once (its kernels compiled when the session starts)
+//! while a worker thread rebuilds the eye's table for the new camera; [`Session::advance`]
+//! swaps the tables in between two passes once they match the camera (a newer move sends
+//! the worker's tables back for another rebuild). Every accelerator gives the same pixels,
+//! so the swap shows only in speed.
 
+use std::sync::mpsc::{self, Receiver, TryRecvError};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use crate::coherence::reach::WalkBounds;
-use crate::coherence::{FlatTables, Tables};
+use crate::coherence::{BuildParams, FlatTables, Tables};
 use crate::error::{Error, Result};
 use crate::gpu::buffers::check_limits;
 use crate::gpu::kernels::compute_pipeline;
@@ -125,6 +131,44 @@ pub struct Session {
     passes: u32,
     /// Time of the last eye-dependent update.
     pub last_eye_update: Duration,
+    /// Whether the session traces with the candidate tables when it can (`--accel cube`,
+    /// `auto`): while their eye table is rebuilt it traces with the BVH.
+    wants_tables: bool,
+    /// The eye table being rebuilt on a worker thread, if any.
+    eye_build: Option<EyeBuild>,
+    /// Tables rebuilt for the current camera, waiting for the end of a pass.
+    eye_ready: Option<Tables>,
+    /// Camera changes so far; a build for an older one is rebuilt for the newest.
+    camera_generation: u64,
+    /// Grid points traced (of every pass) since the session started.
+    points_traced: u64,
+}
+
+/// An eye-table rebuild running on a worker thread for camera change `generation`.
+struct EyeBuild {
+    generation: u64,
+    result: Receiver<Result<Tables>>,
+}
+
+/// What the preview's eye table is doing, for the title and the frame log.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EyeTable {
+    /// Rebuilding for a moved camera; the BVH traces meanwhile.
+    Building,
+    /// The tables trace.
+    Ready,
+    /// The session traces without tables (`--accel bvh` or `brute`, or a failed rebuild).
+    None,
+}
+
+impl EyeTable {
+    pub fn name(self) -> &'static str {
+        match self {
+            EyeTable::Building => "building",
+            EyeTable::Ready => "ready",
+            EyeTable::None => "none",
+        }
+    }
 }
 
 /// The kernels' variant for the session's toggles and depth.
@@ -139,6 +183,13 @@ fn variant(
         .with_queries(queries)
         .with_f64(opts.precision == Precision::F64);
     GpuRenderer::for_scene(scene, opts, v)
+}
+
+/// The build parameters of the session's tables: every effect the scene has, at any depth,
+/// so that toggling one back on or deepening the trees needs no new table.
+fn eye_build_params(scene: &Scene, opts: &RenderOptions) -> BuildParams {
+    let all = Variant::for_effects(scene.effects(), MAX_DEPTH).with_queries(Queries::Tables);
+    GpuRenderer::variant_build_params(scene, opts, all)
 }
 
 /// `scene` packed for a `w`×`h` image under `opts` (in f64 for `--precision f64`).
@@ -183,6 +234,16 @@ impl Session {
         let buffers = gpu.upload(&packed, tables.as_ref().map(|t| &t.flat), tile, Some(sizes))?;
         buffers.size_queues(&mut packed.params);
         let pipelines = compile(&gpu, first, &buffers, &packed.params)?;
+        let wants_tables = all.queries == Queries::Tables && tables.is_some();
+        if wants_tables {
+            // The kernels a camera move traces with while the eye's table is rebuilt.
+            compile(
+                &gpu,
+                variant(&scene, &opts, toggles, opts.max_depth, Queries::Bvh),
+                &buffers,
+                &packed.params,
+            )?;
+        }
         let grid = opts.grid();
         let ctx = &gpu.ctx;
         let total = grid.0 as u64 * grid.1 as u64;
@@ -230,6 +291,11 @@ impl Session {
             schedule,
             passes: 0,
             last_eye_update: Duration::ZERO,
+            wants_tables,
+            eye_build: None,
+            eye_ready: None,
+            camera_generation: 0,
+            points_traced: 0,
         };
         s.restart();
         Ok(s)
@@ -277,13 +343,16 @@ impl Session {
         self.passes >= self.limit
     }
 
-    /// The one place where a camera change is handled: the eye-dependent data are
-    /// rebuilt (the geometry re-centred on the new eye and uploaded; with the
-    /// direction-cube tables, the eye table) and the accumulation restarts. Light and
-    /// object data are kept. Returns the time the rebuild took.
+    /// The one place where a camera change is handled: the geometry is re-centred on the
+    /// new eye and uploaded, and the accumulation restarts. With the direction-cube tables
+    /// the session traces with the BVH until a worker thread has rebuilt the eye's table
+    /// ([`Session::advance`] swaps it in); light and object data are kept. Returns the time
+    /// the update took on the caller's thread.
     pub fn set_camera(&mut self, camera: Camera) -> Duration {
         let start = Instant::now();
         self.scene.camera = camera;
+        self.camera_generation += 1;
+        self.eye_ready = None;
         if let Err(e) = self.update_eye() {
             log::error!("cannot update the view: {e}");
         }
@@ -292,38 +361,38 @@ impl Session {
         self.last_eye_update
     }
 
+    /// What the eye's table is doing.
+    pub fn eye_table(&self) -> EyeTable {
+        if self.eye_build.is_some() || self.eye_ready.is_some() {
+            EyeTable::Building
+        } else if self.queries == Queries::Tables {
+            EyeTable::Ready
+        } else {
+            EyeTable::None
+        }
+    }
+
+    /// Grid points traced since the session started, over all passes.
+    pub fn points_traced(&self) -> u64 {
+        self.points_traced
+    }
+
     fn update_eye(&mut self) -> Result<()> {
         let (w, h) = (self.opts.width, self.opts.height);
-        let mut packed;
-        if let Some(mut tables) = self.tables.take() {
-            // The eye's table is rebuilt (the light and surface tables kept while they hold)
-            // and uploaded with the re-centred scene.
-            packed = pack_scene(&self.scene, &self.opts, w, h);
-            let all = Variant::for_effects(self.scene.effects(), MAX_DEPTH).with_queries(Queries::Tables);
-            let params = GpuRenderer::variant_build_params(&self.scene, &self.opts, all);
-            let eye_only = match tables.rebuild_eye(&self.scene, &params) {
-                Ok(eye_only) => eye_only,
-                Err(e) => {
-                    // Without tables the session falls back to brute force.
-                    let brute =
-                        variant(&self.scene, &self.opts, self.toggles, self.opts.max_depth, Queries::Brute);
-                    self.queries = Queries::Brute;
-                    self.walks = None;
-                    self.buffers = self.upload(&mut packed, None)?;
-                    self.use_kernel(brute)?;
-                    self.rebind();
-                    return Err(Error::Scene(format!("cannot rebuild the candidate tables: {e}")));
+        if self.wants_tables {
+            // The BVH over the re-centred scene (in milliseconds) traces at once; the eye's
+            // table follows from a worker thread.
+            let packed = pack_scene(&self.scene, &self.opts, w, h).with_bvh(&self.scene);
+            self.install(Queries::Bvh, packed, None)?;
+            if self.eye_build.is_none() {
+                if let Some(tables) = self.tables.take() {
+                    self.start_eye_build(tables);
                 }
-            };
-            gpu::point_at(&mut packed.params, &tables.flat);
-            gpu::add_surface_bvh(&mut packed, &self.scene, &params);
-            self.walks = gpu::walk_bounds(Some(&tables.walks), &packed);
-            self.gpu.check_loop_budget(&self.scene, self.walks.as_ref(), Some(MAX_DEPTH))?;
-            log::debug!("tables for the new eye in {:.3} s (eye table only: {eye_only})", tables.build_s);
-            self.buffers = self.upload(&mut packed, Some(&tables.flat))?;
-            self.tables = Some(tables);
-            self.rebind();
-        } else if self.queries == Queries::Bvh {
+            }
+            return Ok(());
+        }
+        let mut packed;
+        if self.queries == Queries::Bvh {
             // The BVH is rebuilt over the re-centred scene (in milliseconds) and uploaded with it.
             packed = pack_scene(&self.scene, &self.opts, w, h).with_bvh(&self.scene);
             self.walks = gpu::walk_bounds(None, &packed);
@@ -343,7 +412,103 @@ impl Session {
                 queue.write_buffer(&self.buffers.lights, 0, bytemuck::cast_slice(&packed.lights));
             }
         }
-        let p = &packed.params;
+        self.set_base(&packed.params);
+        Ok(())
+    }
+
+    /// Rebuilds the eye's table of `tables` for the current camera on a worker thread.
+    fn start_eye_build(&mut self, mut tables: Tables) {
+        let generation = self.camera_generation;
+        // The tables never read the textures: the worker gets the scene without them.
+        let textures = std::mem::take(&mut self.scene.textures);
+        let scene = self.scene.clone();
+        self.scene.textures = textures;
+        let opts = self.opts.clone();
+        let (send, result) = mpsc::channel();
+        let spawned = std::thread::Builder::new().name("eye table".into()).spawn(move || {
+            let params = eye_build_params(&scene, &opts);
+            let built = tables.rebuild_eye(&scene, &params).map(|eye_only| {
+                log::debug!(
+                    "eye table for camera change {generation} in {:.3} s (eye table only: {eye_only})",
+                    tables.build_s
+                );
+                tables
+            });
+            let _ = send.send(built);
+        });
+        match spawned {
+            Ok(_) => self.eye_build = Some(EyeBuild { generation, result }),
+            Err(e) => {
+                log::error!("cannot start the eye table's worker ({e}): tracing with the BVH");
+                self.wants_tables = false;
+            }
+        }
+    }
+
+    /// Takes a finished eye-table build: tables for the current camera are swapped in at
+    /// the next pass boundary, tables for an older camera go back for another rebuild.
+    fn poll_eye_table(&mut self) -> Result<()> {
+        if let Some(build) = &self.eye_build {
+            let built = match build.result.try_recv() {
+                Ok(built) => Some(built),
+                Err(TryRecvError::Empty) => None,
+                Err(TryRecvError::Disconnected) => {
+                    Some(Err(Error::Scene("the eye table's worker stopped without a result".into())))
+                }
+            };
+            if let Some(built) = built {
+                let generation = build.generation;
+                self.take_build(generation, built);
+            }
+        }
+        if self.eye_ready.is_some() && self.schedule.at_pass_start() {
+            let tables = self.eye_ready.take().expect("checked");
+            let (w, h) = (self.opts.width, self.opts.height);
+            let mut packed = pack_scene(&self.scene, &self.opts, w, h);
+            gpu::point_at(&mut packed.params, &tables.flat);
+            gpu::add_surface_bvh(&mut packed, &self.scene, &eye_build_params(&self.scene, &self.opts));
+            self.install(Queries::Tables, packed, Some(&tables))?;
+            self.tables = Some(tables);
+        }
+        Ok(())
+    }
+
+    /// The end of the eye-table build for camera change `generation`: tables for the
+    /// current camera wait for a pass boundary, older ones go back for another rebuild, and
+    /// a failed rebuild leaves the session on the BVH.
+    fn take_build(&mut self, generation: u64, built: Result<Tables>) {
+        self.eye_build = None;
+        match built {
+            Ok(tables) if generation == self.camera_generation => self.eye_ready = Some(tables),
+            Ok(tables) => self.start_eye_build(tables),
+            Err(e) => {
+                log::warn!("cannot rebuild the candidate tables: {e}; tracing with the BVH");
+                self.wants_tables = false;
+            }
+        }
+    }
+
+    /// Traces with `queries` over `packed` (and `tables`) from now on: uploads them, and
+    /// sets the kernels, the waves' plan and the params. Between passes, the accumulation
+    /// stays valid: every accelerator gives the same pixels.
+    fn install(&mut self, queries: Queries, mut packed: Packed, tables: Option<&Tables>) -> Result<()> {
+        let walks = gpu::walk_bounds(tables.map(|t| &t.walks), &packed);
+        self.gpu.check_loop_budget(&self.scene, walks.as_ref(), Some(MAX_DEPTH))?;
+        self.buffers = self.upload(&mut packed, tables.map(|t| &t.flat))?;
+        let v = variant(&self.scene, &self.opts, self.toggles, self.opts.max_depth, queries);
+        let params = job_params(&self.opts, packed.params);
+        self.pipelines = compile(&self.gpu, v, &self.buffers, &params)?;
+        self.queries = queries;
+        self.walks = walks;
+        let retries = retry_passes(&self.scene, self.walks.as_ref());
+        self.schedule.set_plan(&self.gpu.ctx, WavePlan::new(v, self.opts.max_depth, retries));
+        self.rebind();
+        self.set_base(&packed.params);
+        Ok(())
+    }
+
+    /// The camera, table and BVH parts of `p` (freshly packed) into the session's params.
+    fn set_base(&mut self, p: &Params) {
         self.base = Params {
             cam_forward: p.cam_forward,
             cam_scale: p.cam_scale,
@@ -361,7 +526,6 @@ impl Session {
             shadow_queue: self.buffers.shadow_queue,
             ..self.base
         };
-        Ok(())
     }
 
     /// Uploads `packed` (with `tables`) into buffers with the queues of the scene's every
@@ -418,9 +582,13 @@ impl Session {
     /// step unless complete). Returns whether any work was done.
     pub fn advance(&mut self, budget: Duration) -> Result<bool> {
         let start = Instant::now();
+        self.poll_eye_table()?;
         let mut worked = false;
         while !self.is_complete() && (!worked || start.elapsed() + self.schedule.last_submit() < budget) {
             crate::interrupt::check()?;
+            if worked {
+                self.poll_eye_table()?;
+            }
             self.step()?;
             worked = true;
         }
@@ -431,9 +599,24 @@ impl Session {
     pub fn finish(&mut self) -> Result<()> {
         while !self.is_complete() {
             crate::interrupt::check()?;
+            self.poll_eye_table()?;
             self.step()?;
         }
         Ok(())
+    }
+
+    /// Waits for the eye table's rebuild, if one runs, and traces with the tables from the
+    /// next pass boundary on (tests, and a preview about to exit).
+    pub fn wait_for_eye_table(&mut self) -> Result<()> {
+        while let Some(build) = &self.eye_build {
+            let built = build
+                .result
+                .recv()
+                .map_err(|_| Error::Scene("the eye table's worker stopped without a result".into()));
+            let generation = build.generation;
+            self.take_build(generation, built.and_then(|b| b));
+        }
+        self.poll_eye_table()
     }
 
     /// One submission of the wavefront kernels over the current tile of pass `passes`
@@ -459,6 +642,7 @@ impl Session {
             pass.dispatch_workgroups(count.div_ceil(ACCUMULATE_WORKGROUP), 1, 1);
         }
         queue.submit([enc.finish()]);
+        self.points_traced += count as u64;
         if pass_done {
             self.passes += 1;
         }

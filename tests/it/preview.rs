@@ -10,7 +10,8 @@ use std::sync::Arc;
 use cuberay::gpu::GpuRenderer;
 use cuberay::job::{Precision, RenderOptions};
 use cuberay::load;
-use cuberay::preview::session::{Session, Toggles};
+use cuberay::preview::controls::Controller;
+use cuberay::preview::session::{EyeTable, Session, Toggles};
 use cuberay::scene::Camera;
 use indicatif::ProgressBar;
 
@@ -54,12 +55,21 @@ fn session_converges_to_the_headless_render() {
                 .unwrap();
         s.set_camera(moved.clone());
         assert_eq!(s.passes(), 0);
+        // The move did not wait for the eye's table: the BVH traces meanwhile.
+        assert_eq!(s.eye_table(), EyeTable::Building, "{precision:?}");
         s.finish().unwrap();
         let mut there = scene.clone();
         there.camera = moved;
         let reference2 = gpu.render(&there, &o, &ProgressBar::hidden()).unwrap().image;
         let d = max_abs(&reference2, &s.image().unwrap());
         assert!(d < 1e-4, "{precision:?}: after the camera move: differs by {d}");
+        // Swapped in between passes, the tables trace the same pixels.
+        s.wait_for_eye_table().unwrap();
+        assert_eq!(s.eye_table(), EyeTable::Ready, "{precision:?}");
+        s.restart();
+        s.finish().unwrap();
+        let d = max_abs(&reference2, &s.image().unwrap());
+        assert!(d < 1e-4, "{precision:?}: with the rebuilt eye table: differs by {d}");
         assert!(max_abs(&reference, &reference2) > 0.05, "{precision:?}: the move changed nothing");
     }
 }
@@ -161,6 +171,76 @@ fn preview_window_matches_the_headless_render() {
     let mean = nv_flip::FlipPool::from_image(&map).mean();
     assert!(mean <= 0.02, "FLIP mean {mean} between the preview and the headless render");
     // The showcase is not one flat colour: the comparison means something.
+    let first = b.get_pixel(0, 0);
+    assert!(b.pixels().any(|p| p != first), "the screenshot is uniform");
+}
+
+/// A scripted orbit (`--orbit 3 --orbit-frames 5`) under Xvfb: the frame log has one line
+/// per frame with its fields, the orbit's frames say they moved, the eye's table ends
+/// "ready", and after the camera rests the screenshot after 3 frames is the headless render
+/// of the final camera at 3 spp, byte for byte.
+#[test]
+fn a_scripted_orbit_logs_its_frames_and_ends_on_the_headless_render() {
+    let x = Xvfb::start();
+    let dir = tempfile::tempdir().unwrap();
+    let (shot, log, reference) =
+        (dir.path().join("orbit.png"), dir.path().join("frames.jsonl"), dir.path().join("render.png"));
+    let (w, h, spp, seed, degrees, turns) = (64u32, 48u32, 3u32, 11u64, 3.0, 5u32);
+    let out = cuberay()
+        .arg("preview")
+        .args(["--width", &w.to_string(), "--height", &h.to_string(), "--seed", &seed.to_string()])
+        .args(["--orbit", &degrees.to_string(), "--orbit-frames", &turns.to_string()])
+        .args(["--frames", &spp.to_string(), "--frame-log"])
+        .arg(&log)
+        .arg("--screenshot")
+        .arg(&shot)
+        .env("DISPLAY", &x.display)
+        .env_remove("WAYLAND_DISPLAY")
+        .env("XDG_RUNTIME_DIR", dir.path())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "preview failed: {stderr}");
+
+    let lines: Vec<serde_json::Value> = std::fs::read_to_string(&log)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{l}: {e}")))
+        .collect();
+    assert!(lines.len() > turns as usize, "{} frames logged", lines.len());
+    for (i, l) in lines.iter().enumerate() {
+        assert_eq!(l["frame"], i as u64, "{l}");
+        assert!(l["ms"].as_f64().is_some_and(|ms| ms > 0.0), "{l}");
+        for key in ["block", "points_traced", "passes", "depth"] {
+            assert!(l[key].is_u64(), "{key} in {l}");
+        }
+        let moved = (1..=turns as usize).contains(&i);
+        assert_eq!(l["moved"], moved, "{l}");
+        let table = l["eye_table"].as_str().unwrap();
+        assert!(["building", "ready"].contains(&table), "{l}");
+    }
+    assert_eq!(lines[0]["eye_table"], "ready");
+    assert_eq!(lines.last().unwrap()["eye_table"], "ready", "the eye table is swapped in after the orbit");
+    assert_eq!(lines.last().unwrap()["passes"], spp);
+
+    // The camera the orbit ends at, rendered headlessly.
+    let mut scene = load::showcase().unwrap().scene;
+    let mut controller = Controller::new(&scene);
+    for _ in 0..turns {
+        controller.orbit_degrees(degrees);
+    }
+    scene.camera = controller.camera().clone();
+    let gpu = GpuRenderer::new().expect("a GPU adapter (run `bash .ci/setup`)");
+    let o = RenderOptions { spp, seed, ..RenderOptions::new(w, h) };
+    let img = gpu.render(&scene, &o, &ProgressBar::hidden()).unwrap().image;
+    cuberay::output::write(&img, &reference).unwrap();
+    let (a, b) = (rgb8(&reference), rgb8(&shot));
+    assert_eq!(a.dimensions(), b.dimensions());
+    let differ = a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count();
+    assert_eq!(
+        differ, 0,
+        "the screenshot differs from the headless render of the final camera at {differ} pixels"
+    );
     let first = b.get_pixel(0, 0);
     assert!(b.pixels().any(|p| p != first), "the screenshot is uniform");
 }
