@@ -13,7 +13,8 @@ struct View {
     // What the shader does after clamping (ENCODE_*): the render's transfer, less what an
     // sRGB target format does in hardware.
     encode: u32,
-    pad0: u32,
+    // Pixels per grid point edge: 1, or the block of a moving camera's coarse image.
+    block: u32,
     pad1: u32,
 }
 
@@ -68,7 +69,8 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
         let b = image[(j + 1u) * w + i].xyz + image[(j + 1u) * w + i + 1u].xyz;
         c = (a + b) * 0.25;
     } else {
-        c = image[j * view.grid_w + i].xyz / f32(view.samples);
+        let b = max(view.block, 1u);
+        c = image[(j / b) * view.grid_w + i / b].xyz / f32(view.samples);
     }
     // NaN fails every comparison: max(NaN, 0) is 0 or NaN by platform, so map it first.
     c = select(c, vec3<f32>(0.0), c != c);

@@ -31,6 +31,9 @@ pub struct SceneBuffers {
     /// The dispatch arguments of the current pass, copied from `queues` (a buffer the kernel
     /// writes cannot also be its dispatch's argument buffer).
     pub indirect: wgpu::Buffer,
+    /// The BVH's threaded orders and primitive list (a placeholder word without a BVH).
+    pub bvh_nodes: wgpu::Buffer,
+    pub bvh_prims: wgpu::Buffer,
     pub bind: wgpu::BindGroup,
     pub tile: u64,
     /// Jobs each ray queue and each shadow queue holds (`Params::ray_queue`,
@@ -44,6 +47,31 @@ impl SceneBuffers {
     pub fn size_queues(&self, params: &mut Params) {
         params.ray_queue = self.ray_queue;
         params.shadow_queue = self.shadow_queue;
+    }
+
+    /// Writes the eye-dependent parts of `packed` (the same scene re-centred on another eye,
+    /// with its BVH) into these buffers, when they were made for a BVH at least as large:
+    /// a camera move then allocates nothing (new buffers of a tile's queues cost their
+    /// zeroing). Returns whether it did.
+    pub fn rewrite_moved(&self, ctx: &GpuContext, packed: &Packed) -> bool {
+        let Some(bvh) = &packed.bvh else { return false };
+        let (nodes, prims): (&[u8], &[u8]) =
+            (bytemuck::cast_slice(&bvh.nodes), bytemuck::cast_slice(&bvh.prims));
+        let fits = |bytes: &[u8], b: &wgpu::Buffer| !bytes.is_empty() && bytes.len() as u64 <= b.size();
+        if !fits(nodes, &self.bvh_nodes)
+            || !fits(prims, &self.bvh_prims)
+            || packed.prim_bytes().len() as u64 != self.prims.size()
+        {
+            return false;
+        }
+        let queue = &ctx.queue;
+        queue.write_buffer(&self.prims, 0, packed.prim_bytes());
+        if !packed.lights.is_empty() {
+            queue.write_buffer(&self.lights, 0, bytemuck::cast_slice(&packed.lights));
+        }
+        queue.write_buffer(&self.bvh_nodes, 0, nodes);
+        queue.write_buffer(&self.bvh_prims, 0, prims);
+        true
     }
 }
 
@@ -258,6 +286,8 @@ pub fn upload(
         pass_desc,
         accum,
         indirect,
+        bvh_nodes,
+        bvh_prims,
         bind,
         tile,
         ray_queue,

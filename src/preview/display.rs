@@ -6,7 +6,6 @@ use crate::error::Result;
 use crate::gpu::kernels::shader_module;
 use crate::gpu::shaders::{Kernel, Variant};
 use crate::gpu::GpuContext;
-use crate::sampling::Sampling;
 use crate::scene::Transfer;
 
 /// What the window shows, read by the display pass (WGSL `View` in
@@ -23,7 +22,8 @@ pub struct View {
     pub corners: u32,
     /// What the shader does after clamping: one of the `ENCODE_*` codes.
     pub encode: u32,
-    pub pad0: u32,
+    /// Pixels per grid point edge: 1, or a moving camera's coarse block.
+    pub block: u32,
     pub pad1: u32,
 }
 
@@ -78,12 +78,14 @@ impl Display {
     /// Draws the session's accumulation into `target`.
     pub fn draw(&self, ctx: &GpuContext, session: &Session, target: &wgpu::TextureView) {
         let o = session.options();
+        let shown = session.shown();
         let view = View {
             width: o.width,
             height: o.height,
-            grid_w: session.grid().0,
-            samples: session.passes(),
-            corners: (o.sampling == Sampling::Corners) as u32,
+            grid_w: shown.grid_w,
+            samples: shown.samples,
+            corners: shown.corners as u32,
+            block: shown.block,
             encode: match (session.transfer(), self.srgb_target) {
                 (Transfer::Srgb, false) => ENCODE_SRGB,
                 (Transfer::Display, true) => ENCODE_LINEARIZE,
@@ -97,7 +99,7 @@ impl Display {
             layout: &self.pipeline.get_bind_group_layout(0),
             entries: &[
                 wgpu::BindGroupEntry { binding: 0, resource: self.view_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: session.accumulation().as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: shown.buffer.as_entire_binding() },
             ],
         });
         let mut enc = ctx.device.create_command_encoder(&Default::default());

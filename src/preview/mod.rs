@@ -404,14 +404,19 @@ impl View {
             self.camera_moved = true;
         }
         let moved = self.camera_moved;
+        let t_advance = Instant::now();
+        let (mut block, mut depth) = (1, self.session.options().max_depth);
         if self.camera_moved {
+            // A moving camera shows a complete coarse image of every view; the full image
+            // starts when it rests.
             self.camera_moved = false;
             let took = self.session.set_camera(self.controller.camera().clone());
             log::debug!("eye-dependent update: {:.3} ms", took.as_secs_f64() * 1e3);
+            (block, depth) = self.session.trace_coarse()?;
             self.update_title();
+        } else {
+            self.session.advance(FRAME_BUDGET)?;
         }
-        let t_advance = Instant::now();
-        self.session.advance(FRAME_BUDGET)?;
         let t_draw = Instant::now();
         self.draw()?;
         log::debug!(
@@ -420,7 +425,7 @@ impl View {
             t_draw.elapsed().as_secs_f64() * 1e3,
             self.session.passes()
         );
-        self.log_frame(frame_start.elapsed(), moved)?;
+        self.log_frame(frame_start.elapsed(), moved, block, depth)?;
         self.frame += 1;
         self.stats.frames += 1;
         self.stats.busy += frame_start.elapsed();
@@ -446,7 +451,7 @@ impl View {
     }
 
     /// One line of `--frame-log` for the frame that took `took`.
-    fn log_frame(&mut self, took: Duration, moved: bool) -> Result<()> {
+    fn log_frame(&mut self, took: Duration, moved: bool, block: u32, depth: u32) -> Result<()> {
         let points = self.session.points_traced();
         let traced = points - self.points_at;
         self.points_at = points;
@@ -455,10 +460,10 @@ impl View {
             "frame": self.frame,
             "ms": took.as_secs_f64() * 1e3,
             "moved": moved,
-            "block": 1,
+            "block": block,
             "points_traced": traced,
             "passes": self.session.passes(),
-            "depth": self.session.options().max_depth,
+            "depth": depth,
             "eye_table": self.session.eye_table().name(),
         });
         use std::io::Write;
@@ -526,6 +531,10 @@ impl View {
             if has {
                 flags.push(format!("{name} {}", if on { "on" } else { "off" }));
             }
+        }
+        let shown = self.session.shown();
+        if shown.block > 1 {
+            flags.push(format!("moving: {0}x{0} blocks", shown.block));
         }
         if self.session.eye_table() == session::EyeTable::Building {
             flags.push("eye table building (BVH meanwhile)".into());

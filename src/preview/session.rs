@@ -34,10 +34,19 @@ use crate::job::{grid_image, Precision, RenderOptions};
 use crate::layout::budget::{retry_passes, tile_points, MAX_DEPTH, TESTS_PER_DISPATCH};
 use crate::layout::{job_params, pack, Packed, Params};
 use crate::output::Image;
+use crate::sampling::Sampling;
 use crate::scene::{Camera, Effects, Scene, Transfer};
 
 /// The wall time one submission should take; tiles shrink or grow towards it.
 const STEP_TARGET: Duration = Duration::from_millis(30);
+
+/// The time a moving camera's coarse image should take; its block grows or shrinks towards
+/// it.
+pub const COARSE_TARGET: Duration = Duration::from_millis(20);
+/// Pixels per coarse block edge: the first, and the range it adapts in.
+const FIRST_BLOCK: u32 = 8;
+const MIN_BLOCK: u32 = 2;
+const MAX_BLOCK: u32 = 32;
 
 /// Which points of the image a finished tile holds, read by the `accumulate` kernel (WGSL
 /// `Tile` in `shaders/accumulate.wgsl`, keep them in sync).
@@ -142,12 +151,41 @@ pub struct Session {
     camera_generation: u64,
     /// Grid points traced (of every pass) since the session started.
     points_traced: u64,
+    /// The coarse image of a moving camera, once one was traced.
+    coarse: Option<Coarse>,
 }
 
 /// An eye-table rebuild running on a worker thread for camera change `generation`.
 struct EyeBuild {
     generation: u64,
     result: Receiver<Result<Tables>>,
+}
+
+/// The coarse image of a moving camera: one eye ray per `block`×`block` pixels, traced whole
+/// in one frame into an accumulation of its own.
+struct Coarse {
+    /// The block and the depth the next coarse image takes.
+    block: u32,
+    depth: u32,
+    /// The last time of a coarse image at each depth with this block.
+    depth_took: [Option<Duration>; MAX_DEPTH as usize + 1],
+    /// The block, grid and schedule of the image in `accum`.
+    traced: u32,
+    grid: (u32, u32),
+    schedule: Schedule,
+    accum: wgpu::Buffer,
+    /// Whether `accum` holds a complete image of the current camera.
+    complete: bool,
+}
+
+/// What the window shows (`Session::shown`): an accumulation, its grid width, samples per
+/// point, pixels per block edge, and whether it holds pixel corners.
+pub struct Shown<'a> {
+    pub buffer: &'a wgpu::Buffer,
+    pub grid_w: u32,
+    pub samples: u32,
+    pub block: u32,
+    pub corners: bool,
 }
 
 /// What the preview's eye table is doing, for the title and the frame log.
@@ -296,6 +334,7 @@ impl Session {
             eye_ready: None,
             camera_generation: 0,
             points_traced: 0,
+            coarse: None,
         };
         s.restart();
         Ok(s)
@@ -353,6 +392,9 @@ impl Session {
         self.scene.camera = camera;
         self.camera_generation += 1;
         self.eye_ready = None;
+        if let Some(c) = self.coarse.as_mut() {
+            c.complete = false;
+        }
         if let Err(e) = self.update_eye() {
             log::error!("cannot update the view: {e}");
         }
@@ -363,7 +405,10 @@ impl Session {
 
     /// What the eye's table is doing.
     pub fn eye_table(&self) -> EyeTable {
-        if self.eye_build.is_some() || self.eye_ready.is_some() {
+        if self.eye_build.is_some()
+            || self.eye_ready.is_some()
+            || (self.wants_tables && self.queries != Queries::Tables)
+        {
             EyeTable::Building
         } else if self.queries == Queries::Tables {
             EyeTable::Ready
@@ -382,13 +427,26 @@ impl Session {
         if self.wants_tables {
             // The BVH over the re-centred scene (in milliseconds) traces at once; the eye's
             // table follows from a worker thread.
-            let packed = pack_scene(&self.scene, &self.opts, w, h).with_bvh(&self.scene);
-            self.install(Queries::Bvh, packed, None)?;
-            if self.eye_build.is_none() {
-                if let Some(tables) = self.tables.take() {
-                    self.start_eye_build(tables);
-                }
+            let t0 = Instant::now();
+            let mut packed = pack_scene(&self.scene, &self.opts, w, h).with_bvh(&self.scene);
+            let t1 = Instant::now();
+            // The same walks as the BVH in place (its walks' bounds, and so the waves' plan and
+            // the loop budget, unchanged): written into the buffers it is in.
+            let same_walks = gpu::walk_bounds(None, &packed) == self.walks;
+            if self.queries == Queries::Bvh
+                && same_walks
+                && self.buffers.rewrite_moved(&self.gpu.ctx, &packed)
+            {
+                self.buffers.size_queues(&mut packed.params);
+                self.set_base(&packed.params);
+            } else {
+                self.install(Queries::Bvh, packed, None)?;
             }
+            log::debug!(
+                "camera move: packed with the BVH in {:.1} ms, uploaded in {:.1} ms",
+                (t1 - t0).as_secs_f64() * 1e3,
+                t1.elapsed().as_secs_f64() * 1e3
+            );
             return Ok(());
         }
         let mut packed;
@@ -448,6 +506,13 @@ impl Session {
     /// Takes a finished eye-table build: tables for the current camera are swapped in at
     /// the next pass boundary, tables for an older camera go back for another rebuild.
     fn poll_eye_table(&mut self) -> Result<()> {
+        if self.wants_tables && self.eye_build.is_none() && self.queries != Queries::Tables {
+            // The camera rests (this runs between its frames' passes, not while it moves):
+            // the eye's table is rebuilt for it.
+            if let Some(tables) = self.tables.take() {
+                self.start_eye_build(tables);
+            }
+        }
         if let Some(build) = &self.eye_build {
             let built = match build.result.try_recv() {
                 Ok(built) => Some(built),
@@ -480,7 +545,8 @@ impl Session {
         self.eye_build = None;
         match built {
             Ok(tables) if generation == self.camera_generation => self.eye_ready = Some(tables),
-            Ok(tables) => self.start_eye_build(tables),
+            // The camera moved on: rebuilt again once it rests (`poll_eye_table`).
+            Ok(tables) => self.tables = Some(tables),
             Err(e) => {
                 log::warn!("cannot rebuild the candidate tables: {e}; tracing with the BVH");
                 self.wants_tables = false;
@@ -608,7 +674,9 @@ impl Session {
     /// Waits for the eye table's rebuild, if one runs, and traces with the tables from the
     /// next pass boundary on (tests, and a preview about to exit).
     pub fn wait_for_eye_table(&mut self) -> Result<()> {
-        while let Some(build) = &self.eye_build {
+        loop {
+            self.poll_eye_table()?;
+            let Some(build) = &self.eye_build else { return Ok(()) };
             let built = build
                 .result
                 .recv()
@@ -616,7 +684,6 @@ impl Session {
             let generation = build.generation;
             self.take_build(generation, built.and_then(|b| b));
         }
-        self.poll_eye_table()
     }
 
     /// One submission of the wavefront kernels over the current tile of pass `passes`
@@ -625,28 +692,196 @@ impl Session {
     fn step(&mut self) -> Result<()> {
         let sample = pass_sample(self.passes, self.opts.spp);
         let base = Params { sample_first: sample, sample_end: sample + 1, ..self.base };
-        let kernels = Pipelines::Wavefront(&self.pipelines);
-        let Progress::TileDone { first, count, pass_done } =
-            self.schedule.step(&self.gpu.ctx, &kernels, &self.buffers, &base)?
-        else {
-            return Ok(());
-        };
-        let (device, queue) = (&self.gpu.ctx.device, &self.gpu.ctx.queue);
-        let tile = Tile { first_point: first as u32, point_count: count, ..Tile::default() };
-        queue.write_buffer(&self.tile_buffer, 0, bytemuck::bytes_of(&tile));
-        let mut enc = device.create_command_encoder(&Default::default());
-        {
-            let mut pass = enc.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&self.accumulate);
-            pass.set_bind_group(0, &self.accumulate_bind, &[]);
-            pass.dispatch_workgroups(count.div_ceil(ACCUMULATE_WORKGROUP), 1, 1);
-        }
-        queue.submit([enc.finish()]);
-        self.points_traced += count as u64;
+        let pass_done = step_tile(
+            &self.gpu.ctx,
+            &mut self.schedule,
+            &self.pipelines,
+            &self.buffers,
+            &base,
+            (&self.tile_buffer, &self.accumulate, &self.accumulate_bind),
+            &mut self.points_traced,
+        )?;
         if pass_done {
             self.passes += 1;
         }
         Ok(())
+    }
+
+    /// Traces the coarse image of the current camera, one eye ray per block of pixels, to
+    /// its end (a moving camera's frame: it shows the whole view at once, and the full image
+    /// starts again when the camera rests). The block, and where even the largest block
+    /// takes too long the depth, adapt to keep such a pass within [`COARSE_TARGET`].
+    /// Returns the block and the depth traced.
+    pub fn trace_coarse(&mut self) -> Result<(u32, u32)> {
+        let start = Instant::now();
+        let block = self.coarse.as_ref().map_or(FIRST_BLOCK, |c| c.block);
+        let depth = self.coarse.as_ref().map_or(self.opts.max_depth, |c| c.depth).min(self.opts.max_depth);
+        let (mut params, grid) = self.coarse_params(block);
+        params.max_depth = depth;
+        let ctx = &self.gpu.ctx;
+        if self.coarse.as_ref().is_none_or(|c| c.grid != grid) {
+            let (w, h) = (self.opts.width, self.opts.height);
+            let capacity = (w.div_ceil(MIN_BLOCK) + 1) as u64 * (h.div_ceil(MIN_BLOCK) + 1) as u64;
+            let accum = match self.coarse.take() {
+                Some(c) => c.accum,
+                None => ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("preview coarse accumulation"),
+                    size: capacity * 16,
+                    usage: wgpu::BufferUsages::STORAGE
+                        | wgpu::BufferUsages::COPY_SRC
+                        | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                }),
+            };
+            let total = grid.0 as u64 * grid.1 as u64;
+            let plan = WavePlan::new(
+                variant(&self.scene, &self.opts, self.toggles, self.opts.max_depth, self.queries),
+                self.opts.max_depth,
+                retry_passes(&self.scene, self.walks.as_ref()),
+            );
+            let schedule = Schedule::new(
+                ctx,
+                total,
+                self.buffers.tile,
+                Some(plan),
+                Pacing::Adaptive { target: STEP_TARGET },
+                false,
+            );
+            self.coarse = Some(Coarse {
+                block,
+                depth,
+                depth_took: Default::default(),
+                traced: block,
+                grid,
+                schedule,
+                accum,
+                complete: false,
+            });
+        }
+        let c = self.coarse.as_mut().expect("made above");
+        let plan = WavePlan::new(
+            variant(&self.scene, &self.opts, self.toggles, self.opts.max_depth, self.queries),
+            depth,
+            retry_passes(&self.scene, self.walks.as_ref()),
+        );
+        c.schedule.set_plan(ctx, plan);
+        let bind = accumulate_bind(ctx, &self.accumulate, &self.tile_buffer, &self.buffers, &c.accum);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        enc.clear_buffer(&c.accum, 0, None);
+        ctx.queue.submit([enc.finish()]);
+        loop {
+            crate::interrupt::check()?;
+            let accumulate = (&self.tile_buffer, &self.accumulate, &bind);
+            if step_tile(
+                ctx,
+                &mut c.schedule,
+                &self.pipelines,
+                &self.buffers,
+                &params,
+                accumulate,
+                &mut self.points_traced,
+            )? {
+                break;
+            }
+        }
+        c.complete = true;
+        c.traced = block;
+        log::debug!(
+            "coarse image: {block}x{block} blocks, depth {depth}, {:.1} ms",
+            start.elapsed().as_secs_f64() * 1e3
+        );
+        // A pass over 4× the points takes up to 4× as long, and a depth more can cost
+        // several times one less (its rays leave surfaces and walk the BVH).
+        // Each depth's last time at this block is kept, so that a depth found too slow is
+        // not tried again (each try would be a slow frame).
+        let took = start.elapsed();
+        c.depth_took[depth as usize] = Some(took);
+        let fast = |t: Option<Duration>| t.is_none_or(|t| t <= COARSE_TARGET);
+        if took > COARSE_TARGET {
+            if block < MAX_BLOCK {
+                c.block = block * 2;
+                c.depth_took = Default::default();
+            } else if depth > 1 {
+                c.depth = depth - 1;
+            }
+        } else if took * 8 < COARSE_TARGET {
+            // Well under: a deeper or finer pass may cost several times this one.
+            if depth < self.opts.max_depth && fast(c.depth_took[depth as usize + 1]) {
+                c.depth = depth + 1;
+            } else if depth == self.opts.max_depth && block > MIN_BLOCK {
+                c.block = block / 2;
+                c.depth_took = Default::default();
+            }
+        }
+        Ok((block, depth))
+    }
+
+    /// The params and grid of the coarse image with one eye ray per `block`×`block` pixels:
+    /// grid point (i, j) takes the ray through the centre of pixel (i·b + b/2, j·b + b/2),
+    /// the very ray (bit for bit: `block` is a power of two) of that pixel in a full pass
+    /// with one sample at the pixel centres. The kernels place grid point i at i + 1/2, so
+    /// the image's centre moves to (half − 1/2)/b and a grid step spans b pixels.
+    fn coarse_params(&self, block: u32) -> (Params, (u32, u32)) {
+        let (w, h) = (self.opts.width, self.opts.height);
+        let grid = (w.div_ceil(block), h.div_ceil(block));
+        let o = RenderOptions {
+            width: grid.0,
+            height: grid.1,
+            spp: 1,
+            sampling: Sampling::Pixels,
+            ..self.opts.clone()
+        };
+        let b = block as f32;
+        let camera = Params {
+            half_w: (self.base.half_w - 0.5) / b,
+            half_h: (self.base.half_h - 0.5) / b,
+            cam_scale: self.base.cam_scale * b,
+            ..self.base
+        };
+        (Params { sample_first: 0, sample_end: 1, ..job_params(&o, camera) }, grid)
+    }
+
+    /// What the window shows: the full accumulation once a pass of the current camera is
+    /// in it, else the coarse image of the current camera, if there is one.
+    pub fn shown(&self) -> Shown<'_> {
+        if self.passes == 0 {
+            if let Some(c) = self.coarse.as_ref().filter(|c| c.complete) {
+                return Shown {
+                    buffer: &c.accum,
+                    grid_w: c.grid.0,
+                    samples: 1,
+                    block: c.traced,
+                    corners: false,
+                };
+            }
+        }
+        Shown {
+            buffer: &self.accum,
+            grid_w: self.grid.0,
+            samples: self.passes,
+            block: 1,
+            corners: self.opts.sampling == Sampling::Corners,
+        }
+    }
+
+    /// The coarse image of the current camera as a linear image of `grid` size (tests).
+    pub fn coarse_image(&self) -> Result<Option<Image>> {
+        let Some(c) = self.coarse.as_ref().filter(|c| c.complete) else { return Ok(None) };
+        let bytes = c.grid.0 as u64 * c.grid.1 as u64 * 16;
+        let ctx = &self.gpu.ctx;
+        let read = ctx.readback_buffer("coarse readback", bytes);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        enc.copy_buffer_to_buffer(&c.accum, 0, &read, 0, bytes);
+        ctx.queue.submit([enc.finish()]);
+        let data = ctx.read(&read, bytes)?;
+        let o = RenderOptions {
+            width: c.grid.0,
+            height: c.grid.1,
+            spp: 1,
+            sampling: Sampling::Pixels,
+            ..self.opts.clone()
+        };
+        Ok(Some(grid_image(&o, &self.scene, bytemuck::cast_slice(&data), 1)))
     }
 
     /// Rays traced since the session started (all kinds).
@@ -670,6 +905,37 @@ impl Session {
         let data = ctx.read(&read, bytes)?;
         Ok(grid_image(&self.opts, &self.scene, bytemuck::cast_slice(&data), self.passes))
     }
+}
+
+/// One submission of `schedule` over the kernels `pipelines`; a finished tile is added
+/// to the accumulation that `accumulate`'s bind group names, and its points to
+/// `points_traced`. Returns whether the tile ended a pass.
+fn step_tile(
+    ctx: &gpu::GpuContext,
+    schedule: &mut Schedule,
+    pipelines: &[(Stage, Arc<wgpu::ComputePipeline>)],
+    buffers: &SceneBuffers,
+    base: &Params,
+    accumulate: (&wgpu::Buffer, &wgpu::ComputePipeline, &wgpu::BindGroup),
+    points_traced: &mut u64,
+) -> Result<bool> {
+    let (tile_buffer, pipeline, bind) = accumulate;
+    let kernels = Pipelines::Wavefront(pipelines);
+    let Progress::TileDone { first, count, pass_done } = schedule.step(ctx, &kernels, buffers, base)? else {
+        return Ok(false);
+    };
+    let tile = Tile { first_point: first as u32, point_count: count, ..Tile::default() };
+    ctx.queue.write_buffer(tile_buffer, 0, bytemuck::bytes_of(&tile));
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    {
+        let mut pass = enc.begin_compute_pass(&Default::default());
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, bind, &[]);
+        pass.dispatch_workgroups(count.div_ceil(ACCUMULATE_WORKGROUP), 1, 1);
+    }
+    ctx.queue.submit([enc.finish()]);
+    *points_traced += count as u64;
+    Ok(pass_done)
 }
 
 /// The wavefront kernels of `v`, compiled and warmed up on first use.

@@ -37,7 +37,7 @@ fn session_converges_to_the_headless_render() {
     let gpu = Arc::new(GpuRenderer::new().expect("a GPU adapter (run `bash .ci/setup`)"));
     let scene = load::showcase().unwrap().scene;
     for precision in [Precision::F32, Precision::F64] {
-        let o = RenderOptions { precision, ..opts(40, 30, 5) };
+        let o = RenderOptions { precision, ..opts(48, 32, 5) };
         let reference = gpu.render(&scene, &o, &ProgressBar::hidden()).unwrap().image;
         let mut s = Session::new(gpu.clone(), scene.clone(), o.clone(), Toggles::default(), o.spp).unwrap();
         s.finish().unwrap();
@@ -57,9 +57,25 @@ fn session_converges_to_the_headless_render() {
         assert_eq!(s.passes(), 0);
         // The move did not wait for the eye's table: the BVH traces meanwhile.
         assert_eq!(s.eye_table(), EyeTable::Building, "{precision:?}");
-        s.finish().unwrap();
         let mut there = scene.clone();
-        there.camera = moved;
+        there.camera = moved.clone();
+        // A moving camera's frame: a coarse image, one ray per block, that of the pixel at
+        // the block's centre in a render with one sample at the pixel centres.
+        let (block, depth) = s.trace_coarse().unwrap();
+        assert_eq!(depth, o.max_depth, "{precision:?}");
+        let coarse = s.coarse_image().unwrap().expect("a coarse image");
+        let centres = RenderOptions { spp: 1, ..o.clone() };
+        let full = gpu.render(&there, &centres, &ProgressBar::hidden()).unwrap().image;
+        let mut worst = 0.0f32;
+        for j in 0..coarse.height {
+            for i in 0..coarse.width {
+                let (x, y) = (i * block + block / 2, j * block + block / 2);
+                let (p, q) = (coarse.get(i, j), full.get(x, y));
+                worst = (0..3).map(|c| (p[c] - q[c]).abs()).fold(worst, f32::max);
+            }
+        }
+        assert!(worst < 1e-5, "{precision:?}: the coarse image ({block}x{block} blocks) differs by {worst}");
+        s.finish().unwrap();
         let reference2 = gpu.render(&there, &o, &ProgressBar::hidden()).unwrap().image;
         let d = max_abs(&reference2, &s.image().unwrap());
         assert!(d < 1e-4, "{precision:?}: after the camera move: differs by {d}");
@@ -218,6 +234,12 @@ fn a_scripted_orbit_logs_its_frames_and_ends_on_the_headless_render() {
         assert_eq!(l["moved"], moved, "{l}");
         let table = l["eye_table"].as_str().unwrap();
         assert!(["building", "ready"].contains(&table), "{l}");
+        if moved {
+            // A moving frame traces a whole coarse image of its camera.
+            let b = l["block"].as_u64().unwrap() as u32;
+            assert!(b >= 2, "{l}");
+            assert_eq!(l["points_traced"], (w.div_ceil(b) * h.div_ceil(b)) as u64, "{l}");
+        }
     }
     assert_eq!(lines[0]["eye_table"], "ready");
     assert_eq!(lines.last().unwrap()["eye_table"], "ready", "the eye table is swapped in after the orbit");

@@ -141,7 +141,7 @@ fn rust_structs() -> BTreeMap<&'static str, Layout> {
         twin!(GpuEntry { id, d_min }),
         twin!(BvhNode { lo, skip, hi, leaf }),
         twin!(Tile { first_point, point_count, pad0, pad1 }),
-        twin!(View { width, height, grid_w, samples, corners, encode, pad0, pad1 }),
+        twin!(View { width, height, grid_w, samples, corners, encode, block, pad1 }),
     ])
 }
 
