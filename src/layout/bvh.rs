@@ -85,8 +85,11 @@ pub fn box_hit(n: &BvhNode, r: &BoxRay, t_far: f32) -> bool {
     t0 <= t1.min(t_far)
 }
 
-/// The BVH flattened for the GPU: `6 · stride` nodes (order `k` at `k · stride`), and the
-/// primitive ids the leaves point into.
+/// The threaded orders a BVH is flattened into: one per major direction axis and sign.
+pub const BVH_ORDERS: usize = 6;
+
+/// The BVH flattened for the GPU: `BVH_ORDERS · stride` nodes (order `k` at `k · stride`;
+/// the preview leaves room after them), and the primitive ids the leaves point into.
 #[derive(Clone, Debug, Default)]
 pub struct GpuBvh {
     pub nodes: Vec<BvhNode>,
@@ -164,7 +167,7 @@ pub fn flatten(tree: &BvhTree) -> GpuBvh {
             size[i] = 1 + size[node.first as usize] + size[node.first as usize + 1];
         }
     }
-    let mut nodes = Vec::with_capacity(6 * n);
+    let mut nodes = Vec::with_capacity(BVH_ORDERS * n);
     for order in 0..6 {
         let axis = order / 2;
         let negative = order % 2 == 1;
@@ -210,7 +213,7 @@ mod tests {
         let t = tree();
         let g = flatten(&t);
         let n = g.stride as usize;
-        assert_eq!(g.nodes.len(), 6 * n);
+        assert_eq!(g.nodes.len(), BVH_ORDERS * n);
         for order in 0..6 {
             let nodes = &g.nodes[order * n..(order + 1) * n];
             // Following every hit link visits the whole order, every leaf's primitives once.

@@ -32,6 +32,7 @@ use crate::gpu::shaders::{Kernel, Queries, Stage, Variant};
 use crate::gpu::{self, GpuRenderer, SceneBuffers};
 use crate::job::{grid_image, Precision, RenderOptions};
 use crate::layout::budget::{retry_passes, tile_points, MAX_DEPTH, TESTS_PER_DISPATCH};
+use crate::layout::bvh::BVH_ORDERS;
 use crate::layout::{job_params, pack, Packed, Params};
 use crate::output::Image;
 use crate::sampling::Sampling;
@@ -230,6 +231,20 @@ fn eye_build_params(scene: &Scene, opts: &RenderOptions) -> BuildParams {
     GpuRenderer::variant_build_params(scene, opts, all)
 }
 
+/// Gives `packed` (of `scene`) a BVH, and room after it for the BVH of any camera (a binary
+/// tree over n primitives has at most 2n − 1 nodes in each order), so that a camera move
+/// writes its BVH into the buffers in place: new buffers would cost the zeroing of a
+/// tile's queues, a stall of about 50 ms on lavapipe. The tables' kernels ignore it.
+fn make_room_for_moves(packed: &mut Packed, scene: &Scene) {
+    if packed.bvh.is_none() {
+        packed.add_bvh(scene);
+    }
+    if let Some(b) = packed.bvh.as_mut() {
+        let most = BVH_ORDERS * (2 * scene.primitives.len()).saturating_sub(1);
+        b.nodes.resize(b.nodes.len().max(most), Default::default());
+    }
+}
+
 /// `scene` packed for a `w`×`h` image under `opts` (in f64 for `--precision f64`).
 fn pack_scene(scene: &Scene, opts: &RenderOptions, w: u32, h: u32) -> Packed {
     let mut packed = pack(scene, w, h, opts.spawn);
@@ -269,10 +284,13 @@ impl Session {
         let first = variant(&scene, &opts, toggles, opts.max_depth, all.queries);
         let tile = tile_points(&scene, walks.as_ref(), TESTS_PER_DISPATCH);
         let sizes = gpu::queue_sizes(&scene, all);
+        let wants_tables = all.queries == Queries::Tables && tables.is_some();
+        if wants_tables {
+            make_room_for_moves(&mut packed, &scene);
+        }
         let buffers = gpu.upload(&packed, tables.as_ref().map(|t| &t.flat), tile, Some(sizes))?;
         buffers.size_queues(&mut packed.params);
         let pipelines = compile(&gpu, first, &buffers, &packed.params)?;
-        let wants_tables = all.queries == Queries::Tables && tables.is_some();
         if wants_tables {
             // The kernels a camera move traces with while the eye's table is rebuilt.
             compile(
@@ -428,18 +446,26 @@ impl Session {
             // The BVH over the re-centred scene (in milliseconds) traces at once; the eye's
             // table follows from a worker thread.
             let t0 = Instant::now();
-            let mut packed = pack_scene(&self.scene, &self.opts, w, h).with_bvh(&self.scene);
+            let mut packed = pack_scene(&self.scene, &self.opts, w, h);
+            make_room_for_moves(&mut packed, &self.scene);
             let t1 = Instant::now();
-            // The same walks as the BVH in place (its walks' bounds, and so the waves' plan and
-            // the loop budget, unchanged): written into the buffers it is in.
-            let same_walks = gpu::walk_bounds(None, &packed) == self.walks;
-            if self.queries == Queries::Bvh
-                && same_walks
-                && self.buffers.rewrite_moved(&self.gpu.ctx, &packed)
-            {
+            // Written into the buffers in place when they fit (new buffers would cost the
+            // zeroing of a tile's queues); the waves' plan follows the new BVH's walks.
+            let walks = gpu::walk_bounds(None, &packed);
+            self.gpu.check_loop_budget(&self.scene, walks.as_ref(), Some(MAX_DEPTH))?;
+            if self.buffers.rewrite_moved(&self.gpu.ctx, &packed) {
                 self.buffers.size_queues(&mut packed.params);
                 self.set_base(&packed.params);
+                if self.queries != Queries::Bvh || walks != self.walks {
+                    self.queries = Queries::Bvh;
+                    self.walks = walks;
+                    let v = variant(&self.scene, &self.opts, self.toggles, self.opts.max_depth, self.queries);
+                    self.pipelines = compile(&self.gpu, v, &self.buffers, &self.base)?;
+                    let retries = retry_passes(&self.scene, self.walks.as_ref());
+                    self.schedule.set_plan(&self.gpu.ctx, WavePlan::new(v, self.opts.max_depth, retries));
+                }
             } else {
+                log::debug!("camera move: new buffers for the BVH");
                 self.install(Queries::Bvh, packed, None)?;
             }
             log::debug!(
@@ -532,6 +558,7 @@ impl Session {
             let mut packed = pack_scene(&self.scene, &self.opts, w, h);
             gpu::point_at(&mut packed.params, &tables.flat);
             gpu::add_surface_bvh(&mut packed, &self.scene, &eye_build_params(&self.scene, &self.opts));
+            make_room_for_moves(&mut packed, &self.scene);
             self.install(Queries::Tables, packed, Some(&tables))?;
             self.tables = Some(tables);
         }
@@ -772,7 +799,7 @@ impl Session {
         loop {
             crate::interrupt::check()?;
             let accumulate = (&self.tile_buffer, &self.accumulate, &bind);
-            if step_tile(
+            let done = step_tile(
                 ctx,
                 &mut c.schedule,
                 &self.pipelines,
@@ -780,15 +807,17 @@ impl Session {
                 &params,
                 accumulate,
                 &mut self.points_traced,
-            )? {
+            )?;
+            if done {
                 break;
             }
         }
         c.complete = true;
         c.traced = block;
         log::debug!(
-            "coarse image: {block}x{block} blocks, depth {depth}, {:.1} ms",
-            start.elapsed().as_secs_f64() * 1e3
+            "coarse image: {block}x{block} blocks, depth {depth}, {:.1} ms, tiles run again so far {}",
+            start.elapsed().as_secs_f64() * 1e3,
+            c.schedule.tiles_run_again()
         );
         // A pass over 4× the points takes up to 4× as long, and a depth more can cost
         // several times one less (its rays leave surfaces and walk the BVH).
@@ -798,11 +827,13 @@ impl Session {
         c.depth_took[depth as usize] = Some(took);
         let fast = |t: Option<Duration>| t.is_none_or(|t| t <= COARSE_TARGET);
         if took > COARSE_TARGET {
+            // Far over (3× the target or more): a larger step, so that few frames are slow.
+            let far = took > 3 * COARSE_TARGET;
             if block < MAX_BLOCK {
-                c.block = block * 2;
+                c.block = (block * if far { 4 } else { 2 }).min(MAX_BLOCK);
                 c.depth_took = Default::default();
             } else if depth > 1 {
-                c.depth = depth - 1;
+                c.depth = if far { 1 } else { depth - 1 };
             }
         } else if took * 8 < COARSE_TARGET {
             // Well under: a deeper or finer pass may cost several times this one.
