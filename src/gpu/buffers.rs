@@ -34,6 +34,8 @@ pub struct SceneBuffers {
     /// The BVH's threaded orders and primitive list (a placeholder word without a BVH).
     pub bvh_nodes: wgpu::Buffer,
     pub bvh_prims: wgpu::Buffer,
+    /// The candidate tables' buffers ([`FlatTables`]; placeholders without tables).
+    pub tables: [wgpu::Buffer; 5],
     pub bind: wgpu::BindGroup,
     pub tile: u64,
     /// Jobs each ray queue and each shadow queue holds (`Params::ray_queue`,
@@ -71,6 +73,28 @@ impl SceneBuffers {
         }
         queue.write_buffer(&self.bvh_nodes, 0, nodes);
         queue.write_buffer(&self.bvh_prims, 0, prims);
+        true
+    }
+
+    /// Writes `flat` into the tables' buffers when each part fits in its buffer (the
+    /// preview's eye table, rebuilt for a resting camera, into buffers made with room).
+    /// Returns whether it did.
+    pub fn rewrite_tables(&self, ctx: &GpuContext, flat: &FlatTables) -> bool {
+        let parts: [&[u8]; 5] = [
+            bytemuck::cast_slice(&flat.origins),
+            bytemuck::cast_slice(&flat.faces),
+            bytemuck::cast_slice(&flat.cell_start),
+            bytemuck::cast_slice(&flat.entries),
+            bytemuck::cast_slice(&flat.light_origin),
+        ];
+        if parts.iter().zip(&self.tables).any(|(p, b)| p.len() as u64 > b.size()) {
+            return false;
+        }
+        for (p, b) in parts.iter().zip(&self.tables) {
+            if !p.is_empty() {
+                ctx.queue.write_buffer(b, 0, p);
+            }
+        }
         true
     }
 }
@@ -288,6 +312,7 @@ pub fn upload(
         indirect,
         bvh_nodes,
         bvh_prims,
+        tables: [origins, faces, cell_start, entries, light_origin],
         bind,
         tile,
         ray_queue,

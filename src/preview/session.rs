@@ -245,6 +245,17 @@ fn make_room_for_moves(packed: &mut Packed, scene: &Scene) {
     }
 }
 
+/// Gives the candidate list of `flat` room after its end (a quarter more, within the
+/// adapter's binding limit), so that the eye's table rebuilt for another camera, whose list
+/// may come out longer, is written into the same buffer. The walks never read past a
+/// cell's own entries.
+fn make_room_for_eye_tables(flat: &mut FlatTables, limits: &wgpu::Limits) {
+    let entry = std::mem::size_of::<crate::coherence::flat::GpuEntry>() as u64;
+    let most = (limits.max_storage_buffer_binding_size.min(limits.max_buffer_size) / entry) as usize;
+    let len = flat.entries.len();
+    flat.entries.resize((len + len / 4 + 64).min(most).max(len), Default::default());
+}
+
 /// `scene` packed for a `w`×`h` image under `opts` (in f64 for `--precision f64`).
 fn pack_scene(scene: &Scene, opts: &RenderOptions, w: u32, h: u32) -> Packed {
     let mut packed = pack(scene, w, h, opts.spawn);
@@ -278,7 +289,7 @@ impl Session {
         if all.queries == Queries::Bvh {
             packed = packed.with_bvh(&scene);
         }
-        let tables = gpu.tables(&scene, &opts, all, &mut packed)?;
+        let mut tables = gpu.tables(&scene, &opts, all, &mut packed)?;
         let walks = gpu::walk_bounds(tables.as_ref().map(|t| &t.walks), &packed);
         gpu.check_loop_budget(&scene, walks.as_ref(), Some(MAX_DEPTH))?;
         let first = variant(&scene, &opts, toggles, opts.max_depth, all.queries);
@@ -287,6 +298,9 @@ impl Session {
         let wants_tables = all.queries == Queries::Tables && tables.is_some();
         if wants_tables {
             make_room_for_moves(&mut packed, &scene);
+            if let Some(t) = tables.as_mut() {
+                make_room_for_eye_tables(&mut t.flat, &gpu.ctx.device.limits());
+            }
         }
         let buffers = gpu.upload(&packed, tables.as_ref().map(|t| &t.flat), tile, Some(sizes))?;
         buffers.size_queues(&mut packed.params);
@@ -559,7 +573,27 @@ impl Session {
             gpu::point_at(&mut packed.params, &tables.flat);
             gpu::add_surface_bvh(&mut packed, &self.scene, &eye_build_params(&self.scene, &self.opts));
             make_room_for_moves(&mut packed, &self.scene);
-            self.install(Queries::Tables, packed, Some(&tables))?;
+            let ctx = &self.gpu.ctx;
+            if self.buffers.rewrite_tables(ctx, &tables.flat) && self.buffers.rewrite_moved(ctx, &packed) {
+                // Written into the buffers in place: only the kernels and the plan change.
+                let walks = gpu::walk_bounds(Some(&tables.walks), &packed);
+                self.gpu.check_loop_budget(&self.scene, walks.as_ref(), Some(MAX_DEPTH))?;
+                self.buffers.size_queues(&mut packed.params);
+                self.set_base(&packed.params);
+                self.queries = Queries::Tables;
+                self.walks = walks;
+                let v = variant(&self.scene, &self.opts, self.toggles, self.opts.max_depth, self.queries);
+                self.pipelines = compile(&self.gpu, v, &self.buffers, &self.base)?;
+                let retries = retry_passes(&self.scene, self.walks.as_ref());
+                self.schedule.set_plan(&self.gpu.ctx, WavePlan::new(v, self.opts.max_depth, retries));
+            } else {
+                log::debug!("eye table: new buffers for the tables");
+                let mut flat_room = tables;
+                make_room_for_eye_tables(&mut flat_room.flat, &self.gpu.ctx.device.limits());
+                self.install(Queries::Tables, packed, Some(&flat_room))?;
+                self.tables = Some(flat_room);
+                return Ok(());
+            }
             self.tables = Some(tables);
         }
         Ok(())
