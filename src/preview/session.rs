@@ -423,7 +423,10 @@ impl Session {
         let start = Instant::now();
         self.scene.camera = camera;
         self.camera_generation += 1;
-        self.eye_ready = None;
+        if let Some(tables) = self.eye_ready.take() {
+            // Rebuilt for the camera before this one: rebuilt again once this one rests.
+            self.tables = Some(tables);
+        }
         if let Some(c) = self.coarse.as_mut() {
             c.complete = false;
         }
@@ -456,9 +459,9 @@ impl Session {
 
     fn update_eye(&mut self) -> Result<()> {
         let (w, h) = (self.opts.width, self.opts.height);
-        if self.wants_tables {
-            // The BVH over the re-centred scene (in milliseconds) traces at once; the eye's
-            // table follows from a worker thread.
+        if self.wants_tables || self.queries == Queries::Bvh {
+            // The BVH over the re-centred scene (in milliseconds) traces at once; with the
+            // tables, the eye's table follows from a worker thread once the camera rests.
             let t0 = Instant::now();
             let mut packed = pack_scene(&self.scene, &self.opts, w, h);
             make_room_for_moves(&mut packed, &self.scene);
@@ -489,26 +492,16 @@ impl Session {
             );
             return Ok(());
         }
-        let mut packed;
-        if self.queries == Queries::Bvh {
-            // The BVH is rebuilt over the re-centred scene (in milliseconds) and uploaded with it.
-            packed = pack_scene(&self.scene, &self.opts, w, h).with_bvh(&self.scene);
-            self.walks = gpu::walk_bounds(None, &packed);
-            self.gpu.check_loop_budget(&self.scene, self.walks.as_ref(), Some(MAX_DEPTH))?;
-            self.buffers = self.upload(&mut packed, None)?;
-            self.rebind();
-        } else {
-            // Brute force: only the geometry moves (textures do not depend on the eye).
-            let textures = std::mem::take(&mut self.scene.textures);
-            packed = pack_scene(&self.scene, &self.opts, w, h);
-            self.scene.textures = textures;
-            let queue = &self.gpu.ctx.queue;
-            if !packed.prims.is_empty() {
-                queue.write_buffer(&self.buffers.prims, 0, packed.prim_bytes());
-            }
-            if !packed.lights.is_empty() {
-                queue.write_buffer(&self.buffers.lights, 0, bytemuck::cast_slice(&packed.lights));
-            }
+        // Brute force: only the geometry moves (textures do not depend on the eye).
+        let textures = std::mem::take(&mut self.scene.textures);
+        let packed = pack_scene(&self.scene, &self.opts, w, h);
+        self.scene.textures = textures;
+        let queue = &self.gpu.ctx.queue;
+        if !packed.prims.is_empty() {
+            queue.write_buffer(&self.buffers.prims, 0, packed.prim_bytes());
+        }
+        if !packed.lights.is_empty() {
+            queue.write_buffer(&self.buffers.lights, 0, bytemuck::cast_slice(&packed.lights));
         }
         self.set_base(&packed.params);
         Ok(())

@@ -8,7 +8,7 @@ use std::process::{Child, Command, Stdio};
 use std::sync::Arc;
 
 use cuberay::gpu::GpuRenderer;
-use cuberay::job::{Precision, RenderOptions};
+use cuberay::job::{AccelKind, Precision, RenderOptions};
 use cuberay::load;
 use cuberay::preview::controls::Controller;
 use cuberay::preview::session::{EyeTable, Session, Toggles};
@@ -87,6 +87,48 @@ fn session_converges_to_the_headless_render() {
         let d = max_abs(&reference2, &s.image().unwrap());
         assert!(d < 1e-4, "{precision:?}: with the rebuilt eye table: differs by {d}");
         assert!(max_abs(&reference, &reference2) > 0.05, "{precision:?}: the move changed nothing");
+    }
+}
+
+/// Moves with every accelerator: with the BVH and brute force the session traces them as
+/// it did; with the tables, a move while the eye table is being rebuilt for the previous
+/// camera, and one while a rebuilt table waits for a pass boundary, both end with the tables
+/// of the last camera. Each converges to the headless render of its last camera.
+#[test]
+fn moves_with_every_accelerator_end_on_the_headless_render() {
+    let gpu = Arc::new(GpuRenderer::new().expect("a GPU adapter (run `bash .ci/setup`)"));
+    let scene = load::showcase().unwrap().scene;
+    let c = scene.camera.clone();
+    let step = |k: f64| {
+        Camera::from_basis(c.eye + c.right * (0.3 * k) - c.forward * 0.2, c.forward, c.up, c.projection)
+            .unwrap()
+    };
+    for accel in [AccelKind::Bvh, AccelKind::Brute, AccelKind::Cube] {
+        let o = RenderOptions { accel, ..opts(32, 24, 2) };
+        let mut s = Session::new(gpu.clone(), scene.clone(), o.clone(), Toggles::default(), o.spp).unwrap();
+        s.set_camera(step(1.0));
+        s.trace_coarse().unwrap();
+        // Resting: the eye table's rebuild starts (tables) while the passes run.
+        s.finish().unwrap();
+        s.set_camera(step(2.0));
+        s.finish().unwrap();
+        if accel == AccelKind::Cube {
+            // A rebuilt table waiting for its pass boundary when the camera moves again.
+            s.wait_for_eye_table().unwrap();
+            s.set_camera(step(3.0));
+            s.wait_for_eye_table().unwrap();
+            assert_eq!(s.eye_table(), EyeTable::Ready);
+        } else {
+            s.set_camera(step(3.0));
+            assert_eq!(s.eye_table(), EyeTable::None);
+        }
+        s.restart();
+        s.finish().unwrap();
+        let mut there = scene.clone();
+        there.camera = step(3.0);
+        let want = gpu.render(&there, &o, &ProgressBar::hidden()).unwrap().image;
+        let d = max_abs(&want, &s.image().unwrap());
+        assert!(d < 1e-4, "{accel:?}: differs from the headless render by {d}");
     }
 }
 
