@@ -453,7 +453,8 @@ impl View {
     /// One line of `--frame-log` for the frame that took `took`.
     fn log_frame(&mut self, took: Duration, moved: bool, block: u32, depth: u32) -> Result<()> {
         let points = self.session.points_traced();
-        let traced = points - self.points_at;
+        // A resize starts a new session, and its count again.
+        let traced = points.saturating_sub(self.points_at);
         self.points_at = points;
         let Some(log) = self.frame_log.as_mut() else { return Ok(()) };
         let line = serde_json::json!({
@@ -498,6 +499,7 @@ impl View {
         scene.camera = self.controller.camera().clone();
         let (toggles, limit) = (self.session.toggles(), self.session.limit());
         self.session = Session::new(self.gpu.clone(), scene, opts, toggles, limit)?;
+        self.points_at = 0;
         Ok(())
     }
 

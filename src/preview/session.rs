@@ -44,6 +44,8 @@ const STEP_TARGET: Duration = Duration::from_millis(30);
 /// The time a moving camera's coarse image should take; its block grows or shrinks towards
 /// it.
 pub const COARSE_TARGET: Duration = Duration::from_millis(20);
+/// How long the camera rests before the eye's table is rebuilt for it.
+const REST_BEFORE_REBUILD: Duration = Duration::from_millis(100);
 /// Pixels per coarse block edge: the first, and the range it adapts in.
 const FIRST_BLOCK: u32 = 8;
 const MIN_BLOCK: u32 = 2;
@@ -152,6 +154,8 @@ pub struct Session {
     camera_generation: u64,
     /// Grid points traced (of every pass) since the session started.
     points_traced: u64,
+    /// When the camera last moved.
+    last_move: Instant,
     /// The coarse image of a moving camera, once one was traced.
     coarse: Option<Coarse>,
 }
@@ -231,6 +235,16 @@ fn eye_build_params(scene: &Scene, opts: &RenderOptions) -> BuildParams {
     GpuRenderer::variant_build_params(scene, opts, all)
 }
 
+/// The walks the kernels of `packed` take: the tables' (if any), and the BVH's where rays
+/// walk it (the BVH a preview keeps for camera moves is not walked beside the tables when
+/// no ray leaves a surface).
+fn traced_walks(tables: Option<&WalkBounds>, packed: &Packed) -> Option<WalkBounds> {
+    match tables {
+        Some(t) if packed.params.surface_bvh == 0 => Some(*t),
+        t => gpu::walk_bounds(t, packed),
+    }
+}
+
 /// Gives `packed` (of `scene`) a BVH, and room after it for the BVH of any camera (a binary
 /// tree over n primitives has at most 2n − 1 nodes in each order), so that a camera move
 /// writes its BVH into the buffers in place: new buffers would cost the zeroing of a
@@ -296,8 +310,10 @@ impl Session {
         let tile = tile_points(&scene, walks.as_ref(), TESTS_PER_DISPATCH);
         let sizes = gpu::queue_sizes(&scene, all);
         let wants_tables = all.queries == Queries::Tables && tables.is_some();
-        if wants_tables {
+        if wants_tables || all.queries == Queries::Bvh {
             make_room_for_moves(&mut packed, &scene);
+        }
+        if wants_tables {
             if let Some(t) = tables.as_mut() {
                 make_room_for_eye_tables(&mut t.flat, &gpu.ctx.device.limits());
             }
@@ -366,6 +382,7 @@ impl Session {
             eye_ready: None,
             camera_generation: 0,
             points_traced: 0,
+            last_move: Instant::now(),
             coarse: None,
         };
         s.restart();
@@ -423,6 +440,7 @@ impl Session {
         let start = Instant::now();
         self.scene.camera = camera;
         self.camera_generation += 1;
+        self.last_move = Instant::now();
         if let Some(tables) = self.eye_ready.take() {
             // Rebuilt for the camera before this one: rebuilt again once this one rests.
             self.tables = Some(tables);
@@ -470,14 +488,18 @@ impl Session {
             // zeroing of a tile's queues); the waves' plan follows the new BVH's walks.
             let walks = gpu::walk_bounds(None, &packed);
             self.gpu.check_loop_budget(&self.scene, walks.as_ref(), Some(MAX_DEPTH))?;
+            // The kernels first: nothing is written when they fail.
+            let v = variant(&self.scene, &self.opts, self.toggles, self.opts.max_depth, Queries::Bvh);
+            let switch = self.queries != Queries::Bvh || walks != self.walks;
+            let pipelines =
+                if switch { Some(compile(&self.gpu, v, &self.buffers, &self.base)?) } else { None };
             if self.buffers.rewrite_moved(&self.gpu.ctx, &packed) {
                 self.buffers.size_queues(&mut packed.params);
                 self.set_base(&packed.params);
-                if self.queries != Queries::Bvh || walks != self.walks {
+                if let Some(pipelines) = pipelines {
+                    self.pipelines = pipelines;
                     self.queries = Queries::Bvh;
                     self.walks = walks;
-                    let v = variant(&self.scene, &self.opts, self.toggles, self.opts.max_depth, self.queries);
-                    self.pipelines = compile(&self.gpu, v, &self.buffers, &self.base)?;
                     let retries = retry_passes(&self.scene, self.walks.as_ref());
                     self.schedule.set_plan(&self.gpu.ctx, WavePlan::new(v, self.opts.max_depth, retries));
                 }
@@ -538,10 +560,12 @@ impl Session {
 
     /// Takes a finished eye-table build: tables for the current camera are swapped in at
     /// the next pass boundary, tables for an older camera go back for another rebuild.
-    fn poll_eye_table(&mut self) -> Result<()> {
-        if self.wants_tables && self.eye_build.is_none() && self.queries != Queries::Tables {
-            // The camera rests (this runs between its frames' passes, not while it moves):
-            // the eye's table is rebuilt for it.
+    fn poll_eye_table(&mut self, force: bool) -> Result<()> {
+        let resting = force || self.last_move.elapsed() >= REST_BEFORE_REBUILD;
+        if self.wants_tables && self.eye_build.is_none() && self.queries != Queries::Tables && resting {
+            // The camera rests (this runs between its frames' passes, not while it moves,
+            // and once it has rested a while: a build a drag overtakes cannot be stopped
+            // and takes a core from the kernels): the eye's table is rebuilt for it.
             if let Some(tables) = self.tables.take() {
                 self.start_eye_build(tables);
             }
@@ -566,17 +590,31 @@ impl Session {
             gpu::point_at(&mut packed.params, &tables.flat);
             gpu::add_surface_bvh(&mut packed, &self.scene, &eye_build_params(&self.scene, &self.opts));
             make_room_for_moves(&mut packed, &self.scene);
+            // The walks, the loop budget and the kernels first: a failure leaves the session
+            // on the BVH with nothing written, and the tables for a later try.
+            let walks = traced_walks(Some(&tables.walks), &packed);
+            let v = variant(&self.scene, &self.opts, self.toggles, self.opts.max_depth, Queries::Tables);
+            let ready = self
+                .gpu
+                .check_loop_budget(&self.scene, walks.as_ref(), Some(MAX_DEPTH))
+                .and_then(|_| compile(&self.gpu, v, &self.buffers, &self.base));
+            let pipelines = match ready {
+                Ok(p) => p,
+                Err(e) => {
+                    log::warn!("cannot trace the rebuilt tables ({e}): tracing with the BVH");
+                    self.wants_tables = false;
+                    self.tables = Some(tables);
+                    return Ok(());
+                }
+            };
             let ctx = &self.gpu.ctx;
             if self.buffers.rewrite_tables(ctx, &tables.flat) && self.buffers.rewrite_moved(ctx, &packed) {
                 // Written into the buffers in place: only the kernels and the plan change.
-                let walks = gpu::walk_bounds(Some(&tables.walks), &packed);
-                self.gpu.check_loop_budget(&self.scene, walks.as_ref(), Some(MAX_DEPTH))?;
                 self.buffers.size_queues(&mut packed.params);
                 self.set_base(&packed.params);
                 self.queries = Queries::Tables;
                 self.walks = walks;
-                let v = variant(&self.scene, &self.opts, self.toggles, self.opts.max_depth, self.queries);
-                self.pipelines = compile(&self.gpu, v, &self.buffers, &self.base)?;
+                self.pipelines = pipelines;
                 let retries = retry_passes(&self.scene, self.walks.as_ref());
                 self.schedule.set_plan(&self.gpu.ctx, WavePlan::new(v, self.opts.max_depth, retries));
             } else {
@@ -612,7 +650,7 @@ impl Session {
     /// sets the kernels, the waves' plan and the params. Between passes, the accumulation
     /// stays valid: every accelerator gives the same pixels.
     fn install(&mut self, queries: Queries, mut packed: Packed, tables: Option<&Tables>) -> Result<()> {
-        let walks = gpu::walk_bounds(tables.map(|t| &t.walks), &packed);
+        let walks = traced_walks(tables.map(|t| &t.walks), &packed);
         self.gpu.check_loop_budget(&self.scene, walks.as_ref(), Some(MAX_DEPTH))?;
         self.buffers = self.upload(&mut packed, tables.map(|t| &t.flat))?;
         let v = variant(&self.scene, &self.opts, self.toggles, self.opts.max_depth, queries);
@@ -674,6 +712,10 @@ impl Session {
         self.use_kernel(v)?;
         self.toggles = toggles;
         self.opts = opts;
+        if let Some(c) = self.coarse.as_mut() {
+            // The coarse image shows the old effects: not shown again.
+            c.complete = false;
+        }
         self.base.max_depth = max_depth;
         let retries = retry_passes(&self.scene, self.walks.as_ref());
         let plan = WavePlan::new(v, max_depth, retries);
@@ -702,12 +744,12 @@ impl Session {
     /// step unless complete). Returns whether any work was done.
     pub fn advance(&mut self, budget: Duration) -> Result<bool> {
         let start = Instant::now();
-        self.poll_eye_table()?;
+        self.poll_eye_table(false)?;
         let mut worked = false;
         while !self.is_complete() && (!worked || start.elapsed() + self.schedule.last_submit() < budget) {
             crate::interrupt::check()?;
             if worked {
-                self.poll_eye_table()?;
+                self.poll_eye_table(false)?;
             }
             self.step()?;
             worked = true;
@@ -719,7 +761,7 @@ impl Session {
     pub fn finish(&mut self) -> Result<()> {
         while !self.is_complete() {
             crate::interrupt::check()?;
-            self.poll_eye_table()?;
+            self.poll_eye_table(false)?;
             self.step()?;
         }
         Ok(())
@@ -729,7 +771,7 @@ impl Session {
     /// next pass boundary on (tests, and a preview about to exit).
     pub fn wait_for_eye_table(&mut self) -> Result<()> {
         loop {
-            self.poll_eye_table()?;
+            self.poll_eye_table(true)?;
             let Some(build) = &self.eye_build else { return Ok(()) };
             let built = build
                 .result
