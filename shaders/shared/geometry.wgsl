@@ -414,6 +414,8 @@ struct Surface {
     ns: vec3<f32>,
     uv: vec2<f32>,
     has_uv: bool,
+    // The vertex colour (white without one; VERTEX_COLORS).
+    color: vec3<f32>,
     // Size of the numbers behind `p`, for the spawn offset.
     scale: f32,
 }
@@ -476,6 +478,7 @@ fn shadow_ray(q: vec3r, to_light: vec3<f32>, light: u32) -> ShadowRay {
 fn surface(prim: Prim, ray: Ray, h: PrimHit) -> Surface {
     var s: Surface;
     s.has_uv = false;
+    s.color = vec3<f32>(1.0);
     s.uv = vec2<f32>(0.0);
     let o = ray.o;
     let d = vec3r(ray.d);
@@ -532,6 +535,12 @@ fn surface(prim: Prim, ray: Ray, h: PrimHit) -> Surface {
                     s.ns = select(sn, -sn, dot(sn, s.ng) < 0.0);
                 }
             }
+#if VERTEX_COLORS
+            if (prim.flags & FLAG_COLORS) != 0u {
+                let at = tri_attrs[prim.attr];
+                s.color = at.c0.xyz * f32(b0) + at.c1.xyz * h.b1 + at.c2.xyz * h.b2;
+            }
+#endif
             if (prim.flags & FLAG_UVS) != 0u {
                 let at = tri_attrs[prim.attr];
                 s.uv = at.uv01.xy * f32(b0) + at.uv01.zw * h.b1 + at.uv2.xy * h.b2;

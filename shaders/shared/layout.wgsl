@@ -106,6 +106,10 @@ struct TriAttr {
     n2: vec4<f32>,
     uv01: vec4<f32>,
     uv2: vec4<f32>,
+    // Vertex colours (RGB; FLAG_COLORS).
+    c0: vec4<f32>,
+    c1: vec4<f32>,
+    c2: vec4<f32>,
 }
 
 struct Material {
@@ -329,6 +333,7 @@ const KIND_CYLINDER: u32 = 2u;
 const FLAG_INSIDE_ONLY: u32 = 1u;
 const FLAG_NORMALS: u32 = 2u;
 const FLAG_UVS: u32 = 4u;
+const FLAG_COLORS: u32 = 8u;
 
 const MATERIAL_TINTED_TRANSMISSION: u32 = 1u;
 

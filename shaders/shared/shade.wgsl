@@ -45,13 +45,19 @@ fn incidence(l: Light, p: vec3r) -> Incidence {
     return inc;
 }
 
+// The base colour at surface `s`: the material's, times its texture and the vertex colour
+// where there are (twin: reference::shade `base_color`).
 fn base_color(m: Material, s: Surface) -> vec3<f32> {
+    var c = m.color;
 #if TEXTURES
     if m.texture != 0u && s.has_uv {
-        return m.color * sample_texture(m.texture - 1u, s.uv);
+        c = m.color * sample_texture(m.texture - 1u, s.uv);
     }
 #endif
-    return m.color;
+#if VERTEX_COLORS
+    c *= s.color;
+#endif
+    return c;
 }
 
 // Which primitive a ray leaving primitive `id` towards `dir` need not test: the primitive

@@ -196,6 +196,8 @@ pub struct Variant {
     pub refraction: bool,
     pub textures: bool,
     pub emission: bool,
+    /// Triangles carry vertex colours that multiply the base colour (`VERTEX_COLORS`).
+    pub vertex_colors: bool,
     /// The ray queries: the candidate tables, the BVH or brute force.
     pub queries: Queries,
     /// Intersection tests and hit points in f64 (`--precision f64`; `SHADER_F64`).
@@ -231,6 +233,7 @@ impl Variant {
             refraction: e.refraction && secondary,
             textures: e.textures,
             emission: e.emission,
+            vertex_colors: e.vertex_colors,
             queries: Queries::Tables,
             f64: false,
             shapes: Shapes::ALL,
@@ -278,6 +281,7 @@ impl Variant {
             refraction: self.refraction,
             textures: self.textures,
             emission: self.emission,
+            vertex_colors: self.vertex_colors,
         }
     }
 
@@ -287,7 +291,8 @@ impl Variant {
     /// included: a scene may hold no primitive) with every effect (42), then shadows without
     /// rays leaving surfaces (lights with tables, no mirror), with and without textures and
     /// emission (12), then every effect uncounted (6), so that each `#if` is compiled both
-    /// ways.
+    /// ways. Vertex colours are off in the 32 effect sets and on in the rest (each further
+    /// effect is compiled on and off against a representative rest, not in the full product).
     pub fn all() -> Vec<Variant> {
         let effects = [false, true].into_iter().flat_map(|f64| {
             Queries::ALL.into_iter().flat_map(move |queries| {
@@ -297,6 +302,7 @@ impl Variant {
                     refraction: b & 4 != 0,
                     textures: b & 8 != 0,
                     emission: b & 16 != 0,
+                    vertex_colors: false,
                     queries,
                     f64,
                     shapes: Shapes::ALL,
@@ -319,6 +325,7 @@ impl Variant {
                     shadows: true,
                     textures: more,
                     emission: more,
+                    vertex_colors: more,
                     queries,
                     f64,
                     shapes: Shapes::ALL,
@@ -343,6 +350,7 @@ impl Variant {
             refraction: true,
             textures: true,
             emission: true,
+            vertex_colors: true,
             queries,
             f64: false,
             shapes: Shapes::ALL,
@@ -358,6 +366,7 @@ impl Variant {
             "REFRACTION" => self.refraction,
             "TEXTURES" => self.textures,
             "EMISSION" => self.emission,
+            "VERTEX_COLORS" => self.vertex_colors,
             "F64" => self.f64,
             "SPHERES" => self.shapes.spheres,
             "TRIANGLES" => self.shapes.triangles,

@@ -98,7 +98,7 @@ pub fn pack(scene: &Scene, width: u32, height: u32, spawn: SpawnPolicy) -> Packe
         .map(|p| {
             let mut attr = 0;
             if let Primitive::Triangle(t) = p {
-                if t.n.is_some() || t.uv.is_some() {
+                if t.n.is_some() || t.uv.is_some() || t.color.is_some() {
                     let mut a = TriAttr::default();
                     if let Some(n) = t.n {
                         a.n0 = v4(n[0], 0.0);
@@ -108,6 +108,9 @@ pub fn pack(scene: &Scene, width: u32, height: u32, spawn: SpawnPolicy) -> Packe
                     if let Some(uv) = t.uv {
                         a.uv01 = [uv[0].x as f32, uv[0].y as f32, uv[1].x as f32, uv[1].y as f32];
                         a.uv2 = [uv[2].x as f32, uv[2].y as f32, 0.0, 0.0];
+                    }
+                    if let Some(c) = &t.color {
+                        (a.c0, a.c1, a.c2) = (v4(c[0], 1.0), v4(c[1], 1.0), v4(c[2], 1.0));
                     }
                     attr = tri_attrs.len() as u32;
                     tri_attrs.push(a);
@@ -232,7 +235,9 @@ fn wide_prim(p: &Primitive, eye: DVec3, attr: u32) -> Prim64 {
             c: w4(t.p[2] - eye, 0.0),
             kind: KIND_TRIANGLE,
             material: t.material,
-            flags: if t.n.is_some() { FLAG_NORMALS } else { 0 } | if t.uv.is_some() { FLAG_UVS } else { 0 },
+            flags: if t.n.is_some() { FLAG_NORMALS } else { 0 }
+                | if t.uv.is_some() { FLAG_UVS } else { 0 }
+                | if t.color.is_some() { FLAG_COLORS } else { 0 },
             attr,
             ..Prim64::default()
         },

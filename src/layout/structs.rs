@@ -110,6 +110,10 @@ pub struct TriAttr {
     pub n2: [f32; 4],
     pub uv01: [f32; 4],
     pub uv2: [f32; 4],
+    /// Vertex colours (RGB; [`FLAG_COLORS`]).
+    pub c0: [f32; 4],
+    pub c1: [f32; 4],
+    pub c2: [f32; 4],
 }
 
 /// A material (WGSL `Material`, keep in sync with `shaders/shared/layout.wgsl`).
@@ -311,6 +315,7 @@ pub const KIND_CYLINDER: u32 = 2;
 pub const FLAG_INSIDE_ONLY: u32 = 1;
 pub const FLAG_NORMALS: u32 = 2;
 pub const FLAG_UVS: u32 = 4;
+pub const FLAG_COLORS: u32 = 8;
 
 /// [`Material::flags`] bit (WGSL `MATERIAL_TINTED_TRANSMISSION`): the refracted ray is
 /// weighted by the base colour at the hit too (`scene::Material::tinted_transmission`).

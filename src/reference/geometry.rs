@@ -319,6 +319,8 @@ pub struct SurfacePoint {
     pub ns: DVec3,
     /// Texture coordinates, for triangles that carry them.
     pub uv: Option<DVec2>,
+    /// The vertex colour, interpolated (white where the primitive has none).
+    pub color: DVec3,
     /// Size of the numbers that produced `p`, for the spawn offset.
     pub scale: f64,
 }
@@ -331,7 +333,7 @@ pub fn surface(prim: &Primitive, ray: &Ray, hit: &Intersection) -> SurfacePoint 
             let p = ray.at(hit.t);
             let ng = (p - s.center).normalize();
             let scale = scale_of(p).max(s.center.abs().max_element() + s.radius);
-            SurfacePoint { p, ng, ns: ng, uv: None, scale }
+            SurfacePoint { p, ng, ns: ng, uv: None, color: DVec3::ONE, scale }
         }
         Primitive::Cylinder(c) => {
             let p = ray.at(hit.t);
@@ -341,7 +343,7 @@ pub fn surface(prim: &Primitive, ray: &Ray, hit: &Intersection) -> SurfacePoint 
             let ng = cone_normal(f.axis, f.slope, radial);
             let extent = c.base.abs().max_element().max(c.apex.abs().max_element());
             let scale = scale_of(p).max(extent);
-            SurfacePoint { p, ng, ns: ng, uv: None, scale }
+            SurfacePoint { p, ng, ns: ng, uv: None, color: DVec3::ONE, scale }
         }
         Primitive::Triangle(t) => {
             let b0 = 1.0 - hit.b1 - hit.b2;
@@ -366,8 +368,9 @@ pub fn surface(prim: &Primitive, ray: &Ray, hit: &Intersection) -> SurfacePoint 
                 None => ng,
             };
             let uv = t.uv.map(|uv| uv[0] * b0 + uv[1] * hit.b1 + uv[2] * hit.b2);
+            let color = t.color.as_ref().map_or(DVec3::ONE, |c| c[0] * b0 + c[1] * hit.b1 + c[2] * hit.b2);
             let extent = t.p.iter().map(|q| q.abs().max_element()).fold(0.0, f64::max);
-            SurfacePoint { p, ng, ns, uv, scale: scale_of(p).max(extent) }
+            SurfacePoint { p, ng, ns, uv, color, scale: scale_of(p).max(extent) }
         }
     }
 }
@@ -431,7 +434,7 @@ mod tests {
     }
 
     fn tri(p0: DVec3, p1: DVec3, p2: DVec3) -> Triangle {
-        Triangle { p: [p0, p1, p2], n: None, uv: None, material: 0 }
+        Triangle { p: [p0, p1, p2], n: None, uv: None, color: None, material: 0 }
     }
 
     #[test]
@@ -456,6 +459,7 @@ mod tests {
             // Stored pointing down: the shading normal is turned to the geometric side.
             n: Some([-n0, -n1, -DVec3::Z]),
             uv: Some([glam::DVec2::ZERO, glam::DVec2::X, glam::DVec2::Y]),
+            color: None,
             material: 0,
         };
         let r = Ray::new(DVec3::new(0.5, 0.0, 1.0), DVec3::NEG_Z);
@@ -470,6 +474,7 @@ mod tests {
             p: [DVec3::ZERO, DVec3::X, DVec3::Y],
             n: Some([n0, n1, DVec3::Z]),
             uv: None,
+            color: None,
             material: 0,
         };
         let s = surface(&Primitive::Triangle(tri), &r, &h);

@@ -36,7 +36,7 @@
 use glam::DVec3;
 
 use super::accel::{Accel, NearestHit, OriginKey, ShadowQuery};
-use super::geometry::{spawn_offset, spawn_origin, surface, Ray};
+use super::geometry::{spawn_offset, spawn_origin, surface, Ray, SurfacePoint};
 use super::texture;
 use crate::scene::{Light, LightKind, Material, Scene};
 use crate::stats::{Counters, RayKind};
@@ -162,11 +162,14 @@ impl Tracer<'_> {
         }
     }
 
-    fn base_color(&self, m: &Material, uv: Option<glam::DVec2>) -> DVec3 {
-        match (m.base_color_texture, uv) {
+    /// The base colour at surface point `s`: the material's, times its texture and the
+    /// vertex colour where there are.
+    fn base_color(&self, m: &Material, s: &SurfacePoint) -> DVec3 {
+        let c = match (m.base_color_texture, s.uv) {
             (Some(t), Some(uv)) => m.color * texture::sample(&self.scene.textures[t.texture as usize], uv),
             _ => m.color,
-        }
+        };
+        c * s.color
     }
 
     fn shade(&self, ray: &Ray, h: &NearestHit, depth: u32, c: &mut Counters) -> DVec3 {
@@ -178,7 +181,7 @@ impl Tracer<'_> {
         // Normals turned to face the incoming ray.
         let entering = d.dot(s.ng) < 0.0;
         let (ng, n) = if entering { (s.ng, s.ns) } else { (-s.ng, -s.ns) };
-        let base = self.base_color(m, s.uv);
+        let base = self.base_color(m, &s);
         let diffuse = base * m.kd;
         let v = -d;
 

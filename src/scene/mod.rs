@@ -103,6 +103,9 @@ pub struct Triangle {
     pub n: Option<[DVec3; 3]>,
     /// Texture coordinates (glTF TEXCOORD_n for the material's base colour texture).
     pub uv: Option<[DVec2; 3]>,
+    /// Linear RGB vertex colours that multiply the base colour (glTF COLOR_0); boxed, as
+    /// few scenes have them and every triangle would carry their room.
+    pub color: Option<Box<[DVec3; 3]>>,
     pub material: u32,
 }
 
@@ -268,6 +271,8 @@ pub struct Effects {
     pub textures: bool,
     /// Some used material emits light.
     pub emission: bool,
+    /// Some triangle carries vertex colours.
+    pub vertex_colors: bool,
 }
 
 impl Effects {
@@ -280,6 +285,7 @@ impl Effects {
             (self.refraction, "refraction"),
             (self.textures, "textures"),
             (self.emission, "emission"),
+            (self.vertex_colors, "vertex_colors"),
         ] {
             if on {
                 v.push(name);
@@ -367,15 +373,16 @@ impl Scene {
     pub fn effects(&self) -> Effects {
         let mut used = vec![false; self.materials.len()];
         let mut has_uv = vec![false; self.materials.len()];
+        let mut e =
+            Effects { shadows: !self.lights.is_empty() && !self.primitives.is_empty(), ..Effects::default() };
         for p in &self.primitives {
             let m = p.material() as usize;
             used[m] = true;
             if let Primitive::Triangle(t) = p {
                 has_uv[m] |= t.uv.is_some();
+                e.vertex_colors |= t.color.is_some();
             }
         }
-        let mut e =
-            Effects { shadows: !self.lights.is_empty() && !self.primitives.is_empty(), ..Effects::default() };
         for (i, m) in self.materials.iter().enumerate() {
             if !used[i] {
                 continue;
@@ -467,6 +474,11 @@ impl Scene {
                     if let Some(uv) = &t.uv {
                         if !uv.iter().all(|u| u.is_finite()) {
                             return bad("texture coordinate is not finite".into());
+                        }
+                    }
+                    if let Some(c) = &t.color {
+                        if !c.iter().all(|c| c.is_finite() && c.min_element() >= 0.0) {
+                            return bad("vertex colour is negative or not finite".into());
                         }
                     }
                 }

@@ -612,6 +612,37 @@ fn degenerate_triangles_and_bad_normals() {
     );
 }
 
+/// COLOR_0 as floats (VEC3) and as normalised unsigned shorts (VEC4, alpha not read) gives
+/// the triangles' vertex colours; one that is neither is refused with its JSON path.
+#[test]
+fn vertex_colors_as_floats_and_normalised_shorts() {
+    let mut doc = Doc::new();
+    let p = doc.vec3(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+    let floats = doc.vec3(&[[1.0, 0.0, 0.0], [0.0, 0.5, 0.0], [0.0, 0.0, 0.25]]);
+    let shorts: Vec<u8> = [65535u16, 0, 0, 65535, 0, 32768, 0, 0, 0, 0, 65535, 0]
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    let view = doc.view(&shorts);
+    let normalised = doc.accessor(
+        json!({"bufferView": view, "componentType": 5123, "normalized": true, "count": 3, "type": "VEC4"}),
+    );
+    let mesh = |c: usize| json!({"primitives": [{"attributes": {"POSITION": p, "COLOR_0": c}}]});
+    let tris =
+        |c: usize| *triangles(&load_mesh_with_node(&doc, mesh(c), json!({})).scene)[0].color.clone().unwrap();
+    assert_eq!(tris(floats), [DVec3::X, DVec3::new(0.0, 0.5, 0.0), DVec3::new(0.0, 0.0, 0.25)]);
+    let c = tris(normalised);
+    assert_eq!(c[0], DVec3::X);
+    assert!((c[1] - DVec3::new(0.0, 32768.0 / 65535.0, 0.0)).length() < 1e-7, "{c:?}");
+    assert_eq!(c[2], DVec3::Z);
+    // A VEC2 is no colour.
+    let uv = doc.vec2(&[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]);
+    let dir = TempDir::new();
+    let rest = json!({"meshes": [mesh(uv)], "nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}], "scene": 0});
+    let path = doc.write(&dir, "bad_color.gltf", rest);
+    assert_error(&load_err(&path), &path, &["COLOR_0", "VEC3"]);
+}
+
 #[test]
 fn uvs_follow_the_base_colour_texture_coordinate_set() {
     let dir = TempDir::new();

@@ -262,6 +262,62 @@ fn gltf_model_agrees_with_the_cpu(file: &str, effect: &str) {
 }
 
 // glTF sample models: textures, emission, punctual lights, transmission, smooth normals.
+/// Vertex colours (glTF COLOR_0 as normalised bytes, `scenes/vertex_colors.gltf`) tint as
+/// given: under a light that reaches every point of the quad alike, each pixel is the
+/// colour interpolated from its triangle's vertices times one number, on the GPU and the
+/// CPU (which agree, FLIP ≤ 0.01).
+#[test]
+fn vertex_colors_tint_as_given() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/vertex_colors.gltf");
+    let scene = load::load(&path, &Default::default()).unwrap_or_else(|e| panic!("{e}")).scene;
+    assert!(scene.effects().vertex_colors);
+    let opts = RenderOptions::new(48, 48);
+    let (g, c) = agree("vertex_colors", &scene, &opts, 0.01);
+    assert!(g.stats.effects.contains(&"vertex_colors"), "{:?}", g.stats.effects);
+    // Corners red (-1, -1), green (1, -1), blue (1, 1), white (-1, 1); triangles (0, 1, 2)
+    // below the diagonal y = x and (0, 2, 3) above it.
+    let v = [
+        DVec3::new(-1.0, -1.0, 0.0),
+        DVec3::new(1.0, -1.0, 0.0),
+        DVec3::new(1.0, 1.0, 0.0),
+        DVec3::new(-1.0, 1.0, 0.0),
+    ];
+    let col = [DVec3::X, DVec3::Y, DVec3::Z, DVec3::ONE];
+    let (mut checked, mut worst) = (0, 0.0f64);
+    for y in 0..opts.height {
+        for x in 0..opts.width {
+            let (o, d) = scene.camera.ray(x as f64 + 0.5, y as f64 + 0.5, opts.width, opts.height);
+            let p = o + d * (-o.z / d.z);
+            if p.x.abs() > 0.95 || p.y.abs() > 0.95 || (p.x - p.y).abs() < 0.05 {
+                continue;
+            }
+            let [a, b, e] = if p.y < p.x { [0, 1, 2] } else { [0, 2, 3] };
+            // Barycentrics in the plane z = 0.
+            let area = |p: DVec3, q: DVec3, r: DVec3| (q - p).truncate().perp_dot((r - p).truncate());
+            let whole = area(v[a], v[b], v[e]);
+            let (wa, wb) = (area(p, v[b], v[e]) / whole, area(v[a], p, v[e]) / whole);
+            let want = col[a] * wa + col[b] * wb + col[e] * (1.0 - wa - wb);
+            for (backend, img) in [("GPU", &g.image), ("CPU", &c.image)] {
+                let px = img.get(x, y);
+                let got = DVec3::new(px[0] as f64, px[1] as f64, px[2] as f64);
+                // The one number: the least-squares scale of `want` onto `got`.
+                let k = got.dot(want) / want.dot(want);
+                let off = (got - want * k).abs().max_element() / got.max_element();
+                assert!(
+                    k > 0.05 && off < 0.01,
+                    "{backend} ({x}, {y}) at {p}: {got} is not a multiple of {want}"
+                );
+                worst = worst.max(off);
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked > 1000, "{checked} pixels checked");
+    eprintln!(
+        "vertex_colors: {checked} pixels, each within {worst:.1e} of its vertex colour times one number"
+    );
+}
+
 cases!(gltf_models_agree_with_the_cpu: super::gltf_model_agrees_with_the_cpu {
     box_shadows => ("Box/Box.gltf", "shadows"),
     box_textured => ("BoxTextured/BoxTextured.gltf", "textures"),

@@ -115,7 +115,7 @@ fn rust_structs() -> BTreeMap<&'static str, Layout> {
         }),
         twin!(Prim { a, b, c, kind, material, flags, attr }),
         twin!(Prim64 { a, b, c, kind, material, flags, attr, pad }),
-        twin!(TriAttr { n0, n1, n2, uv01, uv2 }),
+        twin!(TriAttr { n0, n1, n2, uv01, uv2, c0, c1, c2 }),
         twin!(Material { color, kd, mirror, ks, emission, shine, transmittance, ior, texture, flags }),
         twin!(Light {
             position,
@@ -191,6 +191,7 @@ fn rust_constants() -> BTreeMap<&'static str, Value> {
         ("FLAG_INSIDE_ONLY", U32(FLAG_INSIDE_ONLY)),
         ("FLAG_NORMALS", U32(FLAG_NORMALS)),
         ("FLAG_UVS", U32(FLAG_UVS)),
+        ("FLAG_COLORS", U32(FLAG_COLORS)),
         ("MATERIAL_TINTED_TRANSMISSION", U32(MATERIAL_TINTED_TRANSMISSION)),
         ("LIGHT_POINT", U32(LIGHT_POINT)),
         ("LIGHT_SPOT", U32(LIGHT_SPOT)),

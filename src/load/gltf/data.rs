@@ -407,6 +407,26 @@ impl Reader<'_> {
         Ok(out)
     }
 
+    /// Reads a COLOR_n accessor (VEC3 or VEC4; float, or normalised unsigned byte or short) as
+    /// linear RGB; the alpha of a VEC4 is not read (cuberay has no alpha yet).
+    pub fn colors(&self, acc: &gltf::Accessor, loc: &str) -> Result<Vec<[f32; 3]>, Error> {
+        let dims = if acc.dimensions() == Dimensions::Vec4 { Dimensions::Vec4 } else { Dimensions::Vec3 };
+        self.check_format(
+            acc,
+            loc,
+            dims,
+            &[(DataType::F32, false), (DataType::U8, true), (DataType::U16, true)],
+        )?;
+        let (t, n) = (acc.data_type(), acc.normalized());
+        let out = self.collect(acc, loc, |b| [0, 1, 2].map(|k| component_f32(b, t, n, k)))?;
+        if let Some((i, c)) =
+            out.iter().enumerate().find(|(_, c)| !c.iter().all(|v| v.is_finite() && *v >= 0.0))
+        {
+            return Err(self.err(loc, format!("colour {i} is negative or not finite: {c:?}")));
+        }
+        Ok(out)
+    }
+
     /// Reads an accessor of `dims` whose component types are among `allowed` as f32s, the
     /// components of each element in a row, every value finite (animation keyframes).
     pub fn floats(

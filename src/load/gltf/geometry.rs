@@ -125,6 +125,8 @@ struct PrimGeom {
     /// Unit or zero (zero marks a bad normal: the triangle's geometric normal is used).
     normals: Option<Arc<Vec<[f32; 3]>>>,
     uvs: Option<Arc<Vec<[f32; 2]>>>,
+    /// COLOR_0, linear RGB.
+    colors: Option<Arc<Vec<[f32; 3]>>>,
     /// KHR_texture_transform of the material's base colour texture, applied to `uvs`.
     uv_transform: Option<DAffine2>,
     tris: Arc<Vec<[u32; 3]>>,
@@ -270,6 +272,14 @@ impl Cache {
             },
         };
 
+        let colors = match prim.get(&Semantic::Colors(0)) {
+            None => None,
+            Some(acc) => {
+                same_count(&acc, "COLOR_0")?;
+                Some(Arc::new(reader.colors(&acc, &attr_loc(&loc, "COLOR_0", &acc))?))
+            }
+        };
+
         let idx_acc = prim.indices();
         let key = (idx_acc.as_ref().map(|a| a.index()), mode.as_gl_enum(), n);
         let tris = match self.tris.get(&key) {
@@ -303,7 +313,7 @@ impl Cache {
                 t
             }
         };
-        Ok(Some(PrimGeom { positions, normals, uvs, uv_transform, tris, material }))
+        Ok(Some(PrimGeom { positions, normals, uvs, colors, uv_transform, tris, material }))
     }
 }
 
@@ -340,7 +350,7 @@ impl Job {
         for t in &g.tris[self.start..self.end] {
             let idx = if flip { [t[0], t[2], t[1]] } else { *t };
             let p = idx.map(|i| self.world.transform_point3(dvec3(g.positions[i as usize])));
-            let mut tri = Triangle { p, n: None, uv: None, material: g.material };
+            let mut tri = Triangle { p, n: None, uv: None, color: None, material: g.material };
             if tri.is_degenerate() {
                 dropped += 1;
                 continue;
@@ -363,6 +373,9 @@ impl Job {
                     let uv = DVec2::new(u as f64, v as f64);
                     g.uv_transform.map_or(uv, |m| m.transform_point2(uv))
                 }));
+            }
+            if let Some(colors) = &g.colors {
+                tri.color = Some(Box::new(idx.map(|i| dvec3(colors[i as usize]))));
             }
             out.push(Primitive::Triangle(tri));
         }
