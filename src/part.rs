@@ -295,15 +295,7 @@ fn comparable(s: &Settings) -> serde_json::Map<String, serde_json::Value> {
 
 /// The `&'static` name of a known effect.
 fn effect_name(name: &str) -> Option<&'static str> {
-    let all = Effects {
-        shadows: true,
-        reflection: true,
-        refraction: true,
-        textures: true,
-        emission: true,
-        vertex_colors: true,
-    };
-    all.names().into_iter().find(|n| *n == name)
+    Effects::ALL.names().into_iter().find(|n| *n == name)
 }
 
 /// Assembles `parts` (at least one) into the whole image: checks that they come from one

@@ -484,29 +484,7 @@ impl Session {
             let mut packed = pack_scene(&self.scene, &self.opts, w, h);
             make_room_for_moves(&mut packed, &self.scene);
             let t1 = Instant::now();
-            // Written into the buffers in place when they fit (new buffers would cost the
-            // zeroing of a tile's queues); the waves' plan follows the new BVH's walks.
-            let walks = gpu::walk_bounds(None, &packed);
-            self.gpu.check_loop_budget(&self.scene, walks.as_ref(), Some(MAX_DEPTH))?;
-            // The kernels first: nothing is written when they fail.
-            let v = variant(&self.scene, &self.opts, self.toggles, self.opts.max_depth, Queries::Bvh);
-            let switch = self.queries != Queries::Bvh || walks != self.walks;
-            let pipelines =
-                if switch { Some(compile(&self.gpu, v, &self.buffers, &self.base)?) } else { None };
-            if self.buffers.rewrite_moved(&self.gpu.ctx, &packed) {
-                self.buffers.size_queues(&mut packed.params);
-                self.set_base(&packed.params);
-                if let Some(pipelines) = pipelines {
-                    self.pipelines = pipelines;
-                    self.queries = Queries::Bvh;
-                    self.walks = walks;
-                    let retries = retry_passes(&self.scene, self.walks.as_ref());
-                    self.schedule.set_plan(&self.gpu.ctx, WavePlan::new(v, self.opts.max_depth, retries));
-                }
-            } else {
-                log::debug!("camera move: new buffers for the BVH");
-                self.install(Queries::Bvh, packed, None)?;
-            }
+            self.install(Queries::Bvh, packed, None)?;
             log::debug!(
                 "camera move: packed with the BVH in {:.1} ms, uploaded in {:.1} ms",
                 (t1 - t0).as_secs_f64() * 1e3,
@@ -584,46 +562,15 @@ impl Session {
             }
         }
         if self.eye_ready.is_some() && self.schedule.at_pass_start() {
-            let tables = self.eye_ready.take().expect("checked");
+            let mut tables = self.eye_ready.take().expect("checked");
             let (w, h) = (self.opts.width, self.opts.height);
             let mut packed = pack_scene(&self.scene, &self.opts, w, h);
             gpu::point_at(&mut packed.params, &tables.flat);
             gpu::add_surface_bvh(&mut packed, &self.scene, &eye_build_params(&self.scene, &self.opts));
             make_room_for_moves(&mut packed, &self.scene);
-            // The walks, the loop budget and the kernels first: a failure leaves the session
-            // on the BVH with nothing written, and the tables for a later try.
-            let walks = traced_walks(Some(&tables.walks), &packed);
-            let v = variant(&self.scene, &self.opts, self.toggles, self.opts.max_depth, Queries::Tables);
-            let ready = self
-                .gpu
-                .check_loop_budget(&self.scene, walks.as_ref(), Some(MAX_DEPTH))
-                .and_then(|_| compile(&self.gpu, v, &self.buffers, &self.base));
-            let pipelines = match ready {
-                Ok(p) => p,
-                Err(e) => {
-                    log::warn!("cannot trace the rebuilt tables ({e}): tracing with the BVH");
-                    self.wants_tables = false;
-                    self.tables = Some(tables);
-                    return Ok(());
-                }
-            };
-            let ctx = &self.gpu.ctx;
-            if self.buffers.rewrite_tables(ctx, &tables.flat) && self.buffers.rewrite_moved(ctx, &packed) {
-                // Written into the buffers in place: only the kernels and the plan change.
-                self.buffers.size_queues(&mut packed.params);
-                self.set_base(&packed.params);
-                self.queries = Queries::Tables;
-                self.walks = walks;
-                self.pipelines = pipelines;
-                let retries = retry_passes(&self.scene, self.walks.as_ref());
-                self.schedule.set_plan(&self.gpu.ctx, WavePlan::new(v, self.opts.max_depth, retries));
-            } else {
-                log::debug!("eye table: new buffers for the tables");
-                let mut flat_room = tables;
-                make_room_for_eye_tables(&mut flat_room.flat, &self.gpu.ctx.device.limits());
-                self.install(Queries::Tables, packed, Some(&flat_room))?;
-                self.tables = Some(flat_room);
-                return Ok(());
+            if let Err(e) = self.install(Queries::Tables, packed, Some(&mut tables)) {
+                log::warn!("cannot trace the rebuilt tables ({e}): tracing with the BVH");
+                self.wants_tables = false;
             }
             self.tables = Some(tables);
         }
@@ -646,21 +593,41 @@ impl Session {
         }
     }
 
-    /// Traces with `queries` over `packed` (and `tables`) from now on: uploads them, and
-    /// sets the kernels, the waves' plan and the params. Between passes, the accumulation
-    /// stays valid: every accelerator gives the same pixels.
-    fn install(&mut self, queries: Queries, mut packed: Packed, tables: Option<&Tables>) -> Result<()> {
-        let walks = traced_walks(tables.map(|t| &t.walks), &packed);
+    /// Traces with `queries` over `packed` (and `tables`) from now on. The loop budget is
+    /// checked and the kernels compiled first, so that a failure leaves the session as it
+    /// was; then `packed` and `tables` are written into the buffers in place where they fit
+    /// (new buffers cost the zeroing of a tile's queues, a stall of about 50 ms on
+    /// lavapipe), else into new ones, the tables' made with room
+    /// ([`make_room_for_eye_tables`]); the waves' plan and the params follow. Between
+    /// passes the accumulation stays valid: every accelerator gives the same pixels.
+    fn install(
+        &mut self,
+        queries: Queries,
+        mut packed: Packed,
+        mut tables: Option<&mut Tables>,
+    ) -> Result<()> {
+        let walks = traced_walks(tables.as_ref().map(|t| &t.walks), &packed);
         self.gpu.check_loop_budget(&self.scene, walks.as_ref(), Some(MAX_DEPTH))?;
-        self.buffers = self.upload(&mut packed, tables.map(|t| &t.flat))?;
         let v = variant(&self.scene, &self.opts, self.toggles, self.opts.max_depth, queries);
-        let params = job_params(&self.opts, packed.params);
-        self.pipelines = compile(&self.gpu, v, &self.buffers, &params)?;
+        let pipelines = compile(&self.gpu, v, &self.buffers, &self.base)?;
+        let ctx = &self.gpu.ctx;
+        let in_place = tables.as_ref().is_none_or(|t| self.buffers.rewrite_tables(ctx, &t.flat))
+            && self.buffers.rewrite_moved(ctx, &packed);
+        if in_place {
+            self.buffers.size_queues(&mut packed.params);
+        } else {
+            log::debug!("new buffers for the {} kernels", queries.name());
+            if let Some(t) = tables.as_mut() {
+                make_room_for_eye_tables(&mut t.flat, &ctx.device.limits());
+            }
+            self.buffers = self.upload(&mut packed, tables.as_ref().map(|t| &t.flat))?;
+            self.rebind();
+        }
+        self.pipelines = pipelines;
         self.queries = queries;
         self.walks = walks;
         let retries = retry_passes(&self.scene, self.walks.as_ref());
         self.schedule.set_plan(&self.gpu.ctx, WavePlan::new(v, self.opts.max_depth, retries));
-        self.rebind();
         self.set_base(&packed.params);
         Ok(())
     }
@@ -815,6 +782,11 @@ impl Session {
         let (mut params, grid) = self.coarse_params(block);
         params.max_depth = depth;
         let ctx = &self.gpu.ctx;
+        let plan = WavePlan::new(
+            variant(&self.scene, &self.opts, self.toggles, self.opts.max_depth, self.queries),
+            depth,
+            retry_passes(&self.scene, self.walks.as_ref()),
+        );
         if self.coarse.as_ref().is_none_or(|c| c.grid != grid) {
             let (w, h) = (self.opts.width, self.opts.height);
             let capacity = (w.div_ceil(MIN_BLOCK) + 1) as u64 * (h.div_ceil(MIN_BLOCK) + 1) as u64;
@@ -830,11 +802,6 @@ impl Session {
                 }),
             };
             let total = grid.0 as u64 * grid.1 as u64;
-            let plan = WavePlan::new(
-                variant(&self.scene, &self.opts, self.toggles, self.opts.max_depth, self.queries),
-                self.opts.max_depth,
-                retry_passes(&self.scene, self.walks.as_ref()),
-            );
             let schedule = Schedule::new(
                 ctx,
                 total,
@@ -855,11 +822,7 @@ impl Session {
             });
         }
         let c = self.coarse.as_mut().expect("made above");
-        let plan = WavePlan::new(
-            variant(&self.scene, &self.opts, self.toggles, self.opts.max_depth, self.queries),
-            depth,
-            retry_passes(&self.scene, self.walks.as_ref()),
-        );
+        // The depth, the effects or the queries may have changed since the last image.
         c.schedule.set_plan(ctx, plan);
         let bind = accumulate_bind(ctx, &self.accumulate, &self.tile_buffer, &self.buffers, &c.accum);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
@@ -924,13 +887,6 @@ impl Session {
     fn coarse_params(&self, block: u32) -> (Params, (u32, u32)) {
         let (w, h) = (self.opts.width, self.opts.height);
         let grid = (w.div_ceil(block), h.div_ceil(block));
-        let o = RenderOptions {
-            width: grid.0,
-            height: grid.1,
-            spp: 1,
-            sampling: Sampling::Pixels,
-            ..self.opts.clone()
-        };
         let b = block as f32;
         let camera = Params {
             half_w: (self.base.half_w - 0.5) / b,
@@ -938,7 +894,29 @@ impl Session {
             cam_scale: self.base.cam_scale * b,
             ..self.base
         };
-        (Params { sample_first: 0, sample_end: 1, ..job_params(&o, camera) }, grid)
+        (Params { sample_first: 0, sample_end: 1, ..job_params(&self.coarse_options(grid), camera) }, grid)
+    }
+
+    /// The options of a coarse image of `grid` points: one sample at each point's centre.
+    fn coarse_options(&self, grid: (u32, u32)) -> RenderOptions {
+        RenderOptions {
+            width: grid.0,
+            height: grid.1,
+            spp: 1,
+            sampling: Sampling::Pixels,
+            ..self.opts.clone()
+        }
+    }
+
+    /// The first `grid` points of accumulation `buffer`, read back.
+    fn read_grid(&self, buffer: &wgpu::Buffer, grid: (u32, u32)) -> Result<Vec<u8>> {
+        let bytes = grid.0 as u64 * grid.1 as u64 * 16;
+        let ctx = &self.gpu.ctx;
+        let read = ctx.readback_buffer("accumulation readback", bytes);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        enc.copy_buffer_to_buffer(buffer, 0, &read, 0, bytes);
+        ctx.queue.submit([enc.finish()]);
+        ctx.read(&read, bytes)
     }
 
     /// What the window shows: the full accumulation once a pass of the current camera is
@@ -967,21 +945,8 @@ impl Session {
     /// The coarse image of the current camera as a linear image of `grid` size (tests).
     pub fn coarse_image(&self) -> Result<Option<Image>> {
         let Some(c) = self.coarse.as_ref().filter(|c| c.complete) else { return Ok(None) };
-        let bytes = c.grid.0 as u64 * c.grid.1 as u64 * 16;
-        let ctx = &self.gpu.ctx;
-        let read = ctx.readback_buffer("coarse readback", bytes);
-        let mut enc = ctx.device.create_command_encoder(&Default::default());
-        enc.copy_buffer_to_buffer(&c.accum, 0, &read, 0, bytes);
-        ctx.queue.submit([enc.finish()]);
-        let data = ctx.read(&read, bytes)?;
-        let o = RenderOptions {
-            width: c.grid.0,
-            height: c.grid.1,
-            spp: 1,
-            sampling: Sampling::Pixels,
-            ..self.opts.clone()
-        };
-        Ok(Some(grid_image(&o, &self.scene, bytemuck::cast_slice(&data), 1)))
+        let data = self.read_grid(&c.accum, c.grid)?;
+        Ok(Some(grid_image(&self.coarse_options(c.grid), &self.scene, bytemuck::cast_slice(&data), 1)))
     }
 
     /// Rays traced since the session started (all kinds).
@@ -995,14 +960,7 @@ impl Session {
         if self.passes == 0 {
             return Err(Error::Options("no sample has been accumulated yet".into()));
         }
-        let (gw, gh) = self.grid;
-        let bytes = gw as u64 * gh as u64 * 16;
-        let ctx = &self.gpu.ctx;
-        let read = ctx.readback_buffer("accumulation readback", bytes);
-        let mut enc = ctx.device.create_command_encoder(&Default::default());
-        enc.copy_buffer_to_buffer(&self.accum, 0, &read, 0, bytes);
-        ctx.queue.submit([enc.finish()]);
-        let data = ctx.read(&read, bytes)?;
+        let data = self.read_grid(&self.accum, self.grid)?;
         Ok(grid_image(&self.opts, &self.scene, bytemuck::cast_slice(&data), self.passes))
     }
 }

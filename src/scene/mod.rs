@@ -276,6 +276,16 @@ pub struct Effects {
 }
 
 impl Effects {
+    /// Every effect.
+    pub const ALL: Effects = Effects {
+        shadows: true,
+        reflection: true,
+        refraction: true,
+        textures: true,
+        emission: true,
+        vertex_colors: true,
+    };
+
     /// The names of the effects that are on, in a fixed order.
     pub fn names(&self) -> Vec<&'static str> {
         let mut v = Vec::new();

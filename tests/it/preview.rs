@@ -2,6 +2,7 @@
 //! needed), and the window itself, run under Xvfb with `--frames`/`--screenshot`, shows
 //! what `cuberay render` writes for the same samples and seed.
 
+use std::ffi::OsString;
 use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
@@ -193,6 +194,22 @@ impl Drop for Xvfb {
     }
 }
 
+/// Runs `cuberay preview ARGS` on Xvfb display `x` (its runtime folder `dir`) and asserts it
+/// succeeded without a panic.
+fn run_preview(x: &Xvfb, dir: &Path, args: &[OsString]) {
+    let out = cuberay()
+        .arg("preview")
+        .args(args)
+        .env("DISPLAY", &x.display)
+        .env_remove("WAYLAND_DISPLAY")
+        .env("XDG_RUNTIME_DIR", dir)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "preview failed: {stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
+
 fn rgb8(path: &Path) -> image::RgbImage {
     image::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display())).into_rgb8()
 }
@@ -204,19 +221,10 @@ fn preview_window_matches_the_headless_render() {
     let shot = dir.path().join("preview.png");
     let reference = dir.path().join("render.png");
     let size = ["--width", "64", "--height", "48", "--seed", "11"];
-    let out = cuberay()
-        .arg("preview")
-        .args(size)
-        .args(["--frames", "3", "--screenshot"])
-        .arg(&shot)
-        .env("DISPLAY", &x.display)
-        .env_remove("WAYLAND_DISPLAY")
-        .env("XDG_RUNTIME_DIR", dir.path())
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "preview failed: {stderr}");
-    assert!(!stderr.contains("panicked"), "{stderr}");
+    let mut args: Vec<OsString> =
+        size.iter().chain(&["--frames", "3", "--screenshot"]).map(|a| a.into()).collect();
+    args.push(shot.clone().into());
+    run_preview(&x, dir.path(), &args);
     let out = cuberay().arg("render").args(size).args(["--spp", "3", "-o"]).arg(&reference).output().unwrap();
     assert!(out.status.success(), "render failed: {}", String::from_utf8_lossy(&out.stderr));
 
@@ -244,21 +252,19 @@ fn a_scripted_orbit_logs_its_frames_and_ends_on_the_headless_render() {
     let (shot, log, reference) =
         (dir.path().join("orbit.png"), dir.path().join("frames.jsonl"), dir.path().join("render.png"));
     let (w, h, spp, seed, degrees, turns) = (64u32, 48u32, 3u32, 11u64, 3.0, 5u32);
-    let out = cuberay()
-        .arg("preview")
-        .args(["--width", &w.to_string(), "--height", &h.to_string(), "--seed", &seed.to_string()])
-        .args(["--orbit", &degrees.to_string(), "--orbit-frames", &turns.to_string()])
-        .args(["--frames", &spp.to_string(), "--frame-log"])
-        .arg(&log)
-        .arg("--screenshot")
-        .arg(&shot)
-        .env("DISPLAY", &x.display)
-        .env_remove("WAYLAND_DISPLAY")
-        .env("XDG_RUNTIME_DIR", dir.path())
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "preview failed: {stderr}");
+    let args: Vec<OsString> = [
+        ("--width", w.to_string()),
+        ("--height", h.to_string()),
+        ("--seed", seed.to_string()),
+        ("--orbit", degrees.to_string()),
+        ("--orbit-frames", turns.to_string()),
+        ("--frames", spp.to_string()),
+    ]
+    .into_iter()
+    .flat_map(|(flag, value)| [flag.into(), value.into()])
+    .chain([OsString::from("--frame-log"), log.clone().into(), "--screenshot".into(), shot.clone().into()])
+    .collect();
+    run_preview(&x, dir.path(), &args);
 
     let lines: Vec<serde_json::Value> = std::fs::read_to_string(&log)
         .unwrap()
