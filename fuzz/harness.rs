@@ -143,7 +143,7 @@ fn scene(path: &Path) -> Result<(), String> {
     }
     for t in &packed.tri_attrs {
         assert!(
-            [t.n0, t.n1, t.n2, t.uv01, t.uv2].iter().flatten().all(|x| x.is_finite()),
+            [t.n0, t.n1, t.n2, t.uv01, t.uv2_1].iter().flatten().all(|x| x.is_finite()),
             "a non-finite normal or texture coordinate reached the packed scene of {}",
             path.display()
         );
@@ -151,7 +151,11 @@ fn scene(path: &Path) -> Result<(), String> {
     for m in &packed.materials {
         assert!(
             m.color.iter().chain(&m.mirror).chain(&m.emission).all(|x| x.is_finite())
-                && [m.kd, m.ks, m.shine, m.transmittance, m.ior].iter().all(|x| x.is_finite()),
+                && m.emission_factor.iter().all(|x| x.is_finite())
+                && [m.kd, m.ks, m.shine, m.transmittance, m.ior, m.opacity, m.metallic, m.roughness]
+                    .iter()
+                    .chain(&[m.transmission, m.alpha_cutoff, m.shadow_cutoff, m.normal_scale])
+                    .all(|x| x.is_finite()),
             "a non-finite material value reached the packed scene of {}",
             path.display()
         );

@@ -196,8 +196,63 @@ fn take_hit(id: u32, best: ptr<function, Closest>, h: PrimHit, t_max: f32) -> f3
 fn consider(id: u32, best: ptr<function, Closest>, ray: Ray, t_max: f32, ray_kind: u32) -> f32 {
     let p = prims[id];
     count_test(ray_kind, p.kind);
-    return take_hit(id, best, intersect_prim(p, ray, t_max), t_max);
+    var h = intersect_prim(p, ray, t_max);
+#if ALPHA
+    h.ok = h.ok && alpha_passes(p, h, false);
+#endif
+    return take_hit(id, best, h, t_max);
 }
+
+// The texture coordinates of a triangle's sets 0 and 1 at barycentrics (`b1`, `b2`), and
+// whether it has them.
+struct UvSets {
+    uv0: vec2<f32>,
+    has0: bool,
+    uv1: vec2<f32>,
+    has1: bool,
+}
+
+fn uv_sets(p: Prim, b1: f32, b2: f32) -> UvSets {
+    var u: UvSets;
+    u.has0 = (p.flags & FLAG_UVS) != 0u;
+    u.has1 = (p.flags & FLAG_UV1) != 0u;
+    if u.has0 || u.has1 {
+        let at = tri_attrs[p.attr];
+        let b0 = 1.0 - b1 - b2;
+        u.uv0 = at.uv01.xy * b0 + at.uv01.zw * b1 + at.uv2_1.xy * b2;
+        if u.has1 {
+            let more = tri_attrs[p.attr + 1u];
+            u.uv1 = at.uv2_1.zw * b0 + more.uv01.xy * b1 + more.uv01.zw * b2;
+        }
+    }
+    return u;
+}
+
+#if ALPHA
+// The alpha of material `m` at barycentrics (`b1`, `b2`) of triangle `p`: its opacity times
+// the base colour texture's alpha (twin: reference::texture `alpha`).
+fn hit_alpha(m: Material, p: Prim, b1: f32, b2: f32) -> f32 {
+    var a = m.opacity;
+#if TEXTURES
+    if m.base.texture != 0u {
+        let u = uv_sets(p, b1, b2);
+        a *= read_texture(m.base, u.uv0, u.has0, u.uv1, u.has1, vec4<f32>(1.0)).w;
+    }
+#endif
+    return a;
+}
+
+// Whether hit `h` on primitive `p` counts for a nearest (`shadow` false) or shadow query:
+// on a masked or blended material (FLAG_CUTOUT) a hit whose alpha is below the cutoff is no
+// hit, and the walk goes on (twin: reference::accel `Hittable::hit`).
+fn alpha_passes(p: Prim, h: PrimHit, shadow: bool) -> bool {
+    if (p.flags & FLAG_CUTOUT) == 0u || p.kind != KIND_TRIANGLE {
+        return true;
+    }
+    let m = materials[p.material];
+    return hit_alpha(m, p, h.b1, h.b2) >= select(m.alpha_cutoff, m.shadow_cutoff, shadow);
+}
+#endif
 
 
 #if SPHERES
@@ -412,10 +467,17 @@ struct Surface {
     ng: vec3<f32>,
     // Unit shading normal on the side of `ng`.
     ns: vec3<f32>,
-    uv: vec2<f32>,
-    has_uv: bool,
+    // Texture coordinates of sets 0 and 1.
+    uv: UvSets,
     // The vertex colour (white without one; VERTEX_COLORS).
     color: vec3<f32>,
+    // A triangle's tangent frame (NORMAL_MAPS, FLAG_TANGENTS): the interpolated unit vertex
+    // normal (not turned to `ng`'s side), the unit tangent orthogonal to it, the bitangent's
+    // sign; `has_frame` false without one.
+    frame_n: vec3<f32>,
+    frame_t: vec3<f32>,
+    frame_sign: f32,
+    has_frame: bool,
     // Size of the numbers behind `p`, for the spawn offset.
     scale: f32,
 }
@@ -436,7 +498,11 @@ fn magnitude(v: vec3r) -> f32 {
 fn test_any(id: u32, ray: Ray, t_max: f32) -> PrimHit {
     let p = prims[id];
     count_test(RAY_SHADOW, p.kind);
-    return intersect_prim(p, ray, t_max);
+    var h = intersect_prim(p, ray, t_max);
+#if ALPHA
+    h.ok = h.ok && alpha_passes(p, h, true);
+#endif
+    return h;
 }
 
 // The shadow ray towards light `light` from `q`, the spawn origin of a hit (direction
@@ -477,9 +543,10 @@ fn shadow_ray(q: vec3r, to_light: vec3<f32>, light: u32) -> ShadowRay {
 // not with how far the ray travelled.
 fn surface(prim: Prim, ray: Ray, h: PrimHit) -> Surface {
     var s: Surface;
-    s.has_uv = false;
+    s.uv.has0 = false;
+    s.uv.has1 = false;
     s.color = vec3<f32>(1.0);
-    s.uv = vec2<f32>(0.0);
+    s.has_frame = false;
     let o = ray.o;
     let d = vec3r(ray.d);
     switch prim.kind {
@@ -525,27 +592,39 @@ fn surface(prim: Prim, ray: Ray, h: PrimHit) -> Surface {
             s.p = prim.a.xyz * b0 + prim.b.xyz * b1 + prim.c.xyz * b2;
             s.ng = vec3<f32>(normalize(cross(prim.b.xyz - prim.a.xyz, prim.c.xyz - prim.a.xyz)));
             s.ns = s.ng;
+            // The interpolated vertex normal, unit, on its own side.
+            var vn = s.ng;
             if (prim.flags & FLAG_NORMALS) != 0u {
                 let at = tri_attrs[prim.attr];
                 let fb0 = f32(b0);
                 let n = at.n0.xyz * fb0 + at.n1.xyz * h.b1 + at.n2.xyz * h.b2;
                 let len = length(n);
                 if len > 1e-12 {
-                    let sn = n / len;
-                    s.ns = select(sn, -sn, dot(sn, s.ng) < 0.0);
+                    vn = n / len;
+                    s.ns = select(vn, -vn, dot(vn, s.ng) < 0.0);
                 }
             }
-#if VERTEX_COLORS
-            if (prim.flags & FLAG_COLORS) != 0u {
-                let at = tri_attrs[prim.attr];
-                s.color = at.c0.xyz * f32(b0) + at.c1.xyz * h.b1 + at.c2.xyz * h.b2;
+#if NORMAL_MAPS
+            if (prim.flags & FLAG_TANGENTS) != 0u {
+                let more = tri_attrs[prim.attr + 1u];
+                let v = more.n0.xyz * f32(b0) + more.n1.xyz * h.b1 + more.n2.xyz * h.b2;
+                let w = v - vn * dot(vn, v);
+                let len = length(w);
+                if len > 1e-12 {
+                    s.frame_n = vn;
+                    s.frame_t = w / len;
+                    s.frame_sign = more.n0.w;
+                    s.has_frame = true;
+                }
             }
 #endif
-            if (prim.flags & FLAG_UVS) != 0u {
-                let at = tri_attrs[prim.attr];
-                s.uv = at.uv01.xy * f32(b0) + at.uv01.zw * h.b1 + at.uv2.xy * h.b2;
-                s.has_uv = true;
+#if VERTEX_COLORS
+            if (prim.flags & FLAG_COLORS) != 0u {
+                let c = tri_attrs[prim.attr + 2u];
+                s.color = c.n0.xyz * f32(b0) + c.n1.xyz * h.b1 + c.n2.xyz * h.b2;
             }
+#endif
+            s.uv = uv_sets(prim, h.b1, h.b2);
             let extent = max(magnitude(prim.a.xyz), max(magnitude(prim.b.xyz), magnitude(prim.c.xyz)));
             s.scale = max(magnitude(s.p), extent);
 #endif

@@ -100,18 +100,34 @@ struct Prim {
 }
 #endif
 
+// A triangle's per-vertex attributes, in one to three consecutive entries from `Prim.attr`,
+// so that a triangle pays only for what it carries. Entry 0: normals (FLAG_NORMALS) in
+// `n0`..`n2`, texture coordinates of set 0 (FLAG_UVS: `uv01` = vertices 0 and 1, `uv2_1.xy` =
+// vertex 2) and vertex 0's of set 1 (`uv2_1.zw`). Entry 1, where the triangle has tangents,
+// set 1 or colours (tri_more): tangents (FLAG_TANGENTS: xyz, the bitangent's sign in w) in
+// `n0`..`n2`, set 1 of vertices 1 and 2 (FLAG_UV1) in `uv01`. Entry 2, with colours
+// (FLAG_COLORS): their RGB in `n0`..`n2`.
 struct TriAttr {
     n0: vec4<f32>,
     n1: vec4<f32>,
     n2: vec4<f32>,
     uv01: vec4<f32>,
-    uv2: vec4<f32>,
-    // Vertex colours (RGB; FLAG_COLORS).
-    c0: vec4<f32>,
-    c1: vec4<f32>,
-    c2: vec4<f32>,
+    uv2_1: vec4<f32>,
 }
 
+// A material's texture: index + 1 (0 = none), the TEXCOORD set it reads, and its
+// KHR_texture_transform as two rows: uv' = (dot(row0.xy, uv) + row0.z, dot(row1.xy, uv) + row1.z).
+struct TexRef {
+    row0: vec3<f32>,
+    texture: u32,
+    row1: vec3<f32>,
+    texcoord: u32,
+}
+
+// The scalar Whitted terms (bounds over the maps of a MATERIAL_MAPS material, which
+// evaluates `metallic` … `emission_factor` and its textures per hit), the alpha rule
+// (`opacity` times the base colour texture's alpha; a hit below `alpha_cutoff`, for shadow
+// rays `shadow_cutoff`, is no hit), and the textures.
 struct Material {
     color: vec3<f32>,
     kd: f32,
@@ -121,10 +137,24 @@ struct Material {
     shine: f32,
     transmittance: f32,
     ior: f32,
-    // Texture index + 1; 0 = none.
-    texture: u32,
-    // MATERIAL_TINTED_TRANSMISSION.
+    // MATERIAL_TINTED_TRANSMISSION, MATERIAL_MAPS, MATERIAL_BLEND.
     flags: u32,
+    opacity: f32,
+    metallic: f32,
+    roughness: f32,
+    transmission: f32,
+    alpha_cutoff: f32,
+    emission_factor: vec3<f32>,
+    shadow_cutoff: f32,
+    normal_scale: f32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
+    base: TexRef,
+    metallic_roughness: TexRef,
+    emissive: TexRef,
+    transmission_map: TexRef,
+    normal: TexRef,
 }
 
 // kind: LIGHT_POINT, LIGHT_SPOT or LIGHT_DIRECTIONAL. `range` 0 = unlimited.
@@ -334,8 +364,14 @@ const FLAG_INSIDE_ONLY: u32 = 1u;
 const FLAG_NORMALS: u32 = 2u;
 const FLAG_UVS: u32 = 4u;
 const FLAG_COLORS: u32 = 8u;
+const FLAG_UV1: u32 = 16u;
+const FLAG_TANGENTS: u32 = 32u;
+// The primitive's material is alpha-masked or blended: walks test alpha at its hits.
+const FLAG_CUTOUT: u32 = 64u;
 
 const MATERIAL_TINTED_TRANSMISSION: u32 = 1u;
+const MATERIAL_MAPS: u32 = 2u;
+const MATERIAL_BLEND: u32 = 4u;
 
 const LIGHT_POINT: u32 = 0u;
 const LIGHT_SPOT: u32 = 1u;
@@ -345,6 +381,8 @@ const WRAP_REPEAT: u32 = 0u;
 const WRAP_MIRRORED_REPEAT: u32 = 1u;
 const WRAP_CLAMP_TO_EDGE: u32 = 2u;
 const TEX_BILINEAR: u32 = 16u;
+// Colour channels are sRGB-encoded (decoded to linear when read).
+const TEX_SRGB: u32 = 32u;
 
 // What the `aov` kernel writes (params.aov).
 const AOV_DEPTH: u32 = 0u;

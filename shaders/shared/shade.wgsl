@@ -45,20 +45,101 @@ fn incidence(l: Light, p: vec3r) -> Incidence {
     return inc;
 }
 
+#if TEXTURES
+// Texture `r` at surface `s`; `fallback` without one (twin: reference::texture `read`).
+fn surface_texture(r: TexRef, s: Surface, fallback: vec4<f32>) -> vec4<f32> {
+    return read_texture(r, s.uv.uv0, s.uv.has0, s.uv.uv1, s.uv.has1, fallback);
+}
+#endif
+
 // The base colour at surface `s`: the material's, times its texture and the vertex colour
-// where there are (twin: reference::shade `base_color`).
+// where there are (twin: reference::texture `base_color`).
 fn base_color(m: Material, s: Surface) -> vec3<f32> {
     var c = m.color;
 #if TEXTURES
-    if m.texture != 0u && s.has_uv {
-        c = m.color * sample_texture(m.texture - 1u, s.uv);
-    }
+    c *= surface_texture(m.base, s, vec4<f32>(1.0)).rgb;
 #endif
 #if VERTEX_COLORS
     c *= s.color;
 #endif
     return c;
 }
+
+// The Whitted terms at a hit (twin: scene::Shading).
+struct Shading {
+    color: vec3<f32>,
+    kd: f32,
+    mirror: vec3<f32>,
+    ks: f32,
+    emission: vec3<f32>,
+    shine: f32,
+    transmittance: f32,
+}
+
+#if MAPS
+// The Whitted terms for metallic-roughness inputs, clamped to [0, 1] first (twin:
+// scene::Pbr::whitted).
+fn whitted(base_in: vec3<f32>, metallic: f32, roughness: f32, transmission: f32, ior: f32, emission: vec3<f32>) -> Shading {
+    let base = clamp(base_in, vec3<f32>(0.0), vec3<f32>(1.0));
+    let m = clamp(metallic, 0.0, 1.0);
+    let rough = clamp(roughness, 0.0, 1.0);
+    let transmittance = clamp(transmission, 0.0, 1.0) * (1.0 - m);
+    let alpha = rough * rough;
+    // α = 0 gives +∞, which the clamp turns into the largest exponent.
+    let shine = clamp(2.0 / (alpha * alpha) - 2.0, 1.0, 10000.0);
+    let smoothness = (1.0 - rough) * (1.0 - rough);
+    var mirror = vec3<f32>(0.0);
+    if m > 0.0 {
+        mirror = smoothness * mix(vec3<f32>(0.04), base, m);
+    } else if transmittance > 0.0 {
+        let f = (ior - 1.0) / (ior + 1.0);
+        mirror = vec3<f32>(smoothness * f * f);
+    }
+    return Shading(base, (1.0 - m) * (1.0 - transmittance), mirror, (1.0 - rough) * (0.04 + 0.96 * m),
+        max(emission, vec3<f32>(0.0)), shine, transmittance);
+}
+#endif
+
+// The Whitted terms of material `m` at surface `s`: its maps evaluated there, or its
+// scalars (twin: reference::texture `shading`).
+fn shading(m: Material, s: Surface) -> Shading {
+    let base = base_color(m, s);
+#if MAPS
+    if (m.flags & MATERIAL_MAPS) != 0u {
+        let mr = surface_texture(m.metallic_roughness, s, vec4<f32>(1.0));
+        let e = surface_texture(m.emissive, s, vec4<f32>(1.0)).rgb;
+        let t = surface_texture(m.transmission_map, s, vec4<f32>(1.0)).r;
+        return whitted(base, m.metallic * mr.b, m.roughness * mr.g, m.transmission * t, m.ior, m.emission_factor * e);
+    }
+#endif
+    return Shading(base, m.kd, m.mirror, m.ks, m.emission, m.shine, m.transmittance);
+}
+
+#if NORMAL_MAPS
+// The shading normal of material `m` at `s` through its normal map, where it has one and the
+// triangle a tangent frame, on the side of the geometric normal (twin: reference::texture
+// `normal`).
+fn mapped_normal(m: Material, s: Surface) -> vec3<f32> {
+    if m.normal.texture == 0u || !s.has_frame {
+        return s.ns;
+    }
+    let c = surface_texture(m.normal, s, vec4<f32>(-1.0));
+    if c.x < 0.0 {
+        return s.ns;
+    }
+    let x = (c.x * 2.0 - 1.0) * m.normal_scale;
+    let y = (c.y * 2.0 - 1.0) * m.normal_scale;
+    let z = c.z * 2.0 - 1.0;
+    let b = cross(s.frame_n, s.frame_t) * s.frame_sign;
+    let v = s.frame_t * x + b * y + s.frame_n * z;
+    let len = length(v);
+    if !(len > 1e-12) {
+        return s.ns;
+    }
+    let u = v / len;
+    return select(u, -u, dot(u, s.ng) < 0.0);
+}
+#endif
 
 // Which primitive a ray leaving primitive `id` towards `dir` need not test: the primitive
 // itself when it cannot meet it again (a triangle; a sphere whose outward normal `ng`
@@ -79,7 +160,7 @@ struct Lit {
     c: vec3<f32>,
 }
 
-fn light_term(li: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>, diffuse: vec3<f32>) -> Lit {
+fn light_term(li: u32, m: Shading, s: Surface, n: vec3<f32>, v: vec3<f32>, diffuse: vec3<f32>) -> Lit {
     let light = lights[li];
     let inc = incidence(light, s.p);
     let n_dot_l = dot(n, inc.dir);
@@ -99,8 +180,8 @@ fn light_term(li: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>, diff
 
 // Local illumination at a hit on primitive `id` without the lights that cast shadows:
 // emission, ambient, and (without shadows) every light.
-fn shade_local(id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>) -> vec3<f32> {
-    let diffuse = base_color(m, s) * m.kd;
+fn shade_local(id: u32, m: Shading, s: Surface, n: vec3<f32>, v: vec3<f32>) -> vec3<f32> {
+    let diffuse = m.color * m.kd;
     var l = params.ambient * diffuse;
 #if EMISSION
     l += m.emission;
@@ -122,8 +203,8 @@ fn shade_local(id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>) -> 
 // shadow job (kind RAY_SHADOW, `depth` the light, `weight` what it adds unless blocked) in
 // the pass's shadow queue, traced by the `shadow` kernel, so that no invocation walks more
 // than one long list (a job costs its write and read, so short walks stay inline).
-fn push_shadow_rays(id: u32, m: Material, s: Surface, n: vec3<f32>, v: vec3<f32>, weight: vec3<f32>, point: u32) {
-    let diffuse = base_color(m, s) * m.kd;
+fn push_shadow_rays(id: u32, m: Shading, s: Surface, n: vec3<f32>, v: vec3<f32>, weight: vec3<f32>, point: u32) {
+    let diffuse = m.color * m.kd;
     for (var i = 0u; i < params.light_count; i++) {
         count_step();
         let lit = light_term(i, m, s, n, v, diffuse);
@@ -224,13 +305,32 @@ fn shade_hit(job: Job) {
     let ray = make_ray(pending.o, pending.d);
     let h = restored_closest(job.walk, WALK_RESUME);
     let prim = prims[h.prim];
-    let m = materials[prim.material];
-    let s = surface(prim, ray, h.hit);
+    let mat = materials[prim.material];
+    var s = surface(prim, ray, h.hit);
+#if NORMAL_MAPS
+    s.ns = mapped_normal(mat, s);
+#endif
+    let m = shading(mat, s);
     let d = ray.d;
     let entering = dot(d, s.ng) < 0.0;
     let ng = select(-s.ng, s.ng, entering);
     let n = select(-s.ns, s.ns, entering);
-    add_radiance(job.point, pending.weight * shade_local(h.prim, m, s, n, -d));
+    // What the surface sends is weighted by its alpha where it is blended; the rest goes
+    // straight through it (a pass-through ray, of kind refraction, one depth deeper).
+    var w = pending.weight;
+#if BLEND
+    if (mat.flags & MATERIAL_BLEND) != 0u {
+        let a = hit_alpha(mat, prim, h.hit.b1, h.hit.b2);
+        w *= a;
+        if a < 1.0 && job_depth(pending) < params.max_depth {
+            let flags = select(0u, RAY_SKIP_FROM, leave_skip(h.prim, d, s.ng) != NO_ID);
+            let child = new_pending(spawn_origin(s, d), RAY_REFRACT | flags | ((job_depth(pending) + 1u) << RAY_DEPTH_SHIFT),
+                d, spawn_offset(s), pending.weight * (1.0 - a), h.prim);
+            push_job(pass_desc.next, new_job(child, job.point));
+        }
+    }
+#endif
+    add_radiance(job.point, w * shade_local(h.prim, m, s, n, -d));
 #if REFLECTION
     let depth = job_depth(pending);
     if depth < params.max_depth {
@@ -240,13 +340,11 @@ fn shade_hit(job: Job) {
         var refracted = Refracted(false, vec3<f32>(0.0));
         var transmitted = vec3<f32>(0.0);
         if transmits {
-            // Tinted (glTF) glass samples its base colour again, only here: other hits pay
-            // nothing for it.
             transmitted = vec3<f32>(m.transmittance);
-            if (m.flags & MATERIAL_TINTED_TRANSMISSION) != 0u {
-                transmitted *= base_color(m, s);
+            if (mat.flags & MATERIAL_TINTED_TRANSMISSION) != 0u {
+                transmitted *= m.color;
             }
-            refracted = refract_dir(d, n, ng, entering, m.ior);
+            refracted = refract_dir(d, n, ng, entering, mat.ior);
             if !refracted.ok {
                 // Total internal reflection: what would have been transmitted is reflected.
                 weight += transmitted;
@@ -256,7 +354,7 @@ fn shade_hit(job: Job) {
             let flags = select(0u, RAY_SKIP_FROM, leave_skip(h.prim, refracted.dir, s.ng) != NO_ID);
             let child = new_pending(spawn_origin(s, refracted.dir),
                 RAY_REFRACT | flags | ((depth + 1u) << RAY_DEPTH_SHIFT), refracted.dir, spawn_offset(s),
-                pending.weight * transmitted, h.prim);
+                w * transmitted, h.prim);
             push_job(pass_desc.next, new_job(child, job.point));
         }
 #endif
@@ -267,12 +365,12 @@ fn shade_hit(job: Job) {
             }
             let flags = select(0u, RAY_SKIP_FROM, leave_skip(h.prim, r, s.ng) != NO_ID);
             let child = new_pending(spawn_origin(s, r), RAY_REFLECT | flags | ((depth + 1u) << RAY_DEPTH_SHIFT), r,
-                spawn_offset(s), pending.weight * weight, h.prim);
+                spawn_offset(s), w * weight, h.prim);
             push_job(pass_desc.next, new_job(child, job.point));
         }
     }
 #endif
 #if SHADOWS
-    push_shadow_rays(h.prim, m, s, n, -d, pending.weight, job.point);
+    push_shadow_rays(h.prim, m, s, n, -d, w, job.point);
 #endif
 }

@@ -1,5 +1,6 @@
-// Base colour textures: sRGB texels, wrap modes, nearest or bilinear, as the CPU reference
-// samples them (src/reference/texture.rs).
+// Textures: texels decoded to linear (sRGB colour textures; data textures as stored), wrap
+// modes, nearest or bilinear, as the CPU reference samples them (src/reference/texture.rs);
+// and a material's texture read at a surface point through its UV set and transform.
 
 fn srgb_to_linear(v: u32) -> f32 {
     let c = f32(v) / 255.0;
@@ -24,14 +25,19 @@ fn wrap_coord(i: i32, n: i32, mode: u32) -> i32 {
     }
 }
 
-fn texel(t: TextureInfo, i: i32, j: i32) -> vec3<f32> {
+fn texel(t: TextureInfo, i: i32, j: i32) -> vec4<f32> {
     let x = wrap_coord(i, i32(t.width), t.flags & 3u);
     let y = wrap_coord(j, i32(t.height), (t.flags >> 2u) & 3u);
     let c = texels[t.offset + u32(y) * t.width + u32(x)];
-    return vec3<f32>(srgb_to_linear(c & 255u), srgb_to_linear((c >> 8u) & 255u), srgb_to_linear((c >> 16u) & 255u));
+    let a = f32(c >> 24u) / 255.0;
+    if (t.flags & TEX_SRGB) != 0u {
+        return vec4<f32>(srgb_to_linear(c & 255u), srgb_to_linear((c >> 8u) & 255u),
+            srgb_to_linear((c >> 16u) & 255u), a);
+    }
+    return vec4<f32>(f32(c & 255u), f32((c >> 8u) & 255u), f32((c >> 16u) & 255u), f32(c >> 24u)) / 255.0;
 }
 
-fn sample_texture(index: u32, uv: vec2<f32>) -> vec3<f32> {
+fn sample_texture(index: u32, uv: vec2<f32>) -> vec4<f32> {
     let t = texture_infos[index];
     // Beyond 2^24 an f32 holds no fraction; every wrap mode is periodic or constant there.
     let x = clamp(uv.x * f32(t.width), -16777216.0, 16777216.0);
@@ -50,4 +56,18 @@ fn sample_texture(index: u32, uv: vec2<f32>) -> vec3<f32> {
     let top = texel(t, i, j) * (1.0 - fx) + texel(t, i + 1, j) * fx;
     let bottom = texel(t, i, j + 1) * (1.0 - fx) + texel(t, i + 1, j + 1) * fx;
     return top * (1.0 - fy) + bottom * fy;
+}
+
+// Texture `r` at a point with UV sets `uv0` (`has0`) and `uv1` (`has1`); `fallback` where
+// there is no texture or the point lacks its set (twin: reference::texture `read`).
+fn read_texture(r: TexRef, uv0: vec2<f32>, has0: bool, uv1: vec2<f32>, has1: bool, fallback: vec4<f32>) -> vec4<f32> {
+    if r.texture == 0u {
+        return fallback;
+    }
+    let uv = select(uv0, uv1, r.texcoord == 1u);
+    if !select(has0, has1, r.texcoord == 1u) {
+        return fallback;
+    }
+    let t = vec2<f32>(dot(r.row0.xy, uv) + r.row0.z, dot(r.row1.xy, uv) + r.row1.z);
+    return sample_texture(r.texture - 1u, t);
 }

@@ -6,6 +6,11 @@
 // accelerators', so that which walk a kernel gets is decided in one place.
 #include "shared/layout.wgsl"
 #include "shared/geometry.wgsl"
+#if ALPHA
+#if TEXTURES
+#include "shared/texture.wgsl"
+#endif
+#endif
 #if TABLES
 #include "shared/tables.wgsl"
 #include "shared/walk.wgsl"

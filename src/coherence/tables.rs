@@ -96,17 +96,19 @@ impl Tables {
 
 /// Whether a render the tables of `params` are for traces rays leaving surfaces, which the
 /// BVH takes: reflection or refraction rays from mirrors and glass (with the reflection
-/// effect), or shadow rays towards a directional light, which has no table.
+/// effect), pass-through rays from blended surfaces (with the blend effect), or shadow rays
+/// towards a directional light, which has no table.
 pub fn traces_surface_rays(scene: &Scene, params: &BuildParams) -> bool {
     let effects = params.effects.unwrap_or_else(|| scene.effects());
     let directional = scene.lights.iter().any(|l| l.kind == LightKind::Directional);
     if effects.shadows && directional && !scene.primitives.is_empty() {
         return true;
     }
-    effects.reflection
+    let blend = |m: &crate::scene::Material| effects.blend && m.alpha == crate::scene::Alpha::Blend;
+    (effects.reflection || effects.blend)
         && scene.primitives.iter().any(|p| {
             let m = &scene.materials[p.material() as usize];
-            m.reflects() || m.transmits()
+            (effects.reflection && (m.reflects() || m.transmits())) || blend(m)
         })
 }
 

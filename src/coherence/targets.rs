@@ -39,7 +39,9 @@ pub struct Target {
 
 impl Target {
     pub fn of(p: &Primitive, scene: &Scene) -> Target {
-        let transmits = scene.materials[p.material() as usize].transmits();
+        // A surface that lets rays through (glass, or alpha holes) never proves a cell covered.
+        let m = &scene.materials[p.material() as usize];
+        let transmits = m.transmits() || m.cut_out();
         let (center, radius) = p.bounding_sphere();
         match p {
             Primitive::Sphere(s) => Target {

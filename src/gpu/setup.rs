@@ -59,11 +59,12 @@ impl GpuRenderer {
 }
 
 /// The wavefront's queues per point of a tile for `scene` with `variant`: one ray per depth
-/// and point without glass (reflection does not branch), four with it (a tile whose glass
-/// branches further overflows and runs again in halves), and a shadow ray per light.
+/// and point without glass or blended surfaces (reflection does not branch), four with them
+/// (a tile whose rays branch further overflows and runs again in halves), and a shadow ray
+/// per light.
 pub fn queue_sizes(scene: &Scene, variant: Variant) -> QueueSizes {
     QueueSizes {
-        rays_per_point: if variant.refraction { 4 } else { 1 },
+        rays_per_point: if variant.refraction || variant.blend { 4 } else { 1 },
         shadows_per_ray: if variant.shadows { scene.lights.len().max(1) as u32 } else { 0 },
     }
 }

@@ -198,6 +198,14 @@ pub struct Variant {
     pub emission: bool,
     /// Triangles carry vertex colours that multiply the base colour (`VERTEX_COLORS`).
     pub vertex_colors: bool,
+    /// Materials evaluate metallic-roughness, emissive and transmission maps per hit (`MAPS`).
+    pub maps: bool,
+    /// Materials bend shading normals with normal maps (`NORMAL_MAPS`).
+    pub normal_maps: bool,
+    /// Walks test alpha at hits of masked and blended materials (`ALPHA`).
+    pub alpha: bool,
+    /// Hits of blended materials spawn pass-through rays (`BLEND`).
+    pub blend: bool,
     /// The ray queries: the candidate tables, the BVH or brute force.
     pub queries: Queries,
     /// Intersection tests and hit points in f64 (`--precision f64`; `SHADER_F64`).
@@ -234,10 +242,14 @@ impl Variant {
             textures: e.textures,
             emission: e.emission,
             vertex_colors: e.vertex_colors,
+            maps: e.maps,
+            normal_maps: e.normal_maps,
+            alpha: e.alpha,
+            blend: e.blend && secondary,
             queries: Queries::Tables,
             f64: false,
             shapes: Shapes::ALL,
-            surface_rays: reflection || e.shadows,
+            surface_rays: reflection || e.shadows || (e.blend && secondary),
             counters: true,
         }
     }
@@ -282,6 +294,10 @@ impl Variant {
             textures: self.textures,
             emission: self.emission,
             vertex_colors: self.vertex_colors,
+            maps: self.maps,
+            normal_maps: self.normal_maps,
+            alpha: self.alpha,
+            blend: self.blend,
         }
     }
 
@@ -291,8 +307,9 @@ impl Variant {
     /// included: a scene may hold no primitive) with every effect (42), then shadows without
     /// rays leaving surfaces (lights with tables, no mirror), with and without textures and
     /// emission (12), then every effect uncounted (6), so that each `#if` is compiled both
-    /// ways. Vertex colours are off in the 32 effect sets and on in the rest (each further
-    /// effect is compiled on and off against a representative rest, not in the full product).
+    /// ways. Vertex colours, maps, normal maps, alpha and blend are off in the 32 effect sets
+    /// and on in the rest (each further effect is compiled on and off against a
+    /// representative rest, not in the full product).
     pub fn all() -> Vec<Variant> {
         let effects = [false, true].into_iter().flat_map(|f64| {
             Queries::ALL.into_iter().flat_map(move |queries| {
@@ -303,6 +320,10 @@ impl Variant {
                     textures: b & 8 != 0,
                     emission: b & 16 != 0,
                     vertex_colors: false,
+                    maps: false,
+                    normal_maps: false,
+                    alpha: false,
+                    blend: false,
                     queries,
                     f64,
                     shapes: Shapes::ALL,
@@ -326,6 +347,9 @@ impl Variant {
                     textures: more,
                     emission: more,
                     vertex_colors: more,
+                    maps: more,
+                    normal_maps: more,
+                    alpha: more,
                     queries,
                     f64,
                     shapes: Shapes::ALL,
@@ -351,6 +375,10 @@ impl Variant {
             textures: true,
             emission: true,
             vertex_colors: true,
+            maps: true,
+            normal_maps: true,
+            alpha: true,
+            blend: true,
             queries,
             f64: false,
             shapes: Shapes::ALL,
@@ -367,6 +395,10 @@ impl Variant {
             "TEXTURES" => self.textures,
             "EMISSION" => self.emission,
             "VERTEX_COLORS" => self.vertex_colors,
+            "MAPS" => self.maps,
+            "NORMAL_MAPS" => self.normal_maps,
+            "ALPHA" => self.alpha,
+            "BLEND" => self.blend,
             "F64" => self.f64,
             "SPHERES" => self.shapes.spheres,
             "TRIANGLES" => self.shapes.triangles,

@@ -3,7 +3,7 @@
 //! is re-centred on the camera in f64 before the conversion to f32, so that scenes far from
 //! the origin keep their precision near the eye.
 
-use glam::DVec3;
+use glam::{DVec2, DVec3, DVec4};
 
 use super::budget::shadow_inline;
 use super::bvh::{pack_bvh, GpuBvh};
@@ -11,7 +11,9 @@ use super::structs::*;
 use crate::arith::spawn::SpawnPolicy;
 use crate::job::RenderOptions;
 use crate::sampling::{self, Sampling};
-use crate::scene::{LightKind, Primitive, Projection, Scene, Wrap};
+use crate::scene::{
+    Alpha, LightKind, Material as SceneMaterial, Primitive, Projection, Scene, TextureRef, Triangle, Wrap,
+};
 
 fn v3(v: DVec3) -> [f32; 3] {
     [v.x as f32, v.y as f32, v.z as f32]
@@ -55,8 +57,12 @@ impl Packed {
     /// `docs/architecture.md`, "Precision").
     pub fn use_f64(&mut self, scene: &Scene, spawn: SpawnPolicy) {
         let eye = scene.camera.eye;
-        self.prims64 =
-            scene.primitives.iter().zip(&self.prims).map(|(p, n)| wide_prim(p, eye, n.attr)).collect();
+        self.prims64 = scene
+            .primitives
+            .iter()
+            .zip(&self.prims)
+            .map(|(p, n)| wide_prim(p, eye, n.attr, n.flags))
+            .collect();
         (self.params.spawn_rel, self.params.spawn_abs) = spawn.rel_abs_f64();
     }
 
@@ -98,43 +104,21 @@ pub fn pack(scene: &Scene, width: u32, height: u32, spawn: SpawnPolicy) -> Packe
         .map(|p| {
             let mut attr = 0;
             if let Primitive::Triangle(t) = p {
-                if t.n.is_some() || t.uv.is_some() || t.color.is_some() {
-                    let mut a = TriAttr::default();
-                    if let Some(n) = t.n {
-                        a.n0 = v4(n[0], 0.0);
-                        a.n1 = v4(n[1], 0.0);
-                        a.n2 = v4(n[2], 0.0);
-                    }
-                    if let Some(uv) = t.uv {
-                        a.uv01 = [uv[0].x as f32, uv[0].y as f32, uv[1].x as f32, uv[1].y as f32];
-                        a.uv2 = [uv[2].x as f32, uv[2].y as f32, 0.0, 0.0];
-                    }
-                    if let Some(c) = &t.color {
-                        (a.c0, a.c1, a.c2) = (v4(c[0], 1.0), v4(c[1], 1.0), v4(c[2], 1.0));
-                    }
+                if t.n.is_some()
+                    || t.uv.is_some()
+                    || t.uv1.is_some()
+                    || t.color.is_some()
+                    || t.tangent.is_some()
+                {
                     attr = tri_attrs.len() as u32;
-                    tri_attrs.push(a);
+                    tri_attrs.extend(tri_attr(t));
                 }
             }
-            Prim::from(&wide_prim(p, eye, attr))
+            let cutout = scene.materials[p.material() as usize].cut_out();
+            Prim::from(&wide_prim(p, eye, attr, if cutout { FLAG_CUTOUT } else { 0 }))
         })
         .collect();
-    let materials = scene
-        .materials
-        .iter()
-        .map(|m| Material {
-            color: v3(m.color),
-            kd: m.kd as f32,
-            mirror: v3(m.mirror),
-            ks: m.ks as f32,
-            emission: v3(m.emission),
-            shine: m.shine as f32,
-            transmittance: m.transmittance as f32,
-            ior: m.ior as f32,
-            texture: m.base_color_texture.map_or(0, |t| t.texture + 1),
-            flags: if m.tinted_transmission { MATERIAL_TINTED_TRANSMISSION } else { 0 },
-        })
-        .collect();
+    let materials = scene.materials.iter().map(gpu_material).collect();
     let lights = scene
         .lights
         .iter()
@@ -175,7 +159,10 @@ pub fn pack(scene: &Scene, width: u32, height: u32, spawn: SpawnPolicy) -> Packe
                 offset: texels.len() as u32,
                 width: t.width,
                 height: t.height,
-                flags: wrap(t.wrap_s) | wrap(t.wrap_t) << 2 | if t.linear { TEX_BILINEAR } else { 0 },
+                flags: wrap(t.wrap_s)
+                    | wrap(t.wrap_t) << 2
+                    | if t.linear { TEX_BILINEAR } else { 0 }
+                    | if t.srgb { TEX_SRGB } else { 0 },
             };
             texels.extend(t.texels.iter().map(|c| u32::from_le_bytes(*c)));
             info
@@ -216,9 +203,92 @@ pub fn pack(scene: &Scene, width: u32, height: u32, spawn: SpawnPolicy) -> Packe
     }
 }
 
-/// Primitive `p` re-centred on `eye`, in f64, its triangle attributes at `attr`: the one
-/// packing of a primitive, which [`Prim`] rounds to f32.
-fn wide_prim(p: &Primitive, eye: DVec3, attr: u32) -> Prim64 {
+/// The attribute entries of triangle `t` (one to three; `shaders/shared/layout.wgsl`, `TriAttr`).
+fn tri_attr(t: &Triangle) -> Vec<TriAttr> {
+    let mut a = TriAttr::default();
+    let v2 = |p: DVec2, q: DVec2| [p.x as f32, p.y as f32, q.x as f32, q.y as f32];
+    if let Some(n) = t.n {
+        (a.n0, a.n1, a.n2) = (v4(n[0], 0.0), v4(n[1], 0.0), v4(n[2], 0.0));
+    }
+    if let Some(uv) = t.uv {
+        a.uv01 = v2(uv[0], uv[1]);
+        a.uv2_1 = v2(uv[2], DVec2::ZERO);
+    }
+    let mut more = TriAttr::default();
+    if let Some(uv) = t.uv1.as_deref() {
+        a.uv2_1[2..].copy_from_slice(&v2(uv[0], uv[0])[..2]);
+        more.uv01 = v2(uv[1], uv[2]);
+    }
+    if let Some(tg) = t.tangent.as_deref() {
+        let w = |v: DVec4| [v.x as f32, v.y as f32, v.z as f32, v.w as f32];
+        (more.n0, more.n1, more.n2) = (w(tg[0]), w(tg[1]), w(tg[2]));
+    }
+    let mut out = vec![a];
+    if t.uv1.is_some() || t.tangent.is_some() || t.color.is_some() {
+        out.push(more);
+    }
+    if let Some(c) = &t.color {
+        let (c0, c1, c2) = (v4(c[0], 1.0), v4(c[1], 1.0), v4(c[2], 1.0));
+        out.push(TriAttr { n0: c0, n1: c1, n2: c2, ..TriAttr::default() });
+    }
+    out
+}
+
+/// A texture reference as the kernels read it (none: all zero).
+fn tex_ref(r: Option<TextureRef>) -> TexRef {
+    match r {
+        None => TexRef::default(),
+        Some(r) => {
+            let m = r.transform;
+            let (c0, c1, t) = (m.matrix2.x_axis, m.matrix2.y_axis, m.translation);
+            TexRef {
+                row0: [c0.x as f32, c1.x as f32, t.x as f32],
+                texture: r.texture + 1,
+                row1: [c0.y as f32, c1.y as f32, t.y as f32],
+                texcoord: r.texcoord,
+            }
+        }
+    }
+}
+
+/// Material `m` as the kernels read it.
+fn gpu_material(m: &SceneMaterial) -> Material {
+    let maps = m.maps.as_deref();
+    let flags = if m.tinted_transmission { MATERIAL_TINTED_TRANSMISSION } else { 0 }
+        | if maps.is_some() { MATERIAL_MAPS } else { 0 }
+        | if m.alpha == Alpha::Blend { MATERIAL_BLEND } else { 0 };
+    // Alpha is never below −1: that cutoff lets every hit count.
+    let cutoff = |shadow: bool| m.alpha.cutoff(shadow).map_or(-1.0, |c| c as f32);
+    Material {
+        color: v3(m.color),
+        kd: m.kd as f32,
+        mirror: v3(m.mirror),
+        ks: m.ks as f32,
+        emission: v3(m.emission),
+        shine: m.shine as f32,
+        transmittance: m.transmittance as f32,
+        ior: m.ior as f32,
+        flags,
+        opacity: m.opacity as f32,
+        metallic: maps.map_or(0.0, |p| p.metallic as f32),
+        roughness: maps.map_or(0.0, |p| p.roughness as f32),
+        transmission: maps.map_or(0.0, |p| p.transmission as f32),
+        alpha_cutoff: cutoff(false),
+        emission_factor: maps.map_or([0.0; 3], |p| v3(p.emission)),
+        shadow_cutoff: cutoff(true),
+        normal_scale: m.normal_map.map_or(1.0, |n| n.scale as f32),
+        base: tex_ref(m.base_color_texture),
+        metallic_roughness: tex_ref(maps.and_then(|p| p.metallic_roughness)),
+        emissive: tex_ref(maps.and_then(|p| p.emissive)),
+        transmission_map: tex_ref(maps.and_then(|p| p.transmission_texture)),
+        normal: tex_ref(m.normal_map.map(|n| n.texture)),
+        ..Material::default()
+    }
+}
+
+/// Primitive `p` re-centred on `eye`, in f64, its triangle attributes at `attr`, with
+/// `extra` flags: the one packing of a primitive, which [`Prim`] rounds to f32.
+fn wide_prim(p: &Primitive, eye: DVec3, attr: u32, extra: u32) -> Prim64 {
     let w4 = |v: DVec3, w: f64| [v.x, v.y, v.z, w];
     let inside = |inside_only: bool| if inside_only { FLAG_INSIDE_ONLY } else { 0 };
     match p {
@@ -226,7 +296,7 @@ fn wide_prim(p: &Primitive, eye: DVec3, attr: u32) -> Prim64 {
             a: w4(s.center - eye, s.radius),
             kind: KIND_SPHERE,
             material: s.material,
-            flags: inside(s.inside_only),
+            flags: inside(s.inside_only) | extra,
             ..Prim64::default()
         },
         Primitive::Triangle(t) => Prim64 {
@@ -237,7 +307,10 @@ fn wide_prim(p: &Primitive, eye: DVec3, attr: u32) -> Prim64 {
             material: t.material,
             flags: if t.n.is_some() { FLAG_NORMALS } else { 0 }
                 | if t.uv.is_some() { FLAG_UVS } else { 0 }
-                | if t.color.is_some() { FLAG_COLORS } else { 0 },
+                | if t.uv1.is_some() { FLAG_UV1 } else { 0 }
+                | if t.tangent.is_some() { FLAG_TANGENTS } else { 0 }
+                | if t.color.is_some() { FLAG_COLORS } else { 0 }
+                | extra,
             attr,
             ..Prim64::default()
         },
@@ -246,7 +319,7 @@ fn wide_prim(p: &Primitive, eye: DVec3, attr: u32) -> Prim64 {
             b: w4(c.apex - eye, c.apex_radius),
             kind: KIND_CYLINDER,
             material: c.material,
-            flags: inside(c.inside_only),
+            flags: inside(c.inside_only) | extra,
             ..Prim64::default()
         },
     }

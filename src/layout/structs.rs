@@ -100,20 +100,30 @@ pub struct Prim64 {
     pub pad: [u32; 4],
 }
 
-/// Per-vertex normals and texture coordinates of a triangle (WGSL `TriAttr`, keep in sync with
-/// `shaders/shared/layout.wgsl`).
+/// One entry of a triangle's per-vertex attributes (WGSL `TriAttr`, keep in sync with
+/// `shaders/shared/layout.wgsl`, which says what each of a triangle's one to three
+/// consecutive entries holds: normals and set 0; tangents and set 1; colours).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct TriAttr {
     pub n0: [f32; 4],
     pub n1: [f32; 4],
     pub n2: [f32; 4],
+    /// Set 0: vertices 0 and 1 (entry 1: set 1, vertices 1 and 2).
     pub uv01: [f32; 4],
-    pub uv2: [f32; 4],
-    /// Vertex colours (RGB; [`FLAG_COLORS`]).
-    pub c0: [f32; 4],
-    pub c1: [f32; 4],
-    pub c2: [f32; 4],
+    /// Set 0: vertex 2 (xy); set 1: vertex 0 (zw).
+    pub uv2_1: [f32; 4],
+}
+
+/// A material's texture (WGSL `TexRef`): index + 1 (0 = none), TEXCOORD set, and the
+/// KHR_texture_transform's two rows.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct TexRef {
+    pub row0: [f32; 3],
+    pub texture: u32,
+    pub row1: [f32; 3],
+    pub texcoord: u32,
 }
 
 /// A material (WGSL `Material`, keep in sync with `shaders/shared/layout.wgsl`).
@@ -128,10 +138,26 @@ pub struct Material {
     pub shine: f32,
     pub transmittance: f32,
     pub ior: f32,
-    /// Texture index + 1; 0 = none.
-    pub texture: u32,
-    /// [`MATERIAL_TINTED_TRANSMISSION`].
+    /// [`MATERIAL_TINTED_TRANSMISSION`], [`MATERIAL_MAPS`], [`MATERIAL_BLEND`].
     pub flags: u32,
+    pub opacity: f32,
+    pub metallic: f32,
+    pub roughness: f32,
+    pub transmission: f32,
+    /// Hits below this alpha are no hits (−1: every hit counts).
+    pub alpha_cutoff: f32,
+    pub emission_factor: [f32; 3],
+    /// The cutoff for shadow rays.
+    pub shadow_cutoff: f32,
+    pub normal_scale: f32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
+    pub base: TexRef,
+    pub metallic_roughness: TexRef,
+    pub emissive: TexRef,
+    pub transmission_map: TexRef,
+    pub normal: TexRef,
 }
 
 /// A light (WGSL `Light`, keep in sync with `shaders/shared/layout.wgsl`); positions relative
@@ -316,10 +342,18 @@ pub const FLAG_INSIDE_ONLY: u32 = 1;
 pub const FLAG_NORMALS: u32 = 2;
 pub const FLAG_UVS: u32 = 4;
 pub const FLAG_COLORS: u32 = 8;
+pub const FLAG_UV1: u32 = 16;
+pub const FLAG_TANGENTS: u32 = 32;
+/// The primitive's material is alpha-masked or blended (WGSL `FLAG_CUTOUT`).
+pub const FLAG_CUTOUT: u32 = 64;
 
 /// [`Material::flags`] bit (WGSL `MATERIAL_TINTED_TRANSMISSION`): the refracted ray is
 /// weighted by the base colour at the hit too (`scene::Material::tinted_transmission`).
 pub const MATERIAL_TINTED_TRANSMISSION: u32 = 1;
+/// [`Material::flags`] bit (WGSL `MATERIAL_MAPS`): the Whitted terms are evaluated per hit.
+pub const MATERIAL_MAPS: u32 = 2;
+/// [`Material::flags`] bit (WGSL `MATERIAL_BLEND`): hits let `1 − alpha` straight through.
+pub const MATERIAL_BLEND: u32 = 4;
 
 /// [`Light::kind`] codes (WGSL `LIGHT_*`).
 pub const LIGHT_POINT: u32 = 0;
@@ -331,6 +365,8 @@ pub const WRAP_REPEAT: u32 = 0;
 pub const WRAP_MIRRORED_REPEAT: u32 = 1;
 pub const WRAP_CLAMP_TO_EDGE: u32 = 2;
 pub const TEX_BILINEAR: u32 = 16;
+/// [`TextureInfo::flags`] bit (WGSL `TEX_SRGB`): colour channels are sRGB-encoded.
+pub const TEX_SRGB: u32 = 32;
 
 /// [`Params::aov`] codes (WGSL `AOV_*`): what the `aov` kernel writes.
 pub const AOV_DEPTH: u32 = 0;

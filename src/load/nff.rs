@@ -534,7 +534,7 @@ impl<'a> Parser<'a> {
         let mut fixed = 0;
         for &[a, b, c] in &corners {
             let p = [points[a], points[b], points[c]];
-            let mut triangle = Triangle { p, n: None, uv: None, color: None, material: 0 };
+            let mut triangle = Triangle::new(p, 0);
             // A finite triangle whose cross product overflows is no better than a flat one.
             if triangle.is_degenerate() || !triangle.cross().is_finite() {
                 dropped += 1;

@@ -8,8 +8,9 @@
 use glam::DVec3;
 
 use super::geometry::{intersect, Intersection, Ray};
+use super::texture;
 use crate::arith::closest::{consider, no_closest, Closest, TestHit};
-use crate::scene::Primitive;
+use crate::scene::{Primitive, Scene};
 use crate::stats::TestCounts;
 
 /// The entity a ray starts from.
@@ -60,6 +61,42 @@ pub trait Accel: Sync {
     fn occluded(&self, query: &ShadowQuery, tests: &mut TestCounts) -> bool;
 }
 
+/// The primitives every accelerator tests, and the rule that makes a geometric hit a hit:
+/// on an alpha-masked or blended material, a hit whose alpha is below the cutoff is no hit
+/// (a walk just goes on; shadow rays take a blend as a mask at 0.5).
+#[derive(Clone, Copy)]
+pub struct Hittable<'a> {
+    pub prims: &'a [Primitive],
+    scene: &'a Scene,
+    /// Some used material is masked or blended.
+    cut: bool,
+}
+
+impl<'a> Hittable<'a> {
+    pub fn new(scene: &'a Scene) -> Hittable<'a> {
+        Hittable { prims: &scene.primitives, scene, cut: scene.effects().alpha }
+    }
+
+    /// The hit of `ray` on primitive `id` before `t_max` that counts for a ray of this kind
+    /// (`shadow`).
+    #[inline]
+    pub fn hit(&self, id: u32, ray: &Ray, t_max: f64, shadow: bool) -> Option<Intersection> {
+        let prim = &self.prims[id as usize];
+        let h = intersect(prim, ray, t_max)?;
+        if self.cut {
+            if let Primitive::Triangle(t) = prim {
+                let m = &self.scene.materials[t.material as usize];
+                if let Some(cutoff) = m.alpha.cutoff(shadow) {
+                    if texture::alpha(self.scene, m, t.uvs_at(h.b1, h.b2)) < cutoff {
+                        return None;
+                    }
+                }
+            }
+        }
+        Some(h)
+    }
+}
+
 /// Counts one intersection test of `prim`.
 pub fn count(prim: &Primitive, tests: &mut TestCounts) {
     match prim {
@@ -78,16 +115,15 @@ pub type Best = Closest<f64, Intersection>;
 /// no hit can join the answer ([`Closest::limit`]).
 #[inline]
 pub fn test_closest(
-    prims: &[Primitive],
+    prims: &Hittable,
     id: u32,
     ray: &Ray,
     t_max: f64,
     best: &mut Best,
     tests: &mut TestCounts,
 ) -> f64 {
-    let prim = &prims[id as usize];
-    count(prim, tests);
-    let hit = intersect(prim, ray, t_max).map(|h| TestHit { t: h.t, err: h.err, hit: h });
+    count(&prims.prims[id as usize], tests);
+    let hit = prims.hit(id, ray, t_max, false).map(|h| TestHit { t: h.t, err: h.err, hit: h });
     consider(best, id, hit, t_max)
 }
 

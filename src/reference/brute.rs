@@ -1,18 +1,20 @@
 //! Brute force: every primitive for every ray.
 
-use super::accel::{count, nearest_by_rule, test_closest, Accel, NearestHit, OriginKey, ShadowQuery};
-use super::geometry::{intersect, Ray};
-use crate::scene::Primitive;
+use super::accel::{
+    count, nearest_by_rule, test_closest, Accel, Hittable, NearestHit, OriginKey, ShadowQuery,
+};
+use super::geometry::Ray;
+use crate::scene::Scene;
 use crate::stats::TestCounts;
 
 /// Tests every primitive for every ray.
 pub struct Brute<'a> {
-    prims: &'a [Primitive],
+    prims: Hittable<'a>,
 }
 
 impl<'a> Brute<'a> {
-    pub fn new(prims: &'a [Primitive]) -> Self {
-        Brute { prims }
+    pub fn new(scene: &'a Scene) -> Self {
+        Brute { prims: Hittable::new(scene) }
     }
 }
 
@@ -29,16 +31,16 @@ impl Accel for Brute<'_> {
         tests: &mut TestCounts,
     ) -> Option<NearestHit> {
         nearest_by_rule(|best| {
-            for id in 0..self.prims.len() as u32 {
-                test_closest(self.prims, id, ray, t_max, best, tests);
+            for id in 0..self.prims.prims.len() as u32 {
+                test_closest(&self.prims, id, ray, t_max, best, tests);
             }
         })
     }
 
     fn occluded(&self, q: &ShadowQuery, tests: &mut TestCounts) -> bool {
-        self.prims.iter().any(|p| {
-            count(p, tests);
-            intersect(p, &q.ray, q.t_max).is_some()
+        (0..self.prims.prims.len() as u32).any(|id| {
+            count(&self.prims.prims[id as usize], tests);
+            self.prims.hit(id, &q.ray, q.t_max, true).is_some()
         })
     }
 }

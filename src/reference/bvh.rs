@@ -2,10 +2,12 @@
 
 use glam::DVec3;
 
-use super::accel::{count, nearest_by_rule, test_closest, Accel, NearestHit, OriginKey, ShadowQuery};
-use super::geometry::{intersect, Ray};
+use super::accel::{
+    count, nearest_by_rule, test_closest, Accel, Hittable, NearestHit, OriginKey, ShadowQuery,
+};
+use super::geometry::Ray;
 use crate::bvh::{build, outward_box};
-use crate::scene::Primitive;
+use crate::scene::{Primitive, Scene};
 use crate::stats::TestCounts;
 
 /// A primitive's box for the shared build: the f64 bounds are computed with a few roundings
@@ -32,7 +34,7 @@ struct Node {
 /// A binary BVH: built by `obvhs` (PLOC with reinsertion, leaves collapsed by SAH),
 /// traversed here in f64, nearest child first.
 pub struct BvhAccel<'a> {
-    prims: &'a [Primitive],
+    prims: Hittable<'a>,
     nodes: Vec<Node>,
     /// Primitive ids in leaf order.
     order: Vec<u32>,
@@ -81,11 +83,12 @@ impl SlabRay {
 }
 
 impl<'a> BvhAccel<'a> {
-    pub fn new(prims: &'a [Primitive]) -> Self {
-        if prims.is_empty() {
+    pub fn new(scene: &'a Scene) -> Self {
+        let prims = Hittable::new(scene);
+        if prims.prims.is_empty() {
             return BvhAccel { prims, nodes: Vec::new(), order: Vec::new() };
         }
-        let boxes: Vec<_> = prims.iter().map(prim_box).collect();
+        let boxes: Vec<_> = prims.prims.iter().map(prim_box).collect();
         let tree = build(&boxes);
         let d = |v: [f32; 3]| DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64);
         let nodes = tree
@@ -164,7 +167,7 @@ impl Accel for BvhAccel<'_> {
             self.traverse(ray, &limit, &mut |ids| {
                 let mut b = state.get();
                 for &id in ids {
-                    test_closest(self.prims, id, ray, t_max, &mut b, tests);
+                    test_closest(&self.prims, id, ray, t_max, &mut b, tests);
                 }
                 state.set(b);
                 true
@@ -178,9 +181,8 @@ impl Accel for BvhAccel<'_> {
         let t_max = q.t_max;
         self.traverse(&q.ray, &|| t_max, &mut |ids| {
             for &id in ids {
-                let p = &self.prims[id as usize];
-                count(p, tests);
-                if intersect(p, &q.ray, t_max).is_some() {
+                count(&self.prims.prims[id as usize], tests);
+                if self.prims.hit(id, &q.ray, t_max, true).is_some() {
                     blocked = true;
                     return false;
                 }

@@ -317,12 +317,24 @@ pub struct SurfacePoint {
     /// Unit shading normal on the same side as `ng` (interpolated for triangles with
     /// vertex normals, else `ng`).
     pub ns: DVec3,
-    /// Texture coordinates, for triangles that carry them.
-    pub uv: Option<DVec2>,
+    /// Texture coordinates, sets 0 and 1, where the triangle carries them.
+    pub uv: [Option<DVec2>; 2],
+    /// The tangent frame of a triangle with tangents: the interpolated unit vertex normal
+    /// (not turned to `ng`'s side), the unit tangent made orthogonal to it, and the
+    /// bitangent's sign.
+    pub frame: Option<TangentFrame>,
     /// The vertex colour, interpolated (white where the primitive has none).
     pub color: DVec3,
     /// Size of the numbers that produced `p`, for the spawn offset.
     pub scale: f64,
+}
+
+/// A normal map's frame at a point: `b = sign·(n × t)`.
+#[derive(Clone, Copy, Debug)]
+pub struct TangentFrame {
+    pub n: DVec3,
+    pub t: DVec3,
+    pub sign: f64,
 }
 
 /// The surface data of a hit found by [`intersect`].
@@ -333,7 +345,7 @@ pub fn surface(prim: &Primitive, ray: &Ray, hit: &Intersection) -> SurfacePoint 
             let p = ray.at(hit.t);
             let ng = (p - s.center).normalize();
             let scale = scale_of(p).max(s.center.abs().max_element() + s.radius);
-            SurfacePoint { p, ng, ns: ng, uv: None, color: DVec3::ONE, scale }
+            SurfacePoint { p, ng, ns: ng, uv: [None; 2], frame: None, color: DVec3::ONE, scale }
         }
         Primitive::Cylinder(c) => {
             let p = ray.at(hit.t);
@@ -343,34 +355,31 @@ pub fn surface(prim: &Primitive, ray: &Ray, hit: &Intersection) -> SurfacePoint 
             let ng = cone_normal(f.axis, f.slope, radial);
             let extent = c.base.abs().max_element().max(c.apex.abs().max_element());
             let scale = scale_of(p).max(extent);
-            SurfacePoint { p, ng, ns: ng, uv: None, color: DVec3::ONE, scale }
+            SurfacePoint { p, ng, ns: ng, uv: [None; 2], frame: None, color: DVec3::ONE, scale }
         }
         Primitive::Triangle(t) => {
             let b0 = 1.0 - hit.b1 - hit.b2;
             let p = t.p[0] * b0 + t.p[1] * hit.b1 + t.p[2] * hit.b2;
             let ng = t.cross().normalize();
-            let ns = match &t.n {
-                Some(n) => {
-                    let s = n[0] * b0 + n[1] * hit.b1 + n[2] * hit.b2;
-                    let len = s.length();
-                    if len > 1e-12 {
-                        let s = s / len;
-                        // Keep the shading normal on the geometric normal's side.
-                        if s.dot(ng) < 0.0 {
-                            -s
-                        } else {
-                            s
-                        }
-                    } else {
-                        ng
-                    }
-                }
-                None => ng,
-            };
-            let uv = t.uv.map(|uv| uv[0] * b0 + uv[1] * hit.b1 + uv[2] * hit.b2);
+            // The interpolated vertex normal, unit, on its own side.
+            let n = t.n.as_ref().and_then(|n| {
+                let s = n[0] * b0 + n[1] * hit.b1 + n[2] * hit.b2;
+                let len = s.length();
+                (len > 1e-12).then(|| s / len)
+            });
+            // Keep the shading normal on the geometric normal's side.
+            let ns = n.map_or(ng, |n| if n.dot(ng) < 0.0 { -n } else { n });
+            let frame = t.tangent.as_deref().and_then(|tg| {
+                let n = n.unwrap_or(ng);
+                let v = (tg[0] * b0 + tg[1] * hit.b1 + tg[2] * hit.b2).truncate();
+                let v = v - n * n.dot(v);
+                let len = v.length();
+                (len > 1e-12).then(|| TangentFrame { n, t: v / len, sign: tg[0].w })
+            });
+            let uv = t.uvs_at(hit.b1, hit.b2);
             let color = t.color.as_ref().map_or(DVec3::ONE, |c| c[0] * b0 + c[1] * hit.b1 + c[2] * hit.b2);
             let extent = t.p.iter().map(|q| q.abs().max_element()).fold(0.0, f64::max);
-            SurfacePoint { p, ng, ns, uv, color, scale: scale_of(p).max(extent) }
+            SurfacePoint { p, ng, ns, uv, frame, color, scale: scale_of(p).max(extent) }
         }
     }
 }
@@ -434,7 +443,7 @@ mod tests {
     }
 
     fn tri(p0: DVec3, p1: DVec3, p2: DVec3) -> Triangle {
-        Triangle { p: [p0, p1, p2], n: None, uv: None, color: None, material: 0 }
+        Triangle::new([p0, p1, p2], 0)
     }
 
     #[test]
@@ -455,28 +464,21 @@ mod tests {
         let n0 = DVec3::new(-1.0, 0.0, 1.0).normalize();
         let n1 = DVec3::new(1.0, 0.0, 1.0).normalize();
         let t = Triangle {
-            p: [DVec3::ZERO, DVec3::X, DVec3::Y],
             // Stored pointing down: the shading normal is turned to the geometric side.
             n: Some([-n0, -n1, -DVec3::Z]),
             uv: Some([glam::DVec2::ZERO, glam::DVec2::X, glam::DVec2::Y]),
-            color: None,
-            material: 0,
+            ..Triangle::new([DVec3::ZERO, DVec3::X, DVec3::Y], 0)
         };
         let r = Ray::new(DVec3::new(0.5, 0.0, 1.0), DVec3::NEG_Z);
         let h = intersect_triangle(&t, &r, f64::INFINITY).unwrap();
         let s = surface(&Primitive::Triangle(t.clone()), &r, &h);
         assert!((s.ng - DVec3::Z).length() < 1e-15);
         assert!((s.ns - DVec3::Z).length() < 1e-12, "{}", s.ns);
-        assert!((s.uv.unwrap() - glam::DVec2::new(0.5, 0.0)).length() < 1e-15);
+        assert!((s.uv[0].unwrap() - glam::DVec2::new(0.5, 0.0)).length() < 1e-15);
         let r = Ray::new(DVec3::new(0.25, 0.0, 1.0), DVec3::NEG_Z);
         let h = intersect_triangle(&t, &r, f64::INFINITY).unwrap();
-        let tri = Triangle {
-            p: [DVec3::ZERO, DVec3::X, DVec3::Y],
-            n: Some([n0, n1, DVec3::Z]),
-            uv: None,
-            color: None,
-            material: 0,
-        };
+        let tri =
+            Triangle { n: Some([n0, n1, DVec3::Z]), ..Triangle::new([DVec3::ZERO, DVec3::X, DVec3::Y], 0) };
         let s = surface(&Primitive::Triangle(tri), &r, &h);
         let want = (n0 * 0.75 + n1 * 0.25).normalize();
         assert!((s.ns - want).length() < 1e-12, "{}", s.ns);

@@ -52,11 +52,9 @@ pub fn build_accel<'a>(
     height: u32,
 ) -> Result<Box<dyn Accel + 'a>> {
     Ok(match kind {
-        AccelKind::Auto if scene.primitives.len() <= AUTO_BRUTE_MAX => {
-            Box::new(Brute::new(&scene.primitives))
-        }
-        AccelKind::Brute => Box::new(Brute::new(&scene.primitives)),
-        AccelKind::Auto | AccelKind::Bvh => Box::new(BvhAccel::new(&scene.primitives)),
+        AccelKind::Auto if scene.primitives.len() <= AUTO_BRUTE_MAX => Box::new(Brute::new(scene)),
+        AccelKind::Brute => Box::new(Brute::new(scene)),
+        AccelKind::Auto | AccelKind::Bvh => Box::new(BvhAccel::new(scene)),
         AccelKind::Cube => Box::new(TableAccel::new(scene, width, height)?),
     })
 }

@@ -32,13 +32,18 @@
 //!   the geometric normal (triangles: the side of (p1 − p0) × (p2 − p0)).
 //! - With a shading normal, a reflected or refracted direction that would cross the
 //!   geometric surface the wrong way is recomputed with the geometric normal.
+//! - A material with maps has its Whitted terms evaluated at the hit, and a normal map
+//!   bends N there ([`texture::shading`], [`texture::normal`]).
+//! - A blended (glTF `alphaMode` BLEND) surface of alpha α weights all of the above by α
+//!   and adds (1 − α)·L(pass-through ray): a ray on along d from the far side of the hit,
+//!   of kind refraction and one depth deeper (none beyond `max_depth`).
 
 use glam::DVec3;
 
 use super::accel::{Accel, NearestHit, OriginKey, ShadowQuery};
 use super::geometry::{spawn_offset, spawn_origin, surface, Ray, SurfacePoint};
 use super::texture;
-use crate::scene::{Light, LightKind, Material, Scene};
+use crate::scene::{Alpha, Light, LightKind, Scene};
 use crate::stats::{Counters, RayKind};
 
 /// Shadow rays towards a positional light end this much of the light's scale before it
@@ -162,30 +167,22 @@ impl Tracer<'_> {
         }
     }
 
-    /// The base colour at surface point `s`: the material's, times its texture and the
-    /// vertex colour where there are.
-    fn base_color(&self, m: &Material, s: &SurfacePoint) -> DVec3 {
-        let c = match (m.base_color_texture, s.uv) {
-            (Some(t), Some(uv)) => m.color * texture::sample(&self.scene.textures[t.texture as usize], uv),
-            _ => m.color,
-        };
-        c * s.color
-    }
-
     fn shade(&self, ray: &Ray, h: &NearestHit, depth: u32, c: &mut Counters) -> DVec3 {
         let scene = self.scene;
         let prim = &scene.primitives[h.prim as usize];
         let m = &scene.materials[prim.material() as usize];
-        let s = surface(prim, ray, &h.hit);
+        let mut s: SurfacePoint = surface(prim, ray, &h.hit);
+        s.ns = texture::normal(scene, m, &s);
         let d = ray.dir;
         // Normals turned to face the incoming ray.
         let entering = d.dot(s.ng) < 0.0;
         let (ng, n) = if entering { (s.ng, s.ns) } else { (-s.ng, -s.ns) };
-        let base = self.base_color(m, &s);
-        let diffuse = base * m.kd;
+        let sh = texture::shading(scene, m, &s);
+        let base = sh.color;
+        let diffuse = base * sh.kd;
         let v = -d;
 
-        let mut l = m.emission + scene.ambient * diffuse;
+        let mut l = sh.emission + scene.ambient * diffuse;
         for (i, light) in scene.lights.iter().enumerate() {
             let Some(inc) = incidence(light, s.p) else { continue };
             let n_dot_l = n.dot(inc.dir);
@@ -220,32 +217,35 @@ impl Tracer<'_> {
                 continue;
             }
             let mut local = diffuse * n_dot_l;
-            if m.ks > 0.0 {
+            if sh.ks > 0.0 {
                 let r = n * (2.0 * n_dot_l) - inc.dir;
                 let r_dot_v = r.dot(v);
                 if r_dot_v > 0.0 {
-                    local += DVec3::splat(m.ks * r_dot_v.powf(m.shine));
+                    local += DVec3::splat(sh.ks * r_dot_v.powf(sh.shine));
                 }
             }
             l += inc.radiance * local;
         }
 
         if depth >= self.max_depth {
-            return l;
+            return match m.alpha {
+                Alpha::Blend => l * texture::alpha(scene, m, s.uv),
+                _ => l,
+            };
         }
-        let transmits = m.transmits();
+        let transmits = sh.transmittance > 0.0;
         let refracted = if transmits { refract(d, n, ng, entering, m.ior) } else { None };
-        let transmitted = m.transmittance * if m.tinted_transmission { base } else { DVec3::ONE };
-        if m.reflects() || transmits {
+        let transmitted = sh.transmittance * if m.tinted_transmission { base } else { DVec3::ONE };
+        if sh.mirror.max_element() > 0.0 || transmits {
             let mut r = reflect(d, n);
             if r.dot(ng) <= 0.0 {
                 r = reflect(d, ng);
             }
             let weight = if transmits && refracted.is_none() {
                 // Total internal reflection: what would have been transmitted is reflected.
-                m.mirror + transmitted
+                sh.mirror + transmitted
             } else {
-                m.mirror
+                sh.mirror
             };
             let rr = Ray::new(spawn_origin(&s, r), r);
             let spawn = spawn_offset(&s);
@@ -256,6 +256,16 @@ impl Tracer<'_> {
             let spawn = spawn_offset(&s);
             l += transmitted
                 * self.trace(&rt, OriginKey::Surface(h.prim), RayKind::Refract, depth + 1, spawn, c);
+        }
+        if m.alpha == Alpha::Blend {
+            let a = texture::alpha(scene, m, s.uv);
+            l *= a;
+            if a < 1.0 {
+                let rp = Ray::new(spawn_origin(&s, d), d);
+                let spawn = spawn_offset(&s);
+                l += (1.0 - a)
+                    * self.trace(&rp, OriginKey::Surface(h.prim), RayKind::Refract, depth + 1, spawn, c);
+            }
         }
         l
     }

@@ -16,19 +16,19 @@
 
 use glam::Vec3;
 
-use super::accel::{count, nearest_by_rule, Accel, NearestHit, OriginKey, ShadowQuery};
+use super::accel::{count, nearest_by_rule, Accel, Hittable, NearestHit, OriginKey, ShadowQuery};
 use super::bvh::BvhAccel;
-use super::geometry::{intersect, Ray};
+use super::geometry::Ray;
 use crate::arith::closest::TestHit;
 use crate::coherence::walk::{walk_any, walk_nearest, AnyHit, Walk, WALK_CHUNK};
 use crate::coherence::{self, BuildParams, FlatTables, Tables, WalkCount};
 use crate::error::Result;
-use crate::scene::{Primitive, Scene};
+use crate::scene::Scene;
 use crate::stats::TestCounts;
 
 /// The tables of one scene, built for one image size.
 pub struct TableAccel<'a> {
-    prims: &'a [Primitive],
+    prims: Hittable<'a>,
     tables: Tables,
     /// What rays leaving surfaces walk.
     surface_bvh: BvhAccel<'a>,
@@ -40,7 +40,7 @@ impl<'a> TableAccel<'a> {
     pub fn new(scene: &'a Scene, width: u32, height: u32) -> Result<TableAccel<'a>> {
         let params = BuildParams { image: Some((width, height)), ..BuildParams::default() };
         let tables = coherence::build(scene, &params)?;
-        Ok(TableAccel { prims: &scene.primitives, tables, surface_bvh: BvhAccel::new(&scene.primitives) })
+        Ok(TableAccel { prims: Hittable::new(scene), tables, surface_bvh: BvhAccel::new(scene) })
     }
 
     /// The tables as built (for statistics).
@@ -75,9 +75,8 @@ impl<'a> TableAccel<'a> {
         let mut walked = WalkCount::default();
         let mut w: Walk = flat.walk_from(key, d);
         let mut hits = |id: u32| {
-            let prim = &self.prims[id as usize];
-            count(prim, tests);
-            intersect(prim, &test_ray.ray, test_ray.t_max).is_some()
+            count(&self.prims.prims[id as usize], tests);
+            self.prims.hit(id, &test_ray.ray, test_ray.t_max, true).is_some()
         };
         let answer = loop {
             match walk_any(flat, &mut w, reach, u32::MAX, WALK_CHUNK, &mut walked, &mut hits) {
@@ -111,9 +110,8 @@ impl Accel for TableAccel<'_> {
         let d = ray.dir.as_vec3().normalize();
         let mut walked = WalkCount::default();
         let mut test = |id: u32| {
-            let prim = &self.prims[id as usize];
-            count(prim, tests);
-            intersect(prim, ray, t_max).map(|h| TestHit { t: h.t, err: h.err, hit: h })
+            count(&self.prims.prims[id as usize], tests);
+            self.prims.hit(id, ray, t_max, false).map(|h| TestHit { t: h.t, err: h.err, hit: h })
         };
         nearest_by_rule(|best| {
             // In steps, as the GPU walks, each resuming where the last stopped.

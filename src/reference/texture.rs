@@ -1,11 +1,14 @@
-//! Texture sampling: sRGB texels decoded to linear, wrap modes, bilinear or nearest.
+//! Texture sampling: sRGB texels decoded to linear (colour textures; data textures as
+//! stored), wrap modes, bilinear or nearest; and what a material's textures give at a point:
+//! the base colour's alpha, the per-hit Whitted terms, the normal-mapped normal.
 //!
 //! Texture coordinates follow glTF: (0, 0) is the top-left corner of the image, u grows
 //! to the right and v downwards; texel (i, j) has its centre at ((i + 0.5)/W, (j + 0.5)/H).
 
-use glam::{DVec2, DVec3};
+use glam::{DVec2, DVec3, DVec4};
 
-use crate::scene::{Texture, Wrap};
+use super::geometry::{SurfacePoint, TangentFrame};
+use crate::scene::{Material, Pbr, Scene, Shading, Texture, TextureRef, Wrap};
 
 /// The sRGB electro-optical transfer function: an 8-bit sRGB value to linear [0, 1].
 pub fn srgb_to_linear(v: u8) -> f64 {
@@ -34,15 +37,25 @@ fn wrap(i: i64, n: u32, mode: Wrap) -> usize {
     j as usize
 }
 
-fn texel(t: &Texture, i: i64, j: i64) -> DVec3 {
+fn texel(t: &Texture, i: i64, j: i64) -> DVec4 {
     let x = wrap(i, t.width, t.wrap_s);
     let y = wrap(j, t.height, t.wrap_t);
     let c = t.texels[y * t.width as usize + x];
-    DVec3::new(srgb_to_linear(c[0]), srgb_to_linear(c[1]), srgb_to_linear(c[2]))
+    let a = c[3] as f64 / 255.0;
+    if t.srgb {
+        DVec4::new(srgb_to_linear(c[0]), srgb_to_linear(c[1]), srgb_to_linear(c[2]), a)
+    } else {
+        DVec4::new(c[0] as f64 / 255.0, c[1] as f64 / 255.0, c[2] as f64 / 255.0, a)
+    }
 }
 
 /// The linear RGB colour of texture `t` at `uv`.
 pub fn sample(t: &Texture, uv: DVec2) -> DVec3 {
+    sample4(t, uv).truncate()
+}
+
+/// The RGBA value of texture `t` at `uv` (colour decoded to linear for an sRGB texture).
+pub fn sample4(t: &Texture, uv: DVec2) -> DVec4 {
     // Keep coordinates in a range where the integer conversion is exact; every wrap mode
     // is periodic or constant far away, so this changes nothing visible.
     let x = (uv.x * t.width as f64).clamp(-1e12, 1e12);
@@ -59,6 +72,66 @@ pub fn sample(t: &Texture, uv: DVec2) -> DVec3 {
     top * (1.0 - fy) + bottom * fy
 }
 
+/// Texture `r` of `scene` at a point with UV sets `uv`; `None` where its set is absent.
+fn read(scene: &Scene, r: Option<TextureRef>, uv: [Option<DVec2>; 2]) -> Option<DVec4> {
+    let r = r?;
+    Some(sample4(&scene.textures[r.texture as usize], r.uv(uv)?))
+}
+
+/// The alpha of material `m` at a point with UV sets `uv`: its opacity times the base colour
+/// texture's alpha.
+pub fn alpha(scene: &Scene, m: &Material, uv: [Option<DVec2>; 2]) -> f64 {
+    m.opacity * read(scene, m.base_color_texture, uv).map_or(1.0, |c| c.w)
+}
+
+/// The base colour at surface point `s`: the material's, times its texture and the vertex
+/// colour where there are.
+pub fn base_color(scene: &Scene, m: &Material, s: &SurfacePoint) -> DVec3 {
+    m.color * read(scene, m.base_color_texture, s.uv).map_or(DVec3::ONE, DVec4::truncate) * s.color
+}
+
+/// The Whitted terms of material `m` at surface point `s`: its maps evaluated there through
+/// [`Pbr::whitted`], or its scalars. A map whose UV set the triangle lacks counts as 1.
+pub fn shading(scene: &Scene, m: &Material, s: &SurfacePoint) -> Shading {
+    let base = base_color(scene, m, s);
+    let Some(maps) = m.maps.as_deref() else { return m.shading(base) };
+    let mr = read(scene, maps.metallic_roughness, s.uv).unwrap_or(DVec4::ONE);
+    let e = read(scene, maps.emissive, s.uv).map_or(DVec3::ONE, DVec4::truncate);
+    let t = read(scene, maps.transmission_texture, s.uv).map_or(1.0, |c| c.x);
+    Pbr {
+        base,
+        metallic: maps.metallic * mr.z,
+        roughness: maps.roughness * mr.y,
+        transmission: maps.transmission * t,
+        ior: m.ior,
+        emission: maps.emission * e,
+    }
+    .whitted()
+}
+
+/// The shading normal of material `m` at `s`, through its normal map where it has one and
+/// the triangle carries a tangent frame, on the side of the geometric normal.
+pub fn normal(scene: &Scene, m: &Material, s: &SurfacePoint) -> DVec3 {
+    let (Some(map), Some(TangentFrame { n, t, sign })) = (m.normal_map, s.frame) else { return s.ns };
+    let Some(c) = read(scene, Some(map.texture), s.uv) else { return s.ns };
+    let x = (c.x * 2.0 - 1.0) * map.scale;
+    let y = (c.y * 2.0 - 1.0) * map.scale;
+    let z = c.z * 2.0 - 1.0;
+    let b = n.cross(t) * sign;
+    let v = t * x + b * y + n * z;
+    let len = v.length();
+    // Too short to normalise (or NaN): keep the interpolated normal.
+    if len.is_nan() || len <= 1e-12 {
+        return s.ns;
+    }
+    let v = v / len;
+    if v.dot(s.ng) < 0.0 {
+        -v
+    } else {
+        v
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -72,6 +145,7 @@ mod tests {
             wrap_s: wrap,
             wrap_t: wrap,
             linear,
+            srgb: true,
         }
     }
 

@@ -56,7 +56,7 @@
 //! glTF's own default, metallic 1 and roughness 1, would map to black). glTF has no ambient
 //! light or background colour: both are black.
 
-use glam::{DVec2, DVec3};
+use glam::{DVec2, DVec3, DVec4};
 use serde::Serialize;
 
 use crate::error::{Error, Result};
@@ -67,7 +67,9 @@ mod material;
 
 pub use camera::{Camera, FovSpan, Projection};
 pub use light::{Light, LightKind, LightSource};
-pub use material::{Material, Texture, TextureRef, Wrap};
+pub use material::{
+    Alpha, Material, NormalMap, Pbr, PbrMaps, Shading, Texture, TextureRef, Wrap, TEXCOORD_SETS,
+};
 
 /// A sphere. `inside_only` means only the inside surface is visible (NFF negative radius).
 #[derive(Clone, Debug, PartialEq)]
@@ -101,8 +103,13 @@ pub struct Triangle {
     pub p: [DVec3; 3],
     /// Unit shading normals (NFF `pp`, glTF NORMAL).
     pub n: Option<[DVec3; 3]>,
-    /// Texture coordinates (glTF TEXCOORD_n for the material's base colour texture).
+    /// Texture coordinates, set 0 (glTF TEXCOORD_0).
     pub uv: Option<[DVec2; 3]>,
+    /// Texture coordinates, set 1 (glTF TEXCOORD_1); boxed, as few scenes have a second set.
+    pub uv1: Option<Box<[DVec2; 3]>>,
+    /// Unit tangents (xyz) and the bitangent's sign (w, ±1) of a normal-mapped triangle (glTF
+    /// TANGENT, or MikkTSpace's): the bitangent is `w·(n × t)`.
+    pub tangent: Option<Box<[DVec4; 3]>>,
     /// Linear RGB vertex colours that multiply the base colour (glTF COLOR_0); boxed, as
     /// few scenes have them and every triangle would carry their room.
     pub color: Option<Box<[DVec3; 3]>>,
@@ -110,6 +117,18 @@ pub struct Triangle {
 }
 
 impl Triangle {
+    /// A triangle with no attributes.
+    pub fn new(p: [DVec3; 3], material: u32) -> Triangle {
+        Triangle { p, n: None, uv: None, uv1: None, tangent: None, color: None, material }
+    }
+
+    /// Its texture coordinate sets (`None` where absent), interpolated at barycentrics
+    /// (`b1`, `b2`).
+    pub fn uvs_at(&self, b1: f64, b2: f64) -> [Option<DVec2>; 2] {
+        let b0 = 1.0 - b1 - b2;
+        let at = |uv: &[DVec2; 3]| uv[0] * b0 + uv[1] * b1 + uv[2] * b2;
+        [self.uv.as_ref().map(at), self.uv1.as_deref().map(at)]
+    }
     /// Unnormalised geometric normal.
     pub fn cross(&self) -> DVec3 {
         (self.p[1] - self.p[0]).cross(self.p[2] - self.p[0])
@@ -273,6 +292,15 @@ pub struct Effects {
     pub emission: bool,
     /// Some triangle carries vertex colours.
     pub vertex_colors: bool,
+    /// Some used material varies its Whitted terms per hit (metallic-roughness, emissive or
+    /// transmission textures).
+    pub maps: bool,
+    /// Some used material has a normal map and its triangles carry tangents.
+    pub normal_maps: bool,
+    /// Some used material is alpha-masked or blended: walks test alpha at hits.
+    pub alpha: bool,
+    /// Some used material is blended: hits spawn pass-through rays.
+    pub blend: bool,
 }
 
 impl Effects {
@@ -284,6 +312,10 @@ impl Effects {
         textures: true,
         emission: true,
         vertex_colors: true,
+        maps: true,
+        normal_maps: true,
+        alpha: true,
+        blend: true,
     };
 
     /// The names of the effects that are on, in a fixed order.
@@ -296,6 +328,10 @@ impl Effects {
             (self.textures, "textures"),
             (self.emission, "emission"),
             (self.vertex_colors, "vertex_colors"),
+            (self.maps, "maps"),
+            (self.normal_maps, "normal_maps"),
+            (self.alpha, "alpha"),
+            (self.blend, "blend"),
         ] {
             if on {
                 v.push(name);
@@ -383,13 +419,15 @@ impl Scene {
     pub fn effects(&self) -> Effects {
         let mut used = vec![false; self.materials.len()];
         let mut has_uv = vec![false; self.materials.len()];
+        let mut has_tangents = vec![false; self.materials.len()];
         let mut e =
             Effects { shadows: !self.lights.is_empty() && !self.primitives.is_empty(), ..Effects::default() };
         for p in &self.primitives {
             let m = p.material() as usize;
             used[m] = true;
             if let Primitive::Triangle(t) = p {
-                has_uv[m] |= t.uv.is_some();
+                has_uv[m] |= t.uv.is_some() || t.uv1.is_some();
+                has_tangents[m] |= t.tangent.is_some();
                 e.vertex_colors |= t.color.is_some();
             }
         }
@@ -399,8 +437,12 @@ impl Scene {
             }
             e.reflection |= m.reflects() || m.transmits();
             e.refraction |= m.transmits();
-            e.textures |= m.base_color_texture.is_some() && has_uv[i];
+            e.textures |= m.texture_refs().next().is_some() && has_uv[i];
             e.emission |= m.emits();
+            e.maps |= m.maps.is_some() && has_uv[i];
+            e.normal_maps |= m.normal_map.is_some() && has_uv[i] && has_tangents[i];
+            e.alpha |= m.cut_out();
+            e.blend |= m.alpha == Alpha::Blend;
         }
         e
     }
@@ -484,6 +526,19 @@ impl Scene {
                     if let Some(uv) = &t.uv {
                         if !uv.iter().all(|u| u.is_finite()) {
                             return bad("texture coordinate is not finite".into());
+                        }
+                    }
+                    if let Some(uv) = &t.uv1 {
+                        if !uv.iter().all(|u| u.is_finite()) {
+                            return bad("texture coordinate (set 1) is not finite".into());
+                        }
+                    }
+                    if let Some(tg) = &t.tangent {
+                        for v in tg.iter() {
+                            let unit = (v.truncate().length() - 1.0).abs() <= 1e-6;
+                            if !v.is_finite() || !unit || v.w.abs() != 1.0 {
+                                return bad(format!("tangent {v} is not a finite unit vector with sign ±1"));
+                            }
                         }
                     }
                     if let Some(c) = &t.color {

@@ -56,7 +56,7 @@ fn sphere(c: DVec3, r: f64, material: u32) -> Primitive {
 }
 
 fn tri(a: DVec3, b: DVec3, c: DVec3, material: u32) -> Primitive {
-    Primitive::Triangle(Triangle { p: [a, b, c], n: None, uv: None, color: None, material })
+    Primitive::Triangle(Triangle::new([a, b, c], material))
 }
 
 fn cyl(a: DVec3, ra: f64, b: DVec3, rb: f64, material: u32) -> Primitive {

@@ -368,29 +368,30 @@ fn cornell_box_emits_and_gets_the_default_light() {
 #[test]
 fn damaged_helmet_is_textured_and_emissive_but_not_black() {
     let loaded = load(&model("DamagedHelmet/DamagedHelmet.gltf"));
-    // What is not applied per hit is said, once per kind, with the means that stand in.
-    let said = |a: &str, b: &str| loaded.warnings.iter().filter(|w| w.contains(a) && w.contains(b)).count();
-    assert_eq!(
-        said("materials[0] (Material_MR)", "metallicRoughnessTexture (metallic 0."),
-        1,
-        "{:?}",
-        loaded.warnings
-    );
-    assert_eq!(said("materials[0] (Material_MR)", "emissiveTexture (emission "), 1);
-    assert_eq!(said("materials[0]: normal maps are not applied", ""), 1);
-    assert_eq!(said("materials[0]: occlusion maps are not applied", ""), 1);
+    // Only the occlusion map is not applied, and that is said once; nothing is averaged.
+    let said = |a: &str| loaded.warnings.iter().filter(|w| w.contains(a)).count();
+    assert_eq!(said("materials[0]: occlusion maps are not applied"), 1, "{:?}", loaded.warnings);
+    assert_eq!(said("mean"), 0, "{:?}", loaded.warnings);
+    assert_eq!(said("normal maps"), 0, "{:?}", loaded.warnings);
     let scene = loaded.scene;
-    // Only the base colour texture becomes a scene texture (normal, occlusion,
-    // metallic-roughness and emissive maps are not sampled).
-    assert_eq!(scene.textures.len(), 1);
+    // Base colour, metallic-roughness, emissive and normal maps become scene textures, the
+    // colour ones sRGB, the data ones linear (the occlusion map is not decoded).
+    let srgb: Vec<bool> = scene.textures.iter().map(|t| t.srgb).collect();
+    assert_eq!(srgb, [true, false, true, false]);
     let m = &scene.materials[0];
-    assert!(m.base_color_texture.is_some());
-    // The emissive map is mostly black: its mean scales the (1, 1, 1) emissive factor
-    // down to a faint glow rather than a white-hot helmet.
-    assert!(m.emits() && m.emission.max_element() < 0.5, "{m:?}");
-    // Metallic and roughness factors of 1 are scaled by the map's means, so the helmet
-    // keeps some diffuse or specular response.
-    assert!(m.kd > 0.0 || m.ks > 0.0 || m.reflects(), "{m:?}");
+    assert!(m.base_color_texture.is_some() && m.normal_map.is_some());
+    let maps = m.maps.as_deref().expect("per-hit maps");
+    assert!(maps.metallic_roughness.is_some() && maps.emissive.is_some());
+    // The scalars are bounds over the maps: the emissive map's brightest texel and the
+    // metal parts' mirror make the helmet emit and reflect.
+    assert!(m.emits() && m.reflects(), "{m:?}");
+    let e = scene.effects();
+    assert!(e.maps && e.normal_maps && e.reflection && !e.alpha, "{e:?}");
+    // Tangents were made by MikkTSpace (the file has no TANGENT): every triangle has them but
+    // one, whose texture coordinates have no area (it is shaded without the normal map).
+    let tris = triangles(&scene);
+    let without = tris.iter().filter(|t| t.tangent.is_none()).count();
+    assert_eq!(without, 1, "{without} of {} triangles lack tangents", tris.len());
 }
 
 // ---------------------------------------------------------------------------------------
@@ -672,9 +673,10 @@ fn uvs_follow_the_base_colour_texture_coordinate_set() {
     );
     let scene = load(&path).scene;
     let tris = triangles(&scene);
-    let uv = tris[0].uv.expect("textured material: UVs from TEXCOORD_1");
+    let uv = tris[0].uv1.as_deref().expect("textured material: TEXCOORD_1 read");
     assert!((uv[2].x - 0.5).abs() < 1e-6 && (uv[2].y - 0.6).abs() < 1e-6, "{uv:?}");
-    assert!(tris[1].uv.is_none(), "untextured material: no UVs");
+    assert!(tris[0].uv.is_none(), "no texture reads TEXCOORD_0");
+    assert!(tris[1].uv.is_none() && tris[1].uv1.is_none(), "untextured material: no UVs");
     let t = &scene.textures[0];
     assert_eq!((t.width, t.height, t.texels[0]), (2, 2, [200, 100, 50, 255]));
     assert_eq!(
@@ -685,10 +687,10 @@ fn uvs_follow_the_base_colour_texture_coordinate_set() {
     assert_eq!(m.base_color_texture.unwrap().texcoord, 1);
 }
 
-/// KHR_texture_transform on the base colour texture moves the triangles' UVs: offset ·
-/// rotation (counter-clockwise, as the extension's matrix turns (1, 0) to (cos, sin)) ·
-/// scale, reading the TEXCOORD set its `texCoord` names instead of the textureInfo's; no
-/// warning says the extension is ignored.
+/// KHR_texture_transform on the base colour texture becomes the texture reference's
+/// transform: offset · rotation (counter-clockwise, as the extension's matrix turns (1, 0) to
+/// (cos, sin)) · scale, reading the TEXCOORD set its `texCoord` names instead of the
+/// textureInfo's; no warning says the extension is ignored.
 #[test]
 fn texture_transforms_move_the_uvs() {
     let dir = TempDir::new();
@@ -717,14 +719,16 @@ fn texture_transforms_move_the_uvs() {
     );
     let loaded = load(&path);
     assert!(!loaded.warnings.iter().any(|w| w.contains("KHR_texture_transform")), "{:?}", loaded.warnings);
-    let uv = triangles(&loaded.scene)[0].uv.expect("UVs");
+    let tri = &triangles(&loaded.scene)[0];
+    let uv = tri.uv1.as_deref().expect("UVs");
+    let r = loaded.scene.materials[0].base_color_texture.unwrap();
+    assert_eq!(r.texcoord, 1);
     // (u, v) → scale (2u, 3v) → rotate a quarter turn (−3v, 2u) → offset (0.5 − 3v, 0.25 + 2u).
     let want = [DVec2::new(0.5, 0.25), DVec2::new(0.5, 2.25), DVec2::new(-2.5, 0.25)];
-    for (got, want) in uv.iter().zip(want) {
-        assert!((*got - want).length() < 1e-6, "{uv:?}");
+    for (k, want) in want.into_iter().enumerate() {
+        let got = r.uv([None, Some(uv[k])]).unwrap();
+        assert!((got - want).length() < 1e-6, "{got} for {want}");
     }
-    let m = &loaded.scene.materials[0];
-    assert_eq!(m.base_color_texture.unwrap().texcoord, 1);
 }
 
 #[test]

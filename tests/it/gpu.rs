@@ -255,8 +255,14 @@ fn brute_force_passes_within_lavapipes_loop_limit() {
 /// A glTF sample model agrees with the CPU and exercises `effect`.
 fn gltf_model_agrees_with_the_cpu(file: &str, effect: &str) {
     let path = crate::common::shared(&format!("gltf/{file}"));
-    let scene = load::load(&path, &Default::default()).unwrap_or_else(|e| panic!("{file}: {e}")).scene;
-    let (g, _) = agree(file, &scene, &RenderOptions::new(48, 48), 0.01);
+    let loaded = load::load(&path, &Default::default()).unwrap_or_else(|e| panic!("{file}: {e}"));
+    // Every map is applied: no warning says one is averaged or ignored.
+    for w in &loaded.warnings {
+        let dropped = ["mean", "normal maps", "alphaMode", "not applied"].iter().any(|k| w.contains(k));
+        assert!(!dropped || w.contains("occlusion maps are not applied"), "{file}: {w}");
+    }
+    let opts = RenderOptions { spp: 4, ..RenderOptions::new(64, 64) };
+    let (g, _) = agree(file, &loaded.scene, &opts, 0.01);
     assert!(g.stats.effects.contains(&effect), "{file}: {:?}", g.stats.effects);
     assert!(g.stats.rays.eye_hit > 0, "{file}: nothing hit");
 }
@@ -319,6 +325,10 @@ fn vertex_colors_tint_as_given() {
 }
 
 cases!(gltf_models_agree_with_the_cpu: super::gltf_model_agrees_with_the_cpu {
+    avocado_normal_maps => ("Avocado/Avocado.gltf", "normal_maps"),
+    damaged_helmet_maps => ("DamagedHelmet/DamagedHelmet.gltf", "maps"),
+    flight_helmet_blend => ("FlightHelmet/FlightHelmet.gltf", "blend"),
+    metal_rough_spheres => ("MetalRoughSpheresNoTextures/MetalRoughSpheresNoTextures.gltf", "reflection"),
     box_shadows => ("Box/Box.gltf", "shadows"),
     box_textured => ("BoxTextured/BoxTextured.gltf", "textures"),
     cornell_box_emission => ("CornellBox/CornellBox.glb", "emission"),

@@ -51,7 +51,7 @@ fn sphere(center: DVec3, radius: f64, material: u32) -> Primitive {
 }
 
 fn tri(p0: DVec3, p1: DVec3, p2: DVec3, material: u32) -> Primitive {
-    Primitive::Triangle(Triangle { p: [p0, p1, p2], n: None, uv: None, color: None, material })
+    Primitive::Triangle(Triangle::new([p0, p1, p2], material))
 }
 
 /// Two triangles covering the axis-aligned square [x0,x1]×[y0,y1] at height z.

@@ -88,14 +88,27 @@ fn variant_functions_follow_the_flags() {
     for v in Variant::all() {
         // `nearest` only traces: the shading is `shade`'s, over hits only.
         let nearest = module_of(Kernel::Nearest, v);
-        for f in ["shade_hit", "shade_local", "light_term", "sample_texture", "reflect_dir", "refract_dir"] {
+        for f in [
+            "shade_hit",
+            "shade_local",
+            "light_term",
+            "reflect_dir",
+            "refract_dir",
+            "whitted",
+            "mapped_normal",
+        ] {
             assert!(!defines(&nearest, f), "{v:?}: nearest defines {f}");
         }
+        // A walk samples textures only to test alpha.
+        assert_eq!(defines(&nearest, "sample_texture"), v.alpha && v.textures, "{v:?}");
         assert!(defines(&module_of(Kernel::Shade, v), "shade_hit"), "{v:?}");
         let m = module(v);
         assert_eq!(has_function(&m, "reflect_dir"), v.reflection, "{v:?}");
         assert_eq!(has_function(&m, "refract_dir"), v.refraction, "{v:?}");
         assert_eq!(has_function(&m, "sample_texture"), v.textures, "{v:?}");
+        assert_eq!(has_function(&m, "whitted"), v.maps, "{v:?}");
+        assert_eq!(has_function(&m, "mapped_normal"), v.normal_maps, "{v:?}");
+        assert_eq!(has_function(&m, "alpha_passes"), v.alpha, "{v:?}");
         assert_eq!(has_f64(&m), v.f64, "{v:?}: f64 only in the f64 variant");
         assert_eq!(has_function(&m, "occluded_short"), v.shadows, "{v:?}");
         assert_eq!(has_function(&m, "trace_shadow"), v.shadows, "{v:?}");

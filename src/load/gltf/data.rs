@@ -391,6 +391,18 @@ impl Reader<'_> {
         Ok(out)
     }
 
+    /// Reads TANGENT: VEC4 FLOAT, xyz a finite vector, w ±1 (its sign is what counts; a
+    /// zero or non-finite xyz is returned as zero, for the caller to replace).
+    pub fn tangents(&self, acc: &gltf::Accessor, loc: &str) -> Result<Vec<[f32; 4]>, Error> {
+        self.check_format(acc, loc, Dimensions::Vec4, &[(DataType::F32, false)])?;
+        let out =
+            self.collect(acc, loc, |b| [0, 1, 2, 3].map(|k| component_f32(b, DataType::F32, false, k)))?;
+        if let Some((i, t)) = out.iter().enumerate().find(|(_, t)| !(t[3] == 1.0 || t[3] == -1.0)) {
+            return Err(self.err(loc, format!("tangent {i} has w = {}; it must be 1 or -1", t[3])));
+        }
+        Ok(out)
+    }
+
     /// Reads TEXCOORD_n: VEC2 of FLOAT or normalized UNSIGNED_BYTE/SHORT, every value finite.
     pub fn texcoords(&self, acc: &gltf::Accessor, loc: &str) -> Result<Vec<[f32; 2]>, Error> {
         self.check_format(

@@ -2,11 +2,13 @@
 //! they need.
 //!
 //! Only materials that the scene's triangles use are converted, and only the images
-//! those materials need are decoded (in parallel): base colour textures become scene
-//! textures; metallic-roughness, emissive and transmission textures are reduced to their
-//! mean value (the Whitted material has one number for each), with a warning that gives
-//! the values. Normal and occlusion maps are never decoded, and a warning says so. The
-//! mapping itself is documented in [`crate::scene`].
+//! those materials need are decoded (in parallel). Base colour, metallic-roughness,
+//! emissive, transmission and normal textures become scene textures, sampled per hit with
+//! their own texCoord set and KHR_texture_transform; a material with metallic-roughness,
+//! emissive or transmission textures keeps its factors and textures ([`PbrMaps`]) and its
+//! scalar Whitted terms become bounds over the maps (their largest values). Occlusion maps
+//! are never decoded (glTF has no ambient light for them to darken), and a warning says so.
+//! The mapping itself is documented in [`crate::scene`].
 
 use std::borrow::Cow;
 use std::collections::{BTreeSet, HashMap};
@@ -21,7 +23,7 @@ use rayon::prelude::*;
 use super::data::{read_uri, Buffers};
 use super::Ctx;
 use crate::error::Error;
-use crate::scene::{Material, Texture, TextureRef, Wrap};
+use crate::scene::{Alpha, Material, NormalMap, Pbr, PbrMaps, Texture, TextureRef, Wrap, TEXCOORD_SETS};
 
 /// The scene's materials and textures, and how glTF materials map onto them.
 pub struct MaterialTable {
@@ -29,67 +31,29 @@ pub struct MaterialTable {
     pub textures: Vec<Texture>,
     /// glTF material index (None: the default material) → scene material index.
     by_gltf: HashMap<Option<usize>, u32>,
-    /// Scene material index → the KHR_texture_transform of its base colour texture, which
-    /// the loader applies to the UVs of the triangles that use it (the base colour texture
-    /// is the only one sampled per hit, so the UVs serve it alone).
-    uv_transforms: HashMap<u32, DAffine2>,
+}
+
+/// What a primitive of a material must carry for its textures.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Needs {
+    /// TEXCOORD_0 and TEXCOORD_1.
+    pub uv: [bool; 2],
+    /// Tangents, in the UV set of the normal map.
+    pub tangents: Option<u32>,
 }
 
 impl MaterialTable {
-    /// The scene material for a glTF material (None: the default material), the TEXCOORD
-    /// set its base colour texture reads, if it has one, and the transform its UVs take.
-    pub fn lookup(&self, gltf: Option<usize>) -> (u32, Option<u32>, Option<DAffine2>) {
+    /// The scene material for a glTF material (None: the default material) and what its
+    /// primitives must carry for its textures.
+    pub fn lookup(&self, gltf: Option<usize>) -> (u32, Needs) {
         let i = self.by_gltf[&gltf];
-        let set = self.materials[i as usize].base_color_texture.map(|t| t.texcoord);
-        (i, set, self.uv_transforms.get(&i).copied())
-    }
-}
-
-/// Metallic-roughness inputs, after textures have been reduced to their means.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PbrInputs {
-    pub base: DVec3,
-    pub metallic: f64,
-    pub roughness: f64,
-    /// KHR_materials_transmission factor.
-    pub transmission: f64,
-    /// KHR_materials_ior (1.5 when absent).
-    pub ior: f64,
-    /// emissiveFactor × emissive_strength (× the emissive texture's mean).
-    pub emission: DVec3,
-}
-
-/// The Whitted material for metallic-roughness inputs, exactly as documented in
-/// [`crate::scene`]. Factors are clamped to [0, 1] first.
-pub fn whitted(p: &PbrInputs) -> Material {
-    let base = p.base.clamp(DVec3::ZERO, DVec3::ONE);
-    let m = p.metallic.clamp(0.0, 1.0);
-    let rough = p.roughness.clamp(0.0, 1.0);
-    let transmittance = p.transmission.clamp(0.0, 1.0) * (1.0 - m);
-    let alpha = rough * rough;
-    // α = 0 gives +∞, which the clamp turns into the largest exponent.
-    let shine = (2.0 / (alpha * alpha) - 2.0).clamp(1.0, 10_000.0);
-    let smooth = (1.0 - rough) * (1.0 - rough);
-    let mirror = if m > 0.0 {
-        smooth * DVec3::splat(0.04).lerp(base, m)
-    } else if transmittance > 0.0 {
-        smooth * DVec3::splat(((p.ior - 1.0) / (p.ior + 1.0)).powi(2))
-    } else {
-        DVec3::ZERO
-    };
-    Material {
-        name: None,
-        color: base,
-        kd: (1.0 - m) * (1.0 - transmittance),
-        ks: (1.0 - rough) * (0.04 + 0.96 * m),
-        shine,
-        mirror,
-        transmittance,
-        tinted_transmission: true,
-        ior: p.ior,
-        emission: p.emission.max(DVec3::ZERO),
-        base_color_texture: None,
-        double_sided: false,
+        let m = &self.materials[i as usize];
+        let mut needs = Needs::default();
+        for t in m.texture_refs() {
+            needs.uv[t.texcoord as usize] = true;
+        }
+        needs.tangents = m.normal_map.map(|n| n.texture.texcoord);
+        (i, needs)
     }
 }
 
@@ -125,30 +89,24 @@ fn decode_image(ctx: &Ctx, doc: &Document, buffers: &Buffers, index: usize) -> R
     Ok(img.into_rgba8())
 }
 
-/// Mean of one channel, as a linear value in [0, 1].
-fn mean_channel(img: &RgbaImage, channel: usize) -> f64 {
-    let n = (img.width() as u64 * img.height() as u64).max(1);
-    let sum: u64 = img.pixels().map(|p| p.0[channel] as u64).sum();
-    sum as f64 / (255.0 * n as f64)
+/// The smallest and largest value of one channel of a texture, as values in [0, 1].
+fn channel_range(t: &Texture, channel: usize) -> (f64, f64) {
+    let (lo, hi) = t.texels.iter().fold((255u8, 0u8), |(lo, hi), p| (lo.min(p[channel]), hi.max(p[channel])));
+    (lo as f64 / 255.0, hi as f64 / 255.0)
 }
 
-/// Mean colour of an sRGB-encoded image, in linear RGB.
-fn mean_srgb(img: &RgbaImage) -> DVec3 {
-    let lut: Vec<f64> = (0..256)
-        .map(|i| {
-            let c = i as f64 / 255.0;
-            if c <= 0.04045 {
-                c / 12.92
-            } else {
-                ((c + 0.055) / 1.055).powf(2.4)
-            }
-        })
-        .collect();
-    let n = (img.width() as u64 * img.height() as u64).max(1) as f64;
-    let sum = img.pixels().fold(DVec3::ZERO, |s, p| {
-        s + DVec3::new(lut[p.0[0] as usize], lut[p.0[1] as usize], lut[p.0[2] as usize])
-    });
-    sum / n
+/// The largest linear value of each colour channel of an sRGB-encoded texture.
+fn max_srgb(t: &Texture) -> DVec3 {
+    let hi = |c: usize| srgb_to_linear(channel_range(t, c).1);
+    DVec3::new(hi(0), hi(1), hi(2))
+}
+
+fn srgb_to_linear(c: f64) -> f64 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
 }
 
 fn wrap(w: WrappingMode) -> Wrap {
@@ -156,6 +114,143 @@ fn wrap(w: WrappingMode) -> Wrap {
         WrappingMode::Repeat => Wrap::Repeat,
         WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
         WrappingMode::ClampToEdge => Wrap::ClampToEdge,
+    }
+}
+
+/// KHR_texture_transform as written: offset, rotation, scale and the texCoord it overrides.
+struct Xform {
+    offset: [f32; 2],
+    rotation: f32,
+    scale: [f32; 2],
+    tex_coord: Option<u32>,
+}
+
+/// One texture slot of a material, read from its glTF `textureInfo`.
+struct Slot<'d> {
+    info: gltf::Texture<'d>,
+    tex_coord: u32,
+    transform: Option<Xform>,
+    /// JSON path of the textureInfo, for messages.
+    loc: String,
+    srgb: bool,
+}
+
+impl<'d> Slot<'d> {
+    fn of(info: gltf::texture::Info<'d>, loc: String, srgb: bool) -> Slot<'d> {
+        let transform = info.texture_transform().map(|t| Xform {
+            offset: t.offset(),
+            rotation: t.rotation(),
+            scale: t.scale(),
+            tex_coord: t.tex_coord(),
+        });
+        Slot { tex_coord: info.tex_coord(), transform, info: info.texture(), loc, srgb }
+    }
+
+    /// The normal map's slot (gltf's `NormalTexture` has no transform accessor: the
+    /// extension is read from its JSON).
+    fn normal(n: &gltf::material::NormalTexture<'d>, loc: String) -> Result<Slot<'d>, String> {
+        let transform = match n.extension_value("KHR_texture_transform") {
+            None => None,
+            Some(v) => {
+                let num = |key: &str, default: f32| -> Result<f32, String> {
+                    match v.get(key) {
+                        None => Ok(default),
+                        Some(x) => x.as_f64().map(|x| x as f32).ok_or(format!("{key} is not a number")),
+                    }
+                };
+                let pair = |key: &str, default: f32| -> Result<[f32; 2], String> {
+                    match v.get(key) {
+                        None => Ok([default; 2]),
+                        Some(x) => {
+                            match x.as_array().map(|a| a.iter().map(|c| c.as_f64()).collect::<Vec<_>>()) {
+                                Some(a) if a.len() == 2 && a.iter().all(Option::is_some) => {
+                                    Ok([a[0].unwrap() as f32, a[1].unwrap() as f32])
+                                }
+                                _ => Err(format!("{key} is not two numbers")),
+                            }
+                        }
+                    }
+                };
+                let tex_coord = match v.get("texCoord") {
+                    None => None,
+                    Some(x) => Some(
+                        x.as_u64().filter(|&c| c <= u32::MAX as u64).ok_or("texCoord is not a set index")?
+                            as u32,
+                    ),
+                };
+                Some(Xform {
+                    offset: pair("offset", 0.0)?,
+                    rotation: num("rotation", 0.0)?,
+                    scale: pair("scale", 1.0)?,
+                    tex_coord,
+                })
+            }
+        };
+        Ok(Slot { tex_coord: n.tex_coord(), transform, info: n.texture(), loc, srgb: false })
+    }
+
+    fn image(&self) -> usize {
+        self.info.source().index()
+    }
+}
+
+/// Builds scene textures for slots, each glTF texture once per colour space.
+struct Textures<'a> {
+    images: &'a HashMap<usize, RgbaImage>,
+    out: Vec<Texture>,
+    ids: HashMap<(usize, bool), u32>,
+}
+
+impl Textures<'_> {
+    /// The scene texture reference of `slot`, or `None` (with a warning) where it reads a
+    /// texture coordinate set beyond the two supported.
+    fn add(
+        &mut self,
+        ctx: &Ctx,
+        slot: &Slot,
+        warnings: &mut Vec<String>,
+    ) -> Result<Option<TextureRef>, Error> {
+        let texcoord = slot.transform.as_ref().and_then(|t| t.tex_coord).unwrap_or(slot.tex_coord);
+        if texcoord >= TEXCOORD_SETS {
+            warnings.push(format!(
+                "{}: reads TEXCOORD_{texcoord}; only TEXCOORD_0 and TEXCOORD_1 are read, so the texture is not applied",
+                slot.loc
+            ));
+            return Ok(None);
+        }
+        let transform = match &slot.transform {
+            None => DAffine2::IDENTITY,
+            Some(t) => {
+                let m = uv_transform(t.offset, t.rotation, t.scale);
+                if !m.is_finite() {
+                    let loc = format!("{}.extensions.KHR_texture_transform", slot.loc);
+                    return Err(ctx.err(loc, "offset, rotation and scale must be finite"));
+                }
+                m
+            }
+        };
+        let key = (slot.info.index(), slot.srgb);
+        let texture = match self.ids.get(&key) {
+            Some(&id) => id,
+            None => {
+                let img = &self.images[&slot.image()];
+                let sampler = slot.info.sampler();
+                self.out.push(Texture {
+                    name: slot.info.name().or(slot.info.source().name()).map(String::from),
+                    width: img.width(),
+                    height: img.height(),
+                    texels: img.pixels().map(|p| p.0).collect(),
+                    wrap_s: wrap(sampler.wrap_s()),
+                    wrap_t: wrap(sampler.wrap_t()),
+                    linear: sampler.mag_filter() != Some(MagFilter::Nearest),
+                    srgb: slot.srgb,
+                });
+                let id = (self.out.len() - 1) as u32;
+                self.ids.insert(key, id);
+                id
+            }
+        };
+        Ok(Some(TextureRef { texture, texcoord, transform }))
     }
 }
 
@@ -170,50 +265,61 @@ pub fn build(
 ) -> Result<MaterialTable, Error> {
     let materials: Vec<gltf::Material> = doc.materials().collect();
     let used_gltf: Vec<usize> = used.iter().flatten().copied().collect();
-    let source = |info: &gltf::texture::Info| info.texture().source().index();
 
-    // Which images are needed, and decode them all at once.
-    let mut needed = BTreeSet::new();
+    // Every texture slot of every used material; then the images they need, decoded at once.
+    let mut slots: Vec<MaterialSlots> = Vec::new();
     for &i in &used_gltf {
         let m = &materials[i];
+        let loc = format!("materials[{i}]");
         let pbr = m.pbr_metallic_roughness();
-        needed.extend(pbr.base_color_texture().map(|t| source(&t)));
-        needed.extend(pbr.metallic_roughness_texture().map(|t| source(&t)));
-        if m.emissive_factor().iter().any(|&c| c != 0.0) && m.emissive_strength().unwrap_or(1.0) != 0.0 {
-            needed.extend(m.emissive_texture().map(|t| source(&t)));
-        }
-        if let Some(t) = m.transmission().filter(|t| t.transmission_factor() > 0.0) {
-            needed.extend(t.transmission_texture().map(|t| source(&t)));
-        }
+        let emits =
+            m.emissive_factor().iter().any(|&c| c != 0.0) && m.emissive_strength().unwrap_or(1.0) != 0.0;
+        let transmission = m.transmission().filter(|t| t.transmission_factor() > 0.0);
+        let pbr_loc = format!("{loc}.pbrMetallicRoughness");
+        slots.push(MaterialSlots {
+            base: pbr.base_color_texture().map(|t| Slot::of(t, format!("{pbr_loc}.baseColorTexture"), true)),
+            metallic_roughness: pbr
+                .metallic_roughness_texture()
+                .map(|t| Slot::of(t, format!("{pbr_loc}.metallicRoughnessTexture"), false)),
+            emissive: m
+                .emissive_texture()
+                .filter(|_| emits)
+                .map(|t| Slot::of(t, format!("{loc}.emissiveTexture"), true)),
+            transmission: transmission.and_then(|t| t.transmission_texture()).map(|t| {
+                Slot::of(t, format!("{loc}.extensions.KHR_materials_transmission.transmissionTexture"), false)
+            }),
+            normal: match m.normal_texture() {
+                None => None,
+                Some(n) => {
+                    let nloc = format!("{loc}.normalTexture");
+                    Some(
+                        Slot::normal(&n, nloc.clone())
+                            .map_err(|e| ctx.err(format!("{nloc}.extensions.KHR_texture_transform"), e))?,
+                    )
+                }
+            },
+        });
     }
+    let needed: BTreeSet<usize> = slots.iter().flat_map(|s| s.all().map(Slot::image)).collect();
     let needed: Vec<usize> = needed.into_iter().collect();
     let decoded: Vec<RgbaImage> =
         needed.par_iter().map(|&i| decode_image(ctx, doc, buffers, i)).collect::<Result<_, _>>()?;
     let images: HashMap<usize, RgbaImage> = needed.into_iter().zip(decoded).collect();
 
-    let mut table = MaterialTable {
-        materials: Vec::new(),
-        textures: Vec::new(),
-        by_gltf: HashMap::new(),
-        uv_transforms: HashMap::new(),
-    };
-    let mut texture_ids: HashMap<usize, u32> = HashMap::new();
-    // Materials whose normal or occlusion map is not applied (one warning each, at the end).
-    let (mut normal_maps, mut occlusion_maps) = (Vec::new(), Vec::new());
-    for &i in &used_gltf {
+    let mut table = MaterialTable { materials: Vec::new(), textures: Vec::new(), by_gltf: HashMap::new() };
+    let mut textures = Textures { images: &images, out: Vec::new(), ids: HashMap::new() };
+    // Materials whose occlusion map is not applied (one warning for all, at the end).
+    let mut occlusion_maps = Vec::new();
+    for (&i, slots) in used_gltf.iter().zip(&slots) {
         let m = &materials[i];
         let loc = format!("materials[{i}]");
-        let named = format!("{loc}{}", m.name().map(|n| format!(" ({n})")).unwrap_or_default());
-        if m.normal_texture().is_some() {
-            normal_maps.push(i);
-        }
         if m.occlusion_texture().is_some() {
             occlusion_maps.push(i);
         }
         let pbr = m.pbr_metallic_roughness();
         let f3 = |v: [f32; 3]| DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64);
         let bc = pbr.base_color_factor();
-        let mut inputs = PbrInputs {
+        let factors = Pbr {
             base: f3([bc[0], bc[1], bc[2]]),
             metallic: pbr.metallic_factor() as f64,
             roughness: pbr.roughness_factor() as f64,
@@ -221,93 +327,89 @@ pub fn build(
             ior: m.ior().map_or(1.5, f64::from),
             emission: f3(m.emissive_factor()) * m.emissive_strength().map_or(1.0, f64::from),
         };
-        // Textures the Whitted material cannot sample contribute their mean, and say so: a
-        // mostly metallic map, say, makes a dark mirror of the whole surface.
-        let mut averaged = Vec::new();
-        if let Some(img) = pbr.metallic_roughness_texture().and_then(|t| images.get(&source(&t))) {
-            inputs.metallic *= mean_channel(img, 2);
-            inputs.roughness *= mean_channel(img, 1);
-            averaged.push(format!(
-                "metallicRoughnessTexture (metallic {:.2}, roughness {:.2})",
-                inputs.metallic, inputs.roughness
-            ));
+        if factors.ior.is_nan() || factors.ior < 1.0 {
+            return Err(ctx.err(loc, format!("KHR_materials_ior: ior {} is not at least 1", factors.ior)));
         }
-        if let Some(img) = m.emissive_texture().and_then(|t| images.get(&source(&t))) {
-            inputs.emission *= mean_srgb(img);
-            let e = inputs.emission;
-            averaged.push(format!("emissiveTexture (emission {:.3}, {:.3}, {:.3})", e.x, e.y, e.z));
+        if !(factors.base.is_finite() && factors.emission.is_finite()) {
+            return Err(ctx.err(loc, "baseColorFactor and emissiveFactor must be finite"));
         }
-        if let Some(img) =
-            m.transmission().and_then(|t| t.transmission_texture()).and_then(|t| images.get(&source(&t)))
-        {
-            inputs.transmission *= mean_channel(img, 0);
-            averaged.push(format!("transmissionTexture (transmission {:.2})", inputs.transmission));
-        }
-        if !averaged.is_empty() {
-            warnings.push(format!(
-                "{named}: applied as the mean over the texture, not per hit (only base colour textures \
-                 are sampled): {}",
-                averaged.join(", ")
-            ));
-        }
-        if inputs.ior.is_nan() || inputs.ior < 1.0 {
-            return Err(ctx.err(loc, format!("KHR_materials_ior: ior {} is not at least 1", inputs.ior)));
-        }
-        let mut mat = whitted(&inputs);
-        mat.name = m.name().map(String::from);
-        mat.double_sided = m.double_sided();
-        if let Some(info) = pbr.base_color_texture() {
-            let texture = info.texture();
-            let id = match texture_ids.get(&texture.index()) {
-                Some(&id) => id,
-                None => {
-                    let img = &images[&source(&info)];
-                    let sampler = texture.sampler();
-                    table.textures.push(Texture {
-                        name: texture.name().or(texture.source().name()).map(String::from),
-                        width: img.width(),
-                        height: img.height(),
-                        texels: img.pixels().map(|p| p.0).collect(),
-                        wrap_s: wrap(sampler.wrap_s()),
-                        wrap_t: wrap(sampler.wrap_t()),
-                        linear: sampler.mag_filter() != Some(MagFilter::Nearest),
-                    });
-                    let id = (table.textures.len() - 1) as u32;
-                    texture_ids.insert(texture.index(), id);
-                    id
-                }
-            };
-            let transform = info.texture_transform();
-            let texcoord = transform.as_ref().and_then(|t| t.tex_coord()).unwrap_or(info.tex_coord());
-            mat.base_color_texture = Some(TextureRef { texture: id, texcoord });
-            if let Some(t) = transform {
-                let m = uv_transform(t.offset(), t.rotation(), t.scale());
-                if !m.is_finite() {
-                    let loc = format!(
-                        "{loc}.pbrMetallicRoughness.baseColorTexture.extensions.KHR_texture_transform"
-                    );
-                    return Err(ctx.err(loc, "offset, rotation and scale must be finite"));
-                }
-                table.uv_transforms.insert(table.materials.len() as u32, m);
+        let mut add = |slot: &Option<Slot>| -> Result<Option<TextureRef>, Error> {
+            match slot {
+                None => Ok(None),
+                Some(s) => textures.add(ctx, s, warnings),
             }
+        };
+        let base_color_texture = add(&slots.base)?;
+        let maps = PbrMaps {
+            metallic: factors.metallic,
+            roughness: factors.roughness,
+            transmission: factors.transmission,
+            emission: factors.emission,
+            metallic_roughness: add(&slots.metallic_roughness)?,
+            emissive: add(&slots.emissive)?,
+            transmission_texture: add(&slots.transmission)?,
+        };
+        let normal_map = add(&slots.normal)?.map(|texture| NormalMap {
+            texture,
+            scale: m.normal_texture().map_or(1.0, |n| n.scale() as f64),
+        });
+        // The scalar terms: the factors' where no map varies them; else the mirror weight,
+        // transmittance and emission are bounds over the maps (each map's extreme in the
+        // direction that makes more rays: the mirror of the most metallic and least rough
+        // texel, the transmittance of the most transmitting and least metallic one).
+        let image = |r: Option<TextureRef>| r.map(|r| &textures.out[r.texture as usize]);
+        let (mut metal, mut glass) = (factors, factors);
+        if let Some(t) = image(maps.metallic_roughness) {
+            let (m, rough) = (channel_range(t, 2), channel_range(t, 1));
+            (metal.metallic, glass.metallic) = (factors.metallic * m.1, factors.metallic * m.0);
+            metal.roughness = factors.roughness * rough.0;
+            glass.roughness = metal.roughness;
         }
-        mat.validate(table.textures.len()).map_err(|e| ctx.err(&loc, e.into_message()))?;
-        match m.alpha_mode() {
-            AlphaMode::Opaque => {}
-            mode => warnings.push(format!("{named}: alphaMode {mode:?} is ignored; the surface is opaque")),
+        if let Some(t) = image(maps.transmission_texture) {
+            glass.transmission = factors.transmission * channel_range(t, 0).1;
         }
+        metal.transmission = 0.0;
+        let mut sh = glass.whitted();
+        sh.mirror = sh.mirror.max(metal.whitted().mirror);
+        if let Some(t) = image(maps.emissive) {
+            sh.emission = (factors.emission * max_srgb(t)).max(DVec3::ZERO);
+        }
+        let has_maps = maps.metallic_roughness.is_some()
+            || maps.emissive.is_some()
+            || maps.transmission_texture.is_some();
+        let alpha = match m.alpha_mode() {
+            AlphaMode::Opaque => Alpha::Opaque,
+            AlphaMode::Mask => Alpha::Mask { cutoff: m.alpha_cutoff().unwrap_or(0.5) as f64 },
+            AlphaMode::Blend => Alpha::Blend,
+        };
+        let mat = Material {
+            name: m.name().map(String::from),
+            color: sh.color,
+            kd: sh.kd,
+            ks: sh.ks,
+            shine: sh.shine,
+            mirror: sh.mirror,
+            transmittance: sh.transmittance,
+            tinted_transmission: true,
+            ior: factors.ior,
+            emission: sh.emission,
+            base_color_texture,
+            maps: has_maps.then(|| Box::new(maps)),
+            normal_map,
+            alpha,
+            opacity: (bc[3] as f64).clamp(0.0, 1.0),
+            double_sided: m.double_sided(),
+        };
+        mat.validate(textures.out.len()).map_err(|e| ctx.err(&loc, e.into_message()))?;
         table.by_gltf.insert(Some(i), table.materials.len() as u32);
         table.materials.push(mat);
     }
-    let list = |v: &[usize]| v.iter().map(|i| format!("materials[{i}]")).collect::<Vec<_>>().join(", ");
-    if !normal_maps.is_empty() {
-        warnings.push(format!(
-            "{}: normal maps are not applied; shading uses the interpolated vertex normals",
-            list(&normal_maps)
-        ));
-    }
+    table.textures = textures.out;
     if !occlusion_maps.is_empty() {
-        warnings.push(format!("{}: occlusion maps are not applied", list(&occlusion_maps)));
+        let list = occlusion_maps.iter().map(|i| format!("materials[{i}]")).collect::<Vec<_>>().join(", ");
+        warnings.push(format!(
+            "{list}: occlusion maps are not applied (glTF has no ambient light for them to darken)"
+        ));
     }
     if used.contains(&None) {
         table.by_gltf.insert(None, table.materials.len() as u32);
@@ -316,12 +418,29 @@ pub fn build(
     Ok(table)
 }
 
+/// The texture slots of one material.
+struct MaterialSlots<'d> {
+    base: Option<Slot<'d>>,
+    metallic_roughness: Option<Slot<'d>>,
+    emissive: Option<Slot<'d>>,
+    transmission: Option<Slot<'d>>,
+    normal: Option<Slot<'d>>,
+}
+
+impl MaterialSlots<'_> {
+    fn all(&self) -> impl Iterator<Item = &Slot<'_>> {
+        [&self.base, &self.metallic_roughness, &self.emissive, &self.transmission, &self.normal]
+            .into_iter()
+            .flatten()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    fn inputs() -> PbrInputs {
-        PbrInputs {
+    fn inputs() -> Pbr {
+        Pbr {
             base: DVec3::new(0.8, 0.5, 0.2),
             metallic: 0.0,
             roughness: 1.0,
@@ -333,14 +452,14 @@ mod tests {
 
     #[test]
     fn rough_dielectric_is_matte() {
-        let m = whitted(&inputs());
+        let m = inputs().whitted();
         assert_eq!((m.kd, m.ks, m.shine, m.mirror), (1.0, 0.0, 1.0, DVec3::ZERO));
         assert_eq!(m.color, DVec3::new(0.8, 0.5, 0.2));
     }
 
     #[test]
     fn smooth_metal_mirrors_its_base_colour() {
-        let m = whitted(&PbrInputs { metallic: 1.0, roughness: 0.0, ..inputs() });
+        let m = Pbr { metallic: 1.0, roughness: 0.0, ..inputs() }.whitted();
         assert_eq!(m.kd, 0.0);
         assert_eq!(m.ks, 1.0);
         assert_eq!(m.shine, 10_000.0);
@@ -349,19 +468,28 @@ mod tests {
 
     #[test]
     fn glass_transmits_with_fresnel_mirror() {
-        let m = whitted(&PbrInputs { transmission: 1.0, roughness: 0.0, ..inputs() });
+        let m = Pbr { transmission: 1.0, roughness: 0.0, ..inputs() }.whitted();
         assert_eq!((m.transmittance, m.kd), (1.0, 0.0));
         assert!((m.mirror.x - 0.04).abs() < 1e-12, "{}", m.mirror);
         // Half rough: α = 0.25, shine = 2/α² − 2 = 30, ks = 0.5·0.04.
-        let m = whitted(&PbrInputs { roughness: 0.5, ..inputs() });
+        let m = Pbr { roughness: 0.5, ..inputs() }.whitted();
         assert!((m.shine - 30.0).abs() < 1e-9 && (m.ks - 0.02).abs() < 1e-12);
     }
 
     #[test]
-    fn srgb_mean_is_linear() {
-        let img = RgbaImage::from_pixel(2, 2, image::Rgba([255, 0, 188, 255]));
-        let m = mean_srgb(&img);
-        assert!((m.x - 1.0).abs() < 1e-12 && m.y == 0.0 && (m.z - 0.5).abs() < 0.01, "{m}");
-        assert!((mean_channel(&img, 2) - 188.0 / 255.0).abs() < 1e-12);
+    fn map_extremes_are_linear() {
+        let t = Texture {
+            name: None,
+            width: 2,
+            height: 1,
+            texels: vec![[255, 0, 188, 255], [0, 10, 20, 255]],
+            wrap_s: Wrap::Repeat,
+            wrap_t: Wrap::Repeat,
+            linear: true,
+            srgb: true,
+        };
+        let m = max_srgb(&t);
+        assert!((m.x - 1.0).abs() < 1e-12 && (m.z - 0.5).abs() < 0.01, "{m}");
+        assert_eq!(channel_range(&t, 2), (20.0 / 255.0, 188.0 / 255.0));
     }
 }
