@@ -140,13 +140,13 @@ d = Doc("scenes/make_maps.py")
 d.quad([(-1, -1, 0), (0, -1, 0), (0, 1, 0), (-1, 1, 0)], (0, 0, 1), [(0, 1), (0.5, 1), (0.5, 0), (0, 0)], 0,
        tangent=(1, 0, 0, 1))
 d.quad([(0, -1, 0), (1, -1, 0), (1, 1, 0), (0, 1, 0)], (0, 0, 1), [(0.5, 1), (1, 1), (1, 0), (0.5, 0)], 0)
-# The sun shines along (-1, 0, -1)/√2: −45° about y turns -z to that direction.
+# The sun shines along (-1, 0, -1)/√2: 45° about y turns -z to that direction.
 d.write("scenes/normal_tilt.gltf", {
     "extensionsUsed": ["KHR_lights_punctual"], "extensions": SUN,
     "scenes": [{"nodes": [0, 1, 2, 3]}],
     "nodes": [{"name": "left, TANGENT", "mesh": 0}, {"name": "right, MikkTSpace", "mesh": 1},
               {"name": "camera", "camera": 0, "translation": [0, 0, 3]},
-              sun_node([0, -0.3826834323650898, 0, 0.9238795325112867])],
+              sun_node([0, 0.3826834323650898, 0, 0.9238795325112867])],
     "cameras": [ORTHO],
     "images": [{"uri": png(1, 1, [[(160, 128, 230, 255)]])}], "samplers": [NEAREST],
     "textures": [{"source": 0, "sampler": 0}],

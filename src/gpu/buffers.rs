@@ -21,7 +21,7 @@ pub struct SceneBuffers {
     pub out: wgpu::Buffer,
     /// The 64-bit counters (`COUNTER_COUNT` of them, low word first).
     pub counters: wgpu::Buffer,
-    /// The wavefront's queues of [`Job`]s, their lengths and dispatch arguments
+    /// The wavefront's queues of [`Job`](crate::layout::Job)s, their lengths and dispatch arguments
     /// (`QUEUE_WORDS` words), the current pass, and each tile point's radiance in fixed
     /// point (6 words a point).
     pub jobs: wgpu::Buffer,

@@ -28,13 +28,14 @@
 //! `ior = ior`, no emission, no texture. T > 0 makes the surface two-sided and refracting.
 //! The SPD files write `ior = 0` for opaque surfaces (T = 0); the loader stores 1 there.
 //!
-//! **glTF metallic-roughness** (base = baseColorFactor.rgb; m = metallicFactor and
-//! ρ = roughnessFactor, each times the mean of its channel (blue, green) of the
+//! **glTF metallic-roughness**, evaluated at every hit ([`Pbr::whitted`]; base =
+//! baseColorFactor.rgb times the base colour texture and the vertex colour; m =
+//! metallicFactor and ρ = roughnessFactor, each times its channel (blue, green) of the
 //! metallicRoughnessTexture when there is one; t = KHR_materials_transmission factor times
-//! the mean red channel of its texture; η = KHR_materials_ior, default 1.5; base, m, ρ and
-//! t clamped to [0, 1]):
-//! - `color = base` (times the base colour texture, when present, at shading time, read
-//!   through its KHR_texture_transform, which the loader applies to the UVs);
+//! the red channel of its texture; η = KHR_materials_ior, default 1.5; base, m, ρ and t
+//! clamped to [0, 1]; every texture read through its own texCoord set and
+//! KHR_texture_transform):
+//! - `color = base`;
 //! - `transmittance = t·(1 − m)`, tinted (`tinted_transmission`): the refracted ray is also
 //!   weighted by the base colour at the hit, texture included, as KHR_materials_transmission
 //!   tints transmitted light; `ior = η`;
@@ -45,16 +46,21 @@
 //!   `F0 = ((η − 1)/(η + 1))²` for transmitting surfaces; a non-metallic opaque surface
 //!   (m = 0, t = 0) gets `mirror = 0` and so spawns no reflection ray;
 //! - `emission = emissiveFactor · emissive_strength · E` (KHR_materials_emissive_strength),
-//!   with E the mean linear colour of the sRGB emissiveTexture (1 without one);
-//! - `doubleSided` is recorded; alphaMode, normal and occlusion textures are ignored.
+//!   with E the linear colour of the sRGB emissiveTexture at the hit (1 without one);
+//! - `normalTexture` bends the shading normal in the tangent frame of glTF's TANGENT, or of
+//!   MikkTSpace's tangents where the primitive has none ([`NormalMap`]);
+//! - `alphaMode` MASK: a hit whose alpha (baseColorFactor.a times the texture's alpha) is
+//!   below `alphaCutoff` is no hit, for every ray; BLEND: the surface's radiance counts
+//!   with its alpha and a pass-through ray carries 1 − alpha on, while shadow rays take it
+//!   as a mask at 0.5 ([`Alpha`]);
+//! - `doubleSided` is recorded; occlusion textures are ignored (glTF has no ambient light).
 //!
-//! Only the base colour texture is sampled per hit. The Whitted material has one value for
-//! each other input, so a texture's mean stands in for it: the common factors of 1 with a
-//! metallic-roughness map would otherwise make a material black (m = 1, ρ = 1 gives
-//! kd = ks = mirror = 0), and an emissive factor of 1 with a mostly dark emissive map a
-//! white glow. A primitive without a material gets [`Material::default`] (matte white;
-//! glTF's own default, metallic 1 and roughness 1, would map to black). glTF has no ambient
-//! light or background colour: both are black.
+//! A material without metallic-roughness, emissive or transmission textures has these terms
+//! once, as scalars; one with them keeps its factors and textures ([`PbrMaps`]), and its
+//! scalars are bounds over the maps (the largest mirror weight, transmittance and
+//! emission), which decide the effects a scene calls for. A primitive without a material
+//! gets [`Material::default`] (matte white; glTF's own default, metallic 1 and roughness 1,
+//! would map to black). glTF has no ambient light or background colour: both are black.
 
 use glam::{DVec2, DVec3, DVec4};
 use serde::Serialize;

@@ -13,7 +13,7 @@ use cuberay::arith::{FAR, NO_ID};
 use cuberay::coherence::walk::{self, AnyHit};
 use cuberay::coherence::{self, audit, BuildParams, OriginKey, Tables, WalkCount};
 use cuberay::scene::{
-    Camera, Cylinder, FovSpan, Light, Material, Primitive, Projection, Scene, Sphere, Triangle,
+    Alpha, Camera, Cylinder, FovSpan, Light, Material, Primitive, Projection, Scene, Sphere, Triangle,
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -508,6 +508,35 @@ fn huge_ground_polygon() {
     }
     sweep(&w, &s, OriginKey::Light(0), w.p(s.lights[0].position), 300);
     sweep(&w, &s, OriginKey::Light(1), w.p(s.lights[1].position), 300);
+}
+
+/// A masked or blended surface never proves a cell covered, or rays through its holes would
+/// miss what lies behind: the wall behind a quad stays in the list of the rays through the
+/// quad's middle when the quad is masked or blended, and is cut off when it is opaque (so
+/// that the cut-off is shown to happen there at all).
+#[test]
+fn cut_out_surfaces_never_cut_lists_off() {
+    let quad = |h: f64, z: f64, m: u32| {
+        let c = |x: f64, y: f64| DVec3::new(x * h, y * h, z);
+        vec![
+            tri(c(-1.0, -1.0), c(1.0, -1.0), c(1.0, 1.0), m),
+            tri(c(-1.0, -1.0), c(1.0, 1.0), c(-1.0, 1.0), m),
+        ]
+    };
+    // The quad takes material 0 (its alpha set below), the wall the opaque mirror.
+    let mut prims = quad(2.0, 0.0, 0);
+    prims.extend(quad(4.0, -1.0, 1));
+    for (alpha, cut) in [(Alpha::Opaque, true), (Alpha::Mask { cutoff: 0.5 }, false), (Alpha::Blend, false)] {
+        let mut s = scene(DVec3::new(0.0, 0.0, 3.0), DVec3::ZERO, &[], prims.clone());
+        s.materials[0].alpha = alpha;
+        let w = World::new(&s, &small_params());
+        // Away from the diagonal, where a cell lies within one triangle.
+        for d in [dir(0.3, -0.15, -1.0), dir(-0.3, 0.2, -1.0), dir(0.2, -0.3, -1.0)] {
+            let list = w.candidates(OriginKey::Eye, d);
+            let wall = list.iter().any(|&(id, _)| id >= 2);
+            assert_eq!(wall, !cut, "{alpha:?} along {d}: {list:?}");
+        }
+    }
 }
 
 /// Origins with a table of their own (all but the fallback origin).

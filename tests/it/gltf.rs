@@ -687,6 +687,65 @@ fn uvs_follow_the_base_colour_texture_coordinate_set() {
     assert_eq!(m.base_color_texture.unwrap().texcoord, 1);
 }
 
+/// Normal maps: a TANGENT whose w is not ±1, or a normalTexture transform that is not
+/// numbers, is refused with its JSON path; a texture reading TEXCOORD_2 is not applied, and
+/// a warning says so.
+#[test]
+fn normal_maps_and_texture_sets_are_checked() {
+    let dir = TempDir::new();
+    image::RgbaImage::from_pixel(1, 1, image::Rgba([128, 128, 255, 255])).save(dir.path("n.png")).unwrap();
+    let mut doc = Doc::new();
+    let p = doc.vec3(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+    let uv = doc.vec2(&[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]);
+    let bytes: Vec<u8> = [1.0f32, 0.0, 0.0, 0.5].repeat(3).iter().flat_map(|c| c.to_le_bytes()).collect();
+    let view = doc.view(&bytes);
+    let tangent =
+        doc.accessor(json!({"bufferView": view, "componentType": 5126, "count": 3, "type": "VEC4"}));
+    let file = |doc: &Doc, name: &str, normal: Value, attrs: Value| {
+        doc.write(
+            &dir,
+            name,
+            json!({
+                "images": [{"uri": "n.png"}],
+                "textures": [{"source": 0}],
+                "materials": [{"normalTexture": normal}],
+                "meshes": [{"primitives": [{"attributes": attrs, "material": 0}]}],
+                "nodes": [{"mesh": 0}],
+                "scenes": [{"nodes": [0]}],
+            }),
+        )
+    };
+    let path = file(
+        &doc,
+        "w.gltf",
+        json!({"index": 0}),
+        json!({"POSITION": p, "TEXCOORD_0": uv, "TANGENT": tangent}),
+    );
+    assert_error(&load_err(&path), &path, &["TANGENT", "w = 0.5", "1 or -1"]);
+    let bad = json!({"index": 0, "extensions": {"KHR_texture_transform": {"scale": [1.0, "two"]}}});
+    let path = file(&doc, "t.gltf", bad, json!({"POSITION": p, "TEXCOORD_0": uv}));
+    assert_error(
+        &load_err(&path),
+        &path,
+        &["materials[0].normalTexture.extensions.KHR_texture_transform", "scale"],
+    );
+    let path =
+        file(&doc, "set2.gltf", json!({"index": 0, "texCoord": 2}), json!({"POSITION": p, "TEXCOORD_0": uv}));
+    let loaded = load(&path);
+    assert!(loaded.scene.materials[0].normal_map.is_none());
+    assert!(
+        loaded.warnings.iter().any(|w| w.contains("materials[0].normalTexture") && w.contains("TEXCOORD_2")),
+        "{:?}",
+        loaded.warnings
+    );
+    // Without TANGENT, MikkTSpace makes them.
+    let path = file(&doc, "mikk.gltf", json!({"index": 0}), json!({"POSITION": p, "TEXCOORD_0": uv}));
+    let scene = load(&path).scene;
+    let tris = triangles(&scene);
+    let t = tris[0].tangent.as_deref().expect("MikkTSpace tangents");
+    assert!(t.iter().all(|t| (t.truncate() - DVec3::X).length() < 1e-6 && t.w.abs() == 1.0), "{t:?}");
+}
+
 /// KHR_texture_transform on the base colour texture becomes the texture reference's
 /// transform: offset · rotation (counter-clockwise, as the extension's matrix turns (1, 0) to
 /// (cos, sin)) · scale, reading the TEXCOORD set its `texCoord` names instead of the
