@@ -275,6 +275,9 @@ pub struct Stats {
     /// Bytes of the acceleration structure on the device: the candidate tables or the BVH
     /// (0 for brute force and on the CPU).
     pub accel_bytes: u64,
+    /// Bytes of the scene's textures on the device (their texels, 4 bytes each; 0 without
+    /// textures and on the CPU).
+    pub texture_bytes: u64,
     /// Whether the rays and tests were counted. The GPU kernels count only when asked
     /// (`RenderOptions::count`, `--stats`); uncounted, every count above is 0.
     pub counted: bool,
@@ -329,6 +332,7 @@ impl Stats {
             },
             time,
             accel_bytes: 0,
+            texture_bytes: 0,
             counted: true,
             lanes: LaneStats::default(),
             counters: *c,
@@ -364,6 +368,12 @@ impl Stats {
             o += &format!("window:   pixels x {}..{}, y {}..{} of the image\n", w.x0, w.x1, w.y0, w.y1);
         }
         o += &format!("effects:  {effects}\n");
+        if self.texture_bytes > 0 {
+            o += &format!(
+                "textures: {:.1} MiB on the device\n",
+                self.texture_bytes as f64 / (1u64 << 20) as f64
+            );
+        }
         if self.counted {
             o += &format!(
                 "rays:     {} in all: {} eye ({} hit), {} reflect, {} refract, {} shadow ({} blocked); {} self-hits\n",

@@ -228,7 +228,7 @@ fn uv_sets(p: Prim, b1: f32, b2: f32) -> UvSets {
     return u;
 }
 
-#if ALPHA
+#if CUTOUTS
 // The alpha of material `m` at barycentrics (`b1`, `b2`) of triangle `p`: its opacity times
 // the base colour texture's alpha (twin: reference::texture `alpha`).
 fn hit_alpha(m: Material, p: Prim, b1: f32, b2: f32) -> f32 {
@@ -243,10 +243,12 @@ fn hit_alpha(m: Material, p: Prim, b1: f32, b2: f32) -> f32 {
 }
 
 // Whether hit `h` on primitive `p` counts for a nearest (`shadow` false) or shadow query:
-// on a masked or blended material (FLAG_CUTOUT) a hit whose alpha is below the cutoff is no
-// hit, and the walk goes on (twin: reference::accel `Hittable::hit`).
+// on a masked material (FLAG_CUTOUT), or a blended one for a shadow ray
+// (FLAG_CUTOUT_SHADOW), a hit whose alpha is below the cutoff is no hit, and the walk goes
+// on (twin: reference::accel `Hittable::hit`).
 fn alpha_passes(p: Prim, h: PrimHit, shadow: bool) -> bool {
-    if (p.flags & FLAG_CUTOUT) == 0u || p.kind != KIND_TRIANGLE {
+    let flag = select(FLAG_CUTOUT, FLAG_CUTOUT_SHADOW, shadow);
+    if (p.flags & flag) == 0u || p.kind != KIND_TRIANGLE {
         return true;
     }
     let m = materials[p.material];
@@ -499,7 +501,7 @@ fn test_any(id: u32, ray: Ray, t_max: f32) -> PrimHit {
     let p = prims[id];
     count_test(RAY_SHADOW, p.kind);
     var h = intersect_prim(p, ray, t_max);
-#if ALPHA
+#if CUTOUTS
     h.ok = h.ok && alpha_passes(p, h, true);
 #endif
     return h;

@@ -366,8 +366,10 @@ const FLAG_UVS: u32 = 4u;
 const FLAG_COLORS: u32 = 8u;
 const FLAG_UV1: u32 = 16u;
 const FLAG_TANGENTS: u32 = 32u;
-// The primitive's material is alpha-masked or blended: walks test alpha at its hits.
+// The primitive's material is alpha-masked: every walk tests alpha at its hits.
 const FLAG_CUTOUT: u32 = 64u;
+// The primitive's material is masked or blended: shadow walks test alpha at its hits.
+const FLAG_CUTOUT_SHADOW: u32 = 128u;
 
 const MATERIAL_TINTED_TRANSMISSION: u32 = 1u;
 const MATERIAL_MAPS: u32 = 2u;

@@ -6,7 +6,7 @@
 // accelerators', so that which walk a kernel gets is decided in one place.
 #include "shared/layout.wgsl"
 #include "shared/geometry.wgsl"
-#if ALPHA
+#if CUTOUTS
 #if TEXTURES
 #include "shared/texture.wgsl"
 #endif

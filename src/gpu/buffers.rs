@@ -125,9 +125,14 @@ pub fn check_limits(buffers: &[(&str, u64)], limits: &wgpu::Limits) -> Result<()
             ("max_buffer_size", limits.max_buffer_size),
         ] {
             if bytes > max {
+                // Textures do not shrink with the image: say what would help.
+                let advice = if name == "texels" {
+                    "the scene's textures are too large for one binding: use smaller images, or --backend cpu"
+                } else {
+                    "render a smaller image or scene, or with --backend cpu"
+                };
                 return Err(Error::Options(format!(
-                    "the GPU buffer {name} needs {bytes} bytes, over this adapter's {limit} of {max}: \
-                     render a smaller image or scene, or with --backend cpu"
+                    "the GPU buffer {name} needs {bytes} bytes, over this adapter's {limit} of {max}: {advice}"
                 )));
             }
         }
@@ -330,6 +335,8 @@ mod tests {
         assert!(check_limits(&[("prims", 1 << 20), ("entries", 12)], &limits).is_ok());
         let e = check_limits(&[("prims", 100), ("entries", (1 << 20) + 8)], &limits).unwrap_err().to_string();
         assert!(e.contains("entries") && e.contains("max_storage_buffer_binding_size"), "{e}");
+        let e = check_limits(&[("texels", (1 << 20) + 4)], &limits).unwrap_err().to_string();
+        assert!(e.contains("texels") && e.contains("smaller images"), "{e}");
         let limits = wgpu::Limits { max_buffer_size: 64, ..limits };
         let e = check_limits(&[("out", 65)], &limits).unwrap_err().to_string();
         assert!(e.contains("out") && e.contains("max_buffer_size"), "{e}");

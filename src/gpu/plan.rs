@@ -40,11 +40,11 @@ pub struct Pass {
 
 impl WavePlan {
     /// The waves of a render of `variant` to `max_depth`, with `retries` more passes per
-    /// depth. Only a variant that spawns rays from its hits (mirrors or glass) traces past the
-    /// eye's depth: the passes of an empty depth still cost lavapipe about 50 µs each, and
-    /// at depth 5 they took 13–15 % of tetra_s6's kernel time.
+    /// depth. Only a variant that spawns rays from its hits (mirrors, glass or blended
+    /// surfaces) traces past the eye's depth: the passes of an empty depth still cost
+    /// lavapipe about 50 µs each, and at depth 5 they took 13–15 % of tetra_s6's kernel time.
     pub fn new(variant: Variant, max_depth: u32, retries: u32) -> WavePlan {
-        let spawns = variant.reflection || variant.refraction;
+        let spawns = variant.reflection || variant.refraction || variant.blend;
         WavePlan {
             max_depth: if spawns { max_depth } else { max_depth.min(1) },
             shadows: variant.shadows,

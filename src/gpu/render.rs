@@ -388,6 +388,7 @@ impl GpuRenderer {
             run.times(preprocess_s, trace_s, false, variant.shadows),
         );
         stats.accel_bytes = accel_bytes(&packed, tables.as_ref());
+        stats.texture_bytes = std::mem::size_of_val(packed.texels.as_slice()) as u64;
         stats.counted = variant.counters;
         stats.lanes = run.lanes.unwrap_or_default();
         Ok(Rendered { image, stats })
@@ -438,6 +439,7 @@ impl GpuRenderer {
             times,
         );
         stats.accel_bytes = accel_bytes(&packed, tables.as_ref());
+        stats.texture_bytes = std::mem::size_of_val(packed.texels.as_slice()) as u64;
         stats.counted = variant.counters;
         Ok(Rendered { image, stats })
     }

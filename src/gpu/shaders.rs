@@ -202,9 +202,10 @@ pub struct Variant {
     pub maps: bool,
     /// Materials bend shading normals with normal maps (`NORMAL_MAPS`).
     pub normal_maps: bool,
-    /// Walks test alpha at hits of masked and blended materials (`ALPHA`).
+    /// Every walk tests alpha at hits of masked materials (`ALPHA`).
     pub alpha: bool,
-    /// Hits of blended materials spawn pass-through rays (`BLEND`).
+    /// Hits of blended materials spawn pass-through rays, and shadow walks test alpha at
+    /// them (`BLEND`).
     pub blend: bool,
     /// The ray queries: the candidate tables, the BVH or brute force.
     pub queries: Queries,
@@ -245,7 +246,7 @@ impl Variant {
             maps: e.maps,
             normal_maps: e.normal_maps,
             alpha: e.alpha,
-            blend: e.blend && secondary,
+            blend: e.blend,
             queries: Queries::Tables,
             f64: false,
             shapes: Shapes::ALL,
@@ -350,6 +351,7 @@ impl Variant {
                     maps: more,
                     normal_maps: more,
                     alpha: more,
+                    blend: more,
                     queries,
                     f64,
                     shapes: Shapes::ALL,
@@ -399,6 +401,8 @@ impl Variant {
             "NORMAL_MAPS" => self.normal_maps,
             "ALPHA" => self.alpha,
             "BLEND" => self.blend,
+            // Shadow walks test alpha: masked or blended materials.
+            "CUTOUTS" => self.alpha || self.blend,
             "F64" => self.f64,
             "SPHERES" => self.shapes.spheres,
             "TRIANGLES" => self.shapes.triangles,

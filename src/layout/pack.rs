@@ -114,8 +114,10 @@ pub fn pack(scene: &Scene, width: u32, height: u32, spawn: SpawnPolicy) -> Packe
                     tri_attrs.extend(tri_attr(t));
                 }
             }
-            let cutout = scene.materials[p.material() as usize].cut_out();
-            Prim::from(&wide_prim(p, eye, attr, if cutout { FLAG_CUTOUT } else { 0 }))
+            let m = &scene.materials[p.material() as usize];
+            let cutout = if m.alpha.cutoff(false).is_some() { FLAG_CUTOUT } else { 0 }
+                | if m.alpha.cutoff(true).is_some() { FLAG_CUTOUT_SHADOW } else { 0 };
+            Prim::from(&wide_prim(p, eye, attr, cutout))
         })
         .collect();
     let materials = scene.materials.iter().map(gpu_material).collect();

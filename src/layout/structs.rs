@@ -344,8 +344,11 @@ pub const FLAG_UVS: u32 = 4;
 pub const FLAG_COLORS: u32 = 8;
 pub const FLAG_UV1: u32 = 16;
 pub const FLAG_TANGENTS: u32 = 32;
-/// The primitive's material is alpha-masked or blended (WGSL `FLAG_CUTOUT`).
+/// The primitive's material is alpha-masked: every walk tests alpha (WGSL `FLAG_CUTOUT`).
 pub const FLAG_CUTOUT: u32 = 64;
+/// The primitive's material is masked or blended: shadow walks test alpha (WGSL
+/// `FLAG_CUTOUT_SHADOW`).
+pub const FLAG_CUTOUT_SHADOW: u32 = 128;
 
 /// [`Material::flags`] bit (WGSL `MATERIAL_TINTED_TRANSMISSION`): the refracted ray is
 /// weighted by the base colour at the hit too (`scene::Material::tinted_transmission`).

@@ -74,7 +74,8 @@ pub struct Hittable<'a> {
 
 impl<'a> Hittable<'a> {
     pub fn new(scene: &'a Scene) -> Hittable<'a> {
-        Hittable { prims: &scene.primitives, scene, cut: scene.effects().alpha }
+        let e = scene.effects();
+        Hittable { prims: &scene.primitives, scene, cut: e.alpha || e.blend }
     }
 
     /// The hit of `ray` on primitive `id` before `t_max` that counts for a ray of this kind

@@ -303,9 +303,10 @@ pub struct Effects {
     pub maps: bool,
     /// Some used material has a normal map and its triangles carry tangents.
     pub normal_maps: bool,
-    /// Some used material is alpha-masked or blended: walks test alpha at hits.
+    /// Some used material is alpha-masked: every walk tests alpha at its hits.
     pub alpha: bool,
-    /// Some used material is blended: hits spawn pass-through rays.
+    /// Some used material is blended: its hits spawn pass-through rays, and shadow walks
+    /// test alpha at them.
     pub blend: bool,
 }
 
@@ -447,7 +448,7 @@ impl Scene {
             e.emission |= m.emits();
             e.maps |= m.maps.is_some() && has_uv[i];
             e.normal_maps |= m.normal_map.is_some() && has_uv[i] && has_tangents[i];
-            e.alpha |= m.cut_out();
+            e.alpha |= matches!(m.alpha, Alpha::Mask { .. });
             e.blend |= m.alpha == Alpha::Blend;
         }
         e

@@ -727,7 +727,7 @@ fn normal_maps_and_texture_sets_are_checked() {
     assert_error(
         &load_err(&path),
         &path,
-        &["materials[0].normalTexture.extensions.KHR_texture_transform", "scale"],
+        &["materials[0].normalTexture.extensions.KHR_texture_transform", "two numbers", "invalid type"],
     );
     let path =
         file(&doc, "set2.gltf", json!({"index": 0, "texCoord": 2}), json!({"POSITION": p, "TEXCOORD_0": uv}));

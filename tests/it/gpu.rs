@@ -263,6 +263,12 @@ fn gltf_model_agrees_with_the_cpu(file: &str, effect: &str) {
     }
     let opts = RenderOptions { spp: 4, ..RenderOptions::new(64, 64) };
     let (g, _) = agree(file, &loaded.scene, &opts, 0.01);
+    // The textures' memory on the device is stated: every texel of every scene texture.
+    let texels: usize = loaded.scene.textures.iter().map(|t| t.texels.len()).sum();
+    assert_eq!(g.stats.texture_bytes, 4 * texels as u64, "{file}");
+    if g.stats.texture_bytes > 0 {
+        assert!(g.stats.to_text().contains("MiB on the device"), "{file}");
+    }
     assert!(g.stats.effects.contains(&effect), "{file}: {:?}", g.stats.effects);
     assert!(g.stats.rays.eye_hit > 0, "{file}: nothing hit");
 }
@@ -345,9 +351,28 @@ fn rgb(img: &cuberay::output::Image, x: u32, y: u32) -> DVec3 {
 fn alpha_mask_shows_the_wall_through_exactly_the_clear_texels() {
     let scene = own_scene("alpha_mask.gltf");
     assert!(scene.effects().alpha && !scene.effects().blend, "{:?}", scene.effects());
+    checker_over_wall("alpha_mask", &scene, 1.0);
+}
+
+/// The same checker blended (glTF BLEND) with its opaque texels at alpha 0.6: each of their
+/// pixels is 0.6 of the red glow and 0.4 of the wall behind (a pass-through ray), its clear
+/// texels show the wall, and shadow rays take it as masked at 0.5, so its shadow is the
+/// masked checker's.
+#[test]
+fn alpha_blend_lets_one_minus_alpha_through() {
+    let mut scene = own_scene("alpha_mask.gltf");
+    scene.materials[0].alpha = cuberay::scene::Alpha::Blend;
+    scene.materials[0].opacity = 0.6;
+    assert!(scene.effects().blend && !scene.effects().alpha, "{:?}", scene.effects());
+    let (g, _) = checker_over_wall("alpha_blend", &scene, 0.6);
+    assert!(g.stats.rays.refract > 0, "pass-through rays are counted as refraction rays");
+}
+
+/// Renders the checker over the wall on both backends and checks every pixel against the
+/// closed form for opaque texels of alpha `a` (1: masked).
+fn checker_over_wall(name: &str, scene: &Scene, a: f64) -> (Rendered, Rendered) {
     let opts = RenderOptions::new(64, 64);
-    let (g, c) = agree("alpha_mask", &scene, &opts, 0.01);
-    assert!(g.stats.effects.contains(&"alpha"), "{:?}", g.stats.effects);
+    let (g, c) = agree(name, scene, &opts, 0.01);
     // Texel (i, j) of the quad [-1, 1]² (v downwards) at a point of the plane; opaque where
     // i + j is even.
     let opaque = |x: f64, y: f64| {
@@ -360,22 +385,24 @@ fn alpha_mask_shows_the_wall_through_exactly_the_clear_texels() {
         for x in 0..opts.width {
             let (o, d) = scene.camera.ray(x as f64 + 0.5, y as f64 + 0.5, opts.width, opts.height);
             let p = o + d * (-o.z / d.z);
+            // The wall point behind, lit unless its ray to the sun crosses z = 0 in an
+            // opaque texel: its blue glow plus the lit grey.
+            let w = o + d * ((-1.0 - o.z) / d.z);
+            let q = w + to_sun * (1.0 / to_sun.z);
+            let lit = if opaque(q.x, q.y) { 0.0 } else { 0.5 * to_sun.z };
+            let wall = DVec3::new(lit, lit, lit + 0.5);
             let want = if opaque(p.x, p.y) {
-                DVec3::X
+                DVec3::X * a + wall * (1.0 - a)
             } else {
                 holes += 1;
-                // The wall point behind, and where its ray to the sun crosses z = 0.
-                let w = o + d * ((-1.0 - o.z) / d.z);
-                let q = w + to_sun * (1.0 / to_sun.z);
-                let lit = if opaque(q.x, q.y) { 0.0 } else { 0.5 * to_sun.z };
                 shadowed += (lit == 0.0) as u32;
-                DVec3::new(lit, lit, lit + 0.5)
+                wall
             };
             for (backend, img) in [("GPU", &g.image), ("CPU", &c.image)] {
                 let got = rgb(img, x, y);
                 assert!(
                     (got - want).abs().max_element() < 1e-4,
-                    "{backend} ({x}, {y}) at {p}: {got}, not {want}"
+                    "{name}: {backend} ({x}, {y}) at {p}: {got}, not {want}"
                 );
             }
         }
@@ -384,6 +411,8 @@ fn alpha_mask_shows_the_wall_through_exactly_the_clear_texels() {
         holes == 64 * 32 && shadowed > 200 && shadowed < holes,
         "{holes} hole pixels, {shadowed} in shadow"
     );
+    assert!(g.stats.effects.contains(&if a < 1.0 { "blend" } else { "alpha" }), "{:?}", g.stats.effects);
+    (g, c)
 }
 
 /// A floor whose metallic-roughness texture is smooth metal on its left half and rough

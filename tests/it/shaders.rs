@@ -100,7 +100,7 @@ fn variant_functions_follow_the_flags() {
             assert!(!defines(&nearest, f), "{v:?}: nearest defines {f}");
         }
         // A walk samples textures only to test alpha.
-        assert_eq!(defines(&nearest, "sample_texture"), v.alpha && v.textures, "{v:?}");
+        assert_eq!(defines(&nearest, "sample_texture"), (v.alpha || v.blend) && v.textures, "{v:?}");
         assert!(defines(&module_of(Kernel::Shade, v), "shade_hit"), "{v:?}");
         let m = module(v);
         assert_eq!(has_function(&m, "reflect_dir"), v.reflection, "{v:?}");
@@ -108,7 +108,7 @@ fn variant_functions_follow_the_flags() {
         assert_eq!(has_function(&m, "sample_texture"), v.textures, "{v:?}");
         assert_eq!(has_function(&m, "whitted"), v.maps, "{v:?}");
         assert_eq!(has_function(&m, "mapped_normal"), v.normal_maps, "{v:?}");
-        assert_eq!(has_function(&m, "alpha_passes"), v.alpha, "{v:?}");
+        assert_eq!(has_function(&m, "alpha_passes"), v.alpha || v.blend, "{v:?}");
         assert_eq!(has_f64(&m), v.f64, "{v:?}: f64 only in the f64 variant");
         assert_eq!(has_function(&m, "occluded_short"), v.shadows, "{v:?}");
         assert_eq!(has_function(&m, "trace_shadow"), v.shadows, "{v:?}");

@@ -19,6 +19,7 @@ use gltf::texture::{MagFilter, WrappingMode};
 use gltf::Document;
 use image::{ImageFormat, RgbaImage};
 use rayon::prelude::*;
+use serde::Deserialize;
 
 use super::data::{read_uri, Buffers};
 use super::Ctx;
@@ -118,11 +119,19 @@ fn wrap(w: WrappingMode) -> Wrap {
 }
 
 /// KHR_texture_transform as written: offset, rotation, scale and the texCoord it overrides.
+#[derive(serde::Deserialize)]
+#[serde(default, rename_all = "camelCase")]
 struct Xform {
     offset: [f32; 2],
     rotation: f32,
     scale: [f32; 2],
     tex_coord: Option<u32>,
+}
+
+impl Default for Xform {
+    fn default() -> Xform {
+        Xform { offset: [0.0; 2], rotation: 0.0, scale: [1.0; 2], tex_coord: None }
+    }
 }
 
 /// One texture slot of a material, read from its glTF `textureInfo`.
@@ -151,40 +160,9 @@ impl<'d> Slot<'d> {
     fn normal(n: &gltf::material::NormalTexture<'d>, loc: String) -> Result<Slot<'d>, String> {
         let transform = match n.extension_value("KHR_texture_transform") {
             None => None,
-            Some(v) => {
-                let num = |key: &str, default: f32| -> Result<f32, String> {
-                    match v.get(key) {
-                        None => Ok(default),
-                        Some(x) => x.as_f64().map(|x| x as f32).ok_or(format!("{key} is not a number")),
-                    }
-                };
-                let pair = |key: &str, default: f32| -> Result<[f32; 2], String> {
-                    match v.get(key) {
-                        None => Ok([default; 2]),
-                        Some(x) => {
-                            match x.as_array().map(|a| a.iter().map(|c| c.as_f64()).collect::<Vec<_>>()) {
-                                Some(a) if a.len() == 2 && a.iter().all(Option::is_some) => {
-                                    Ok([a[0].unwrap() as f32, a[1].unwrap() as f32])
-                                }
-                                _ => Err(format!("{key} is not two numbers")),
-                            }
-                        }
-                    }
-                };
-                let tex_coord = match v.get("texCoord") {
-                    None => None,
-                    Some(x) => Some(
-                        x.as_u64().filter(|&c| c <= u32::MAX as u64).ok_or("texCoord is not a set index")?
-                            as u32,
-                    ),
-                };
-                Some(Xform {
-                    offset: pair("offset", 0.0)?,
-                    rotation: num("rotation", 0.0)?,
-                    scale: pair("scale", 1.0)?,
-                    tex_coord,
-                })
-            }
+            Some(v) => Some(Xform::deserialize(v).map_err(|e| {
+                format!("is not offset and scale (two numbers each), rotation (a number) and texCoord (a set index): {e}")
+            })?),
         };
         Ok(Slot { tex_coord: n.tex_coord(), transform, info: n.texture(), loc, srgb: false })
     }
