@@ -8,17 +8,7 @@
 use glam::{DVec2, DVec3, DVec4};
 
 use super::geometry::{SurfacePoint, TangentFrame};
-use crate::scene::{Material, Pbr, Scene, Shading, Texture, TextureRef, Wrap};
-
-/// The sRGB electro-optical transfer function: an 8-bit sRGB value to linear [0, 1].
-pub fn srgb_to_linear(v: u8) -> f64 {
-    let c = v as f64 / 255.0;
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
-}
+use crate::scene::{srgb_to_linear, Material, Pbr, Scene, Shading, Texture, TextureRef, Wrap};
 
 fn wrap(i: i64, n: u32, mode: Wrap) -> usize {
     let n = n as i64;

@@ -317,6 +317,17 @@ pub enum Wrap {
     ClampToEdge,
 }
 
+/// The sRGB electro-optical transfer function: an 8-bit sRGB value to linear [0, 1] (what
+/// every reader of an sRGB [`Texture`] decodes with).
+pub fn srgb_to_linear(v: u8) -> f64 {
+    let c = v as f64 / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
 /// An RGBA8 image. Colour channels are sRGB-encoded, alpha linear (as glTF stores them).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Texture {

@@ -74,7 +74,8 @@ mod material;
 pub use camera::{Camera, FovSpan, Projection};
 pub use light::{Light, LightKind, LightSource};
 pub use material::{
-    Alpha, Material, NormalMap, Pbr, PbrMaps, Shading, Texture, TextureRef, Wrap, TEXCOORD_SETS,
+    srgb_to_linear, Alpha, Material, NormalMap, Pbr, PbrMaps, Shading, Texture, TextureRef, Wrap,
+    TEXCOORD_SETS,
 };
 
 /// A sphere. `inside_only` means only the inside surface is visible (NFF negative radius).

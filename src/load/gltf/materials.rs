@@ -24,7 +24,9 @@ use serde::Deserialize;
 use super::data::{read_uri, Buffers};
 use super::Ctx;
 use crate::error::Error;
-use crate::scene::{Alpha, Material, NormalMap, Pbr, PbrMaps, Texture, TextureRef, Wrap, TEXCOORD_SETS};
+use crate::scene::{
+    srgb_to_linear, Alpha, Material, NormalMap, Pbr, PbrMaps, Texture, TextureRef, Wrap, TEXCOORD_SETS,
+};
 
 /// The scene's materials and textures, and how glTF materials map onto them.
 pub struct MaterialTable {
@@ -90,24 +92,21 @@ fn decode_image(ctx: &Ctx, doc: &Document, buffers: &Buffers, index: usize) -> R
     Ok(img.into_rgba8())
 }
 
-/// The smallest and largest value of one channel of a texture, as values in [0, 1].
+/// The smallest and largest 8-bit value of one channel of a texture.
+fn channel_extremes(t: &Texture, channel: usize) -> (u8, u8) {
+    t.texels.iter().fold((255u8, 0u8), |(lo, hi), p| (lo.min(p[channel]), hi.max(p[channel])))
+}
+
+/// The smallest and largest value of one channel of a data texture, in [0, 1].
 fn channel_range(t: &Texture, channel: usize) -> (f64, f64) {
-    let (lo, hi) = t.texels.iter().fold((255u8, 0u8), |(lo, hi), p| (lo.min(p[channel]), hi.max(p[channel])));
+    let (lo, hi) = channel_extremes(t, channel);
     (lo as f64 / 255.0, hi as f64 / 255.0)
 }
 
 /// The largest linear value of each colour channel of an sRGB-encoded texture.
 fn max_srgb(t: &Texture) -> DVec3 {
-    let hi = |c: usize| srgb_to_linear(channel_range(t, c).1);
+    let hi = |c: usize| srgb_to_linear(channel_extremes(t, c).1);
     DVec3::new(hi(0), hi(1), hi(2))
-}
-
-fn srgb_to_linear(c: f64) -> f64 {
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
 }
 
 fn wrap(w: WrappingMode) -> Wrap {
