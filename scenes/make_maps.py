@@ -8,9 +8,10 @@
   left half (x < 0) and rough dielectric on its right, below a light and in front of a
   green-glowing card: the card is mirrored on the metal half only.
 - scenes/normal_tilt.gltf: a white, rough quad whose one-texel normal map tilts every
-  normal towards +x, lit by a directional light in the xz plane and seen straight on: each
-  pixel is the light times the base colour times n'·L for the tilted normal n'. Its left
-  half carries a TANGENT attribute, its right half none (tangents from MikkTSpace).
+  normal towards +x and up the image (+y), lit by a directional light from (1, 1, 1) and
+  seen straight on: each pixel is the light times the base colour times n'·L for the
+  tilted normal n'. Its left half carries a TANGENT attribute, its right half none
+  (tangents from MikkTSpace), and both must agree on which way +y is.
 
 Run from the repository root:
     python3 scenes/make_maps.py
@@ -140,15 +141,15 @@ d = Doc("scenes/make_maps.py")
 d.quad([(-1, -1, 0), (0, -1, 0), (0, 1, 0), (-1, 1, 0)], (0, 0, 1), [(0, 1), (0.5, 1), (0.5, 0), (0, 0)], 0,
        tangent=(1, 0, 0, 1))
 d.quad([(0, -1, 0), (1, -1, 0), (1, 1, 0), (0, 1, 0)], (0, 0, 1), [(0.5, 1), (1, 1), (1, 0), (0.5, 0)], 0)
-# The sun shines along (-1, 0, -1)/√2: 45° about y turns -z to that direction.
+# The sun shines along (-1, -1, -1)/√3: a turn about (-1, 1, 0) takes -z there.
 d.write("scenes/normal_tilt.gltf", {
     "extensionsUsed": ["KHR_lights_punctual"], "extensions": SUN,
     "scenes": [{"nodes": [0, 1, 2, 3]}],
     "nodes": [{"name": "left, TANGENT", "mesh": 0}, {"name": "right, MikkTSpace", "mesh": 1},
               {"name": "camera", "camera": 0, "translation": [0, 0, 3]},
-              sun_node([0, 0.3826834323650898, 0, 0.9238795325112867])],
+              sun_node([-0.3250575836718681, 0.3250575836718681, 0.0, 0.8880738339771153])],
     "cameras": [ORTHO],
-    "images": [{"uri": png(1, 1, [[(160, 128, 230, 255)]])}], "samplers": [NEAREST],
+    "images": [{"uri": png(1, 1, [[(160, 200, 230, 255)]])}], "samplers": [NEAREST],
     "textures": [{"source": 0, "sampler": 0}],
     "materials": [{"name": "tilted", "normalTexture": {"index": 0},
                    "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0.0,

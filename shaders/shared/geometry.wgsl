@@ -229,15 +229,12 @@ fn uv_sets(p: Prim, b1: f32, b2: f32) -> UvSets {
 }
 
 #if CUTOUTS
-// The alpha of material `m` at barycentrics (`b1`, `b2`) of triangle `p`: its opacity times
-// the base colour texture's alpha (twin: reference::texture `alpha`).
-fn hit_alpha(m: Material, p: Prim, b1: f32, b2: f32) -> f32 {
+// The alpha of material `m` at a point with texture coordinates `u`: its opacity times the
+// base colour texture's alpha (twin: reference::texture `alpha`).
+fn hit_alpha(m: Material, u: UvSets) -> f32 {
     var a = m.opacity;
 #if TEXTURES
-    if m.base.texture != 0u {
-        let u = uv_sets(p, b1, b2);
-        a *= read_texture(m.base, u.uv0, u.has0, u.uv1, u.has1, vec4<f32>(1.0)).w;
-    }
+    a *= read_texture(m.base, u.uv0, u.has0, u.uv1, u.has1, vec4<f32>(1.0)).w;
 #endif
     return a;
 }
@@ -252,7 +249,7 @@ fn alpha_passes(p: Prim, h: PrimHit, shadow: bool) -> bool {
         return true;
     }
     let m = materials[p.material];
-    return hit_alpha(m, p, h.b1, h.b2) >= select(m.alpha_cutoff, m.shadow_cutoff, shadow);
+    return hit_alpha(m, uv_sets(p, h.b1, h.b2)) >= select(m.alpha_cutoff, m.shadow_cutoff, shadow);
 }
 #endif
 

@@ -101,10 +101,10 @@ struct Prim {
 #endif
 
 // A triangle's per-vertex attributes, in one to three consecutive entries from `Prim.attr`,
-// so that a triangle pays only for what it carries. Entry 0: normals (FLAG_NORMALS) in
+// so that a triangle pays for what it carries in whole entries (colours alone take three). Entry 0: normals (FLAG_NORMALS) in
 // `n0`..`n2`, texture coordinates of set 0 (FLAG_UVS: `uv01` = vertices 0 and 1, `uv2_1.xy` =
 // vertex 2) and vertex 0's of set 1 (`uv2_1.zw`). Entry 1, where the triangle has tangents,
-// set 1 or colours (tri_more): tangents (FLAG_TANGENTS: xyz, the bitangent's sign in w) in
+// set 1 or colours (src/layout/pack.rs, `tri_attr`): tangents (FLAG_TANGENTS: xyz, the bitangent's sign in w) in
 // `n0`..`n2`, set 1 of vertices 1 and 2 (FLAG_UV1) in `uv01`. Entry 2, with colours
 // (FLAG_COLORS): their RGB in `n0`..`n2`.
 struct TriAttr {
@@ -124,8 +124,9 @@ struct TexRef {
     texcoord: u32,
 }
 
-// The scalar Whitted terms (bounds over the maps of a MATERIAL_MAPS material, which
-// evaluates `metallic` … `emission_factor` and its textures per hit), the alpha rule
+// The scalar Whitted terms (a MATERIAL_MAPS material evaluates `metallic` …
+// `emission_factor` and its textures per hit instead; its `mirror`, `transmittance` and
+// `emission` bound every hit's, to decide what the scene spawns), the alpha rule
 // (`opacity` times the base colour texture's alpha; a hit below `alpha_cutoff`, for shadow
 // rays `shadow_cutoff`, is no hit), and the textures.
 struct Material {

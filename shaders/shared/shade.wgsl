@@ -320,7 +320,7 @@ fn shade_hit(job: Job) {
     var w = pending.weight;
 #if BLEND
     if (mat.flags & MATERIAL_BLEND) != 0u {
-        let a = hit_alpha(mat, prim, h.hit.b1, h.hit.b2);
+        let a = hit_alpha(mat, s.uv);
         w *= a;
         if a < 1.0 && job_depth(pending) < params.max_depth {
             let flags = select(0u, RAY_SKIP_FROM, leave_skip(h.prim, d, s.ng) != NO_ID);

@@ -8,8 +8,11 @@
 //! binary. A tiny line-based preprocessor composes one module per [`Kernel`] and
 //! [`Variant`]: `#include "shared/file.wgsl"` pastes a file (once), and `#if NAME` / `#else` /
 //! `#endif` (nestable) keep or drop lines by the variant's flags `SHADOWS`, `REFLECTION`,
-//! `REFRACTION`, `TEXTURES` and `EMISSION`, `SURFACE_RAYS` (rays leave surfaces: reflection
-//! and refraction rays, shadow rays towards a directional light; the BVH takes them),
+//! `REFRACTION`, `TEXTURES`, `EMISSION`, `VERTEX_COLORS`, `MAPS`, `NORMAL_MAPS`, `ALPHA`
+//! (every walk tests alpha on masked materials), `BLEND` (pass-through rays) and `CUTOUTS`
+//! (shadow walks test alpha: `ALPHA` or `BLEND`), `F64`, `SPHERES`, `TRIANGLES` and
+//! `CYLINDERS`, `SURFACE_RAYS` (rays leave surfaces: reflection, refraction and
+//! pass-through rays, shadow rays towards a directional light; the BVH takes them),
 //! `COUNTERS` (the statistics counters), and `TABLES`, `BVH` and `BRUTE`, of which exactly one
 //! is set: the walk `shared/query.wgsl`'s queries go over, the candidate tables' of
 //! `shared/walk.wgsl`, the BVH's of `shared/bvh.wgsl` or brute force's of
@@ -307,8 +310,8 @@ impl Variant {
     /// bits, the last of each 32 with every effect), then every other set of kinds (none
     /// included: a scene may hold no primitive) with every effect (42), then shadows without
     /// rays leaving surfaces (lights with tables, no mirror), with and without textures and
-    /// emission (12), then every effect uncounted (6), so that each `#if` is compiled both
-    /// ways. Vertex colours, maps, normal maps, alpha and blend are off in the 32 effect sets
+    /// emission (12), then every effect uncounted (6), then maps, normal maps, mask and
+    /// blend each without the others (24), so that each `#if` is compiled both ways. Vertex colours, maps, normal maps, alpha and blend are off in the 32 effect sets
     /// and on in the rest (each further effect is compiled on and off against a
     /// representative rest, not in the full product).
     pub fn all() -> Vec<Variant> {
@@ -365,7 +368,20 @@ impl Variant {
                 .into_iter()
                 .map(move |queries| Variant { f64, ..Variant::full(queries) }.with_counters(false))
         });
-        effects.chain(shapes).chain(point_lit).chain(uncounted).collect()
+        // The map effects apart: maps, normal maps, a mask alone, a blend alone (which needs
+        // no texture), so that none leans on another's code.
+        let apart = [false, true].into_iter().flat_map(|f64| {
+            Queries::ALL.into_iter().flat_map(move |queries| {
+                let base = Variant { shadows: true, reflection: true, queries, f64, ..Variant::default() };
+                [
+                    Variant { textures: true, maps: true, ..base },
+                    Variant { textures: true, normal_maps: true, ..base },
+                    Variant { textures: true, alpha: true, ..base },
+                    Variant { blend: true, surface_rays: true, ..base },
+                ]
+            })
+        });
+        effects.chain(shapes).chain(point_lit).chain(uncounted).chain(apart).collect()
     }
 
     /// Every effect with `queries`.

@@ -227,11 +227,10 @@ impl Tracer<'_> {
             l += inc.radiance * local;
         }
 
+        // A blended surface sends alpha of this, and lets 1 − alpha through.
+        let alpha = if m.alpha == Alpha::Blend { texture::alpha(scene, m, s.uv) } else { 1.0 };
         if depth >= self.max_depth {
-            return match m.alpha {
-                Alpha::Blend => l * texture::alpha(scene, m, s.uv),
-                _ => l,
-            };
+            return l * alpha;
         }
         let transmits = sh.transmittance > 0.0;
         let refracted = if transmits { refract(d, n, ng, entering, m.ior) } else { None };
@@ -257,15 +256,12 @@ impl Tracer<'_> {
             l += transmitted
                 * self.trace(&rt, OriginKey::Surface(h.prim), RayKind::Refract, depth + 1, spawn, c);
         }
-        if m.alpha == Alpha::Blend {
-            let a = texture::alpha(scene, m, s.uv);
-            l *= a;
-            if a < 1.0 {
-                let rp = Ray::new(spawn_origin(&s, d), d);
-                let spawn = spawn_offset(&s);
-                l += (1.0 - a)
-                    * self.trace(&rp, OriginKey::Surface(h.prim), RayKind::Refract, depth + 1, spawn, c);
-            }
+        l *= alpha;
+        if alpha < 1.0 {
+            let rp = Ray::new(spawn_origin(&s, d), d);
+            let spawn = spawn_offset(&s);
+            l += (1.0 - alpha)
+                * self.trace(&rp, OriginKey::Surface(h.prim), RayKind::Refract, depth + 1, spawn, c);
         }
         l
     }

@@ -11,9 +11,10 @@ use crate::error::{Error, Result};
 ///      + mirror·L_reflected + transmittance·T·L_refracted + emission`, with `T = C` for a
 /// tinted transmission (glTF) and 1 otherwise (NFF).
 ///
-/// A material with [`Material::maps`] is evaluated per hit from them; its scalar terms
-/// (`kd` … `emission`) are then upper bounds over its maps (a map's largest value, not its
-/// mean), which is what decides whether a scene spawns reflection and refraction rays.
+/// A material with [`Material::maps`] is evaluated per hit from them; its `mirror`,
+/// `transmittance` and `emission` are then upper bounds over its hits ([`PbrMaps::bounds`]:
+/// a map's extreme, not its mean), which is what decides whether a scene spawns reflection
+/// and refraction rays.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     pub name: Option<String>,
@@ -89,8 +90,8 @@ pub struct NormalMap {
 /// glTF metallic-roughness factors and the textures that vary them per hit: metallic is the
 /// metallic-roughness texture's blue channel times `metallic`, roughness its green channel
 /// times `roughness`, transmission the transmission texture's red channel times
-/// `transmission`, emission the emissive texture (sRGB) times `emission`. A missing texture
-/// counts as 1.
+/// `transmission`, emission the emissive texture (sRGB) times `emission`. A texture that is
+/// absent, or whose UV set a triangle lacks, counts as 1.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PbrMaps {
     pub metallic: f64,
@@ -101,6 +102,74 @@ pub struct PbrMaps {
     pub metallic_roughness: Option<TextureRef>,
     pub emissive: Option<TextureRef>,
     pub transmission_texture: Option<TextureRef>,
+    /// What the textures take over the hits, for [`PbrMaps::bounds`].
+    pub ranges: MapRanges,
+}
+
+/// The extremes a material's map channels take over its hits, in [0, 1] (emission: linear):
+/// over the texels, and 1 where a hit may lack the texture ([`MapRanges::with_fallback`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MapRanges {
+    /// Least and largest metallic (the blue channel).
+    pub metallic: [f64; 2],
+    /// Least roughness (the green channel).
+    pub roughness_min: f64,
+    /// Largest transmission (the red channel).
+    pub transmission_max: f64,
+    /// Largest emission per channel.
+    pub emission_max: DVec3,
+}
+
+impl MapRanges {
+    /// Ranges of maps that are all absent: every channel 1.
+    pub const ONES: MapRanges = MapRanges {
+        metallic: [1.0, 1.0],
+        roughness_min: 1.0,
+        transmission_max: 1.0,
+        emission_max: DVec3::ONE,
+    };
+
+    /// The ranges with the value of an absent texture (1) joined: for a material some of
+    /// whose triangles lack the UV set its maps read.
+    pub fn with_fallback(self) -> MapRanges {
+        MapRanges {
+            metallic: [self.metallic[0].min(1.0), 1.0],
+            roughness_min: self.roughness_min.min(1.0),
+            transmission_max: 1.0,
+            emission_max: DVec3::ONE,
+        }
+    }
+}
+
+impl PbrMaps {
+    /// The Whitted terms whose `mirror`, `transmittance` and `emission` bound every hit's
+    /// (base colour `base`, index `ior`): the mirror of the most metallic and least rough
+    /// texel (a metal's F0 taken at the factor's base colour, at most max(0.04, base)), the
+    /// transmittance of the most transmitting and least metallic, the brightest emission.
+    /// `kd`, `ks` and `shine` are the latter texel's, not bounds: shading never reads them.
+    pub fn bounds(&self, base: DVec3, ior: f64) -> Shading {
+        let r = &self.ranges;
+        let roughness = self.roughness * r.roughness_min;
+        let glass = Pbr {
+            base,
+            metallic: self.metallic * r.metallic[0],
+            roughness,
+            transmission: self.transmission * r.transmission_max,
+            ior,
+            emission: self.emission * r.emission_max,
+        };
+        let metal = Pbr { metallic: self.metallic * r.metallic[1], transmission: 0.0, ..glass };
+        let mut sh = glass.whitted();
+        // F0 = mix(0.04, base, m) lies between 0.04 and the base colour.
+        let f0_max = base.clamp(DVec3::ZERO, DVec3::ONE).max(DVec3::splat(0.04));
+        let metal_mirror = if metal.whitted().mirror.max_element() > 0.0 {
+            f0_max * (1.0 - roughness.clamp(0.0, 1.0)).powi(2)
+        } else {
+            DVec3::ZERO
+        };
+        sh.mirror = sh.mirror.max(metal_mirror);
+        sh
+    }
 }
 
 /// The Whitted terms at one hit (a material's scalars, or its maps evaluated there).
@@ -264,6 +333,9 @@ impl Material {
             let finite = [m.metallic, m.roughness, m.transmission].iter().all(|v| v.is_finite());
             if !finite || !m.emission.is_finite() {
                 return Err(Error::Scene("a metallic-roughness factor is not finite".into()));
+            }
+            if m.metallic_roughness.is_none() && m.emissive.is_none() && m.transmission_texture.is_none() {
+                return Err(Error::Scene("per-hit maps without a texture".into()));
             }
         }
         if let Some(n) = &self.normal_map {

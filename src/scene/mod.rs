@@ -74,7 +74,7 @@ mod material;
 pub use camera::{Camera, FovSpan, Projection};
 pub use light::{Light, LightKind, LightSource};
 pub use material::{
-    srgb_to_linear, Alpha, Material, NormalMap, Pbr, PbrMaps, Shading, Texture, TextureRef, Wrap,
+    srgb_to_linear, Alpha, MapRanges, Material, NormalMap, Pbr, PbrMaps, Shading, Texture, TextureRef, Wrap,
     TEXCOORD_SETS,
 };
 
@@ -293,14 +293,14 @@ pub struct Effects {
     pub reflection: bool,
     /// Some used material transmits (refraction rays).
     pub refraction: bool,
-    /// Some used material has a base colour texture and its primitives carry UVs.
+    /// Some used material has a texture.
     pub textures: bool,
     /// Some used material emits light.
     pub emission: bool,
     /// Some triangle carries vertex colours.
     pub vertex_colors: bool,
     /// Some used material varies its Whitted terms per hit (metallic-roughness, emissive or
-    /// transmission textures).
+    /// transmission textures; [`Material::maps`] always has one).
     pub maps: bool,
     /// Some used material has a normal map and its triangles carry tangents.
     pub normal_maps: bool,
@@ -426,7 +426,6 @@ impl Scene {
     /// The effects this scene calls for, judged from the materials its primitives use.
     pub fn effects(&self) -> Effects {
         let mut used = vec![false; self.materials.len()];
-        let mut has_uv = vec![false; self.materials.len()];
         let mut has_tangents = vec![false; self.materials.len()];
         let mut e =
             Effects { shadows: !self.lights.is_empty() && !self.primitives.is_empty(), ..Effects::default() };
@@ -434,7 +433,6 @@ impl Scene {
             let m = p.material() as usize;
             used[m] = true;
             if let Primitive::Triangle(t) = p {
-                has_uv[m] |= t.uv.is_some() || t.uv1.is_some();
                 has_tangents[m] |= t.tangent.is_some();
                 e.vertex_colors |= t.color.is_some();
             }
@@ -445,10 +443,10 @@ impl Scene {
             }
             e.reflection |= m.reflects() || m.transmits();
             e.refraction |= m.transmits();
-            e.textures |= m.texture_refs().next().is_some() && has_uv[i];
+            e.textures |= m.texture_refs().next().is_some();
             e.emission |= m.emits();
-            e.maps |= m.maps.is_some() && has_uv[i];
-            e.normal_maps |= m.normal_map.is_some() && has_uv[i] && has_tangents[i];
+            e.maps |= m.maps.is_some();
+            e.normal_maps |= m.normal_map.is_some() && has_tangents[i];
             e.alpha |= matches!(m.alpha, Alpha::Mask { .. });
             e.blend |= m.alpha == Alpha::Blend;
         }

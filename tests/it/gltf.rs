@@ -701,6 +701,7 @@ fn normal_maps_and_texture_sets_are_checked() {
     let view = doc.view(&bytes);
     let tangent =
         doc.accessor(json!({"bufferView": view, "componentType": 5126, "count": 3, "type": "VEC4"}));
+    let nrm = doc.vec3(&[[0.0, 0.0, 1.0]; 3]);
     let file = |doc: &Doc, name: &str, normal: Value, attrs: Value| {
         doc.write(
             &dir,
@@ -719,7 +720,7 @@ fn normal_maps_and_texture_sets_are_checked() {
         &doc,
         "w.gltf",
         json!({"index": 0}),
-        json!({"POSITION": p, "TEXCOORD_0": uv, "TANGENT": tangent}),
+        json!({"POSITION": p, "NORMAL": nrm, "TEXCOORD_0": uv, "TANGENT": tangent}),
     );
     assert_error(&load_err(&path), &path, &["TANGENT", "w = 0.5", "1 or -1"]);
     let bad = json!({"index": 0, "extensions": {"KHR_texture_transform": {"scale": [1.0, "two"]}}});
@@ -738,12 +739,51 @@ fn normal_maps_and_texture_sets_are_checked() {
         "{:?}",
         loaded.warnings
     );
-    // Without TANGENT, MikkTSpace makes them.
+    // Without NORMAL, TANGENT is ignored (glTF); without TANGENT, MikkTSpace makes them, in
+    // glTF's handedness: u grows along +x and v along +y here, so the bitangent, up the
+    // image (−v), is −y = w·(n × t) with n = +z, t = +x: w = −1.
+    let attrs = json!({"POSITION": p, "TEXCOORD_0": uv, "TANGENT": tangent});
+    let path = file(&doc, "flat.gltf", json!({"index": 0}), attrs);
+    assert_eq!(load(&path).scene.primitives.len(), 1);
     let path = file(&doc, "mikk.gltf", json!({"index": 0}), json!({"POSITION": p, "TEXCOORD_0": uv}));
     let scene = load(&path).scene;
     let tris = triangles(&scene);
     let t = tris[0].tangent.as_deref().expect("MikkTSpace tangents");
-    assert!(t.iter().all(|t| (t.truncate() - DVec3::X).length() < 1e-6 && t.w.abs() == 1.0), "{t:?}");
+    assert!(t.iter().all(|t| (t.truncate() - DVec3::X).length() < 1e-6 && t.w == -1.0), "{t:?}");
+}
+
+/// A metallic-roughness map that is nowhere metallic makes no mirror, however metallic the
+/// factor; but where a triangle lacks the map's UV set the map counts as 1 there, and the
+/// material's bounds (which decide what rays the scene spawns) must say it reflects.
+#[test]
+fn map_bounds_cover_triangles_without_their_uvs() {
+    let dir = TempDir::new();
+    image::RgbaImage::from_pixel(1, 1, image::Rgba([0, 0, 0, 255])).save(dir.path("mr.png")).unwrap();
+    let mut doc = Doc::new();
+    let p = doc.vec3(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+    let uv = doc.vec2(&[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]);
+    let file = |doc: &Doc, name: &str, attrs: Value| {
+        doc.write(
+            &dir,
+            name,
+            json!({
+                "images": [{"uri": "mr.png"}],
+                "textures": [{"source": 0}],
+                "materials": [{"pbrMetallicRoughness": {"metallicFactor": 1.0, "roughnessFactor": 1.0,
+                    "metallicRoughnessTexture": {"index": 0}}}],
+                "meshes": [{"primitives": [{"attributes": attrs, "material": 0}]}],
+                "nodes": [{"mesh": 0}],
+                "scenes": [{"nodes": [0]}],
+            }),
+        )
+    };
+    let with = load(&file(&doc, "uv.gltf", json!({"POSITION": p, "TEXCOORD_0": uv})));
+    let m = &with.scene.materials[0];
+    assert!(m.maps.is_some() && !m.reflects() && !with.scene.effects().reflection, "{m:?}");
+    let without = load(&file(&doc, "no_uv.gltf", json!({"POSITION": p})));
+    let m = &without.scene.materials[0];
+    assert!(m.reflects() && without.scene.effects().reflection, "{m:?}");
+    assert!(without.warnings.iter().any(|w| w.contains("TEXCOORD_0")), "{:?}", without.warnings);
 }
 
 /// KHR_texture_transform on the base colour texture becomes the texture reference's

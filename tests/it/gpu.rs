@@ -452,10 +452,11 @@ fn half_metal_texture_reflects_only_on_the_metal_half() {
     assert!(g.stats.rays.reflect > 0);
 }
 
-/// A one-texel normal map tilts every normal of a quad towards +x (`scenes/normal_tilt.gltf`):
-/// each pixel is the light times the base colour times n'·L for the tilted normal n' of the
-/// closed form, on the half with a TANGENT attribute and on the half whose tangents come from
-/// MikkTSpace alike, on both backends, which agree (FLIP ≤ 0.01).
+/// A one-texel normal map tilts every normal of a quad towards +x and +y
+/// (`scenes/normal_tilt.gltf`): each pixel is the light times the base colour times n'·L for
+/// the tilted normal n' of the closed form, on the half with a TANGENT attribute and on the
+/// half whose tangents come from MikkTSpace alike (so both agree on glTF's +Y: up the image,
+/// where v grows down), on both backends, which agree (FLIP ≤ 0.01).
 #[test]
 fn normal_map_tilts_shading_as_the_closed_form_says() {
     let scene = own_scene("normal_tilt.gltf");
@@ -463,10 +464,10 @@ fn normal_map_tilts_shading_as_the_closed_form_says() {
     let opts = RenderOptions::new(48, 48);
     let (g, c) = agree("normal_tilt", &scene, &opts, 0.01);
     assert!(g.stats.effects.contains(&"normal_maps"), "{:?}", g.stats.effects);
-    // Texel (160, 128, 230) in tangent space (T = +x, B = ±y, N = +z); the y term's sign
-    // does not matter, as L has no y.
+    // Texel (160, 200, 230) in tangent space: T = +x (u grows right), B = +y (up the image),
+    // N = +z.
     let t = |c: f64| 2.0 * c / 255.0 - 1.0;
-    let n = DVec3::new(t(160.0), t(128.0), t(230.0)).normalize();
+    let n = DVec3::new(t(160.0), t(200.0), t(230.0)).normalize();
     let l = -scene.lights[0].direction;
     let want = 0.5 * n.dot(l);
     let flat = 0.5 * DVec3::Z.dot(l);

@@ -391,8 +391,8 @@ impl Reader<'_> {
         Ok(out)
     }
 
-    /// Reads TANGENT: VEC4 FLOAT, xyz a finite vector, w ±1 (its sign is what counts; a
-    /// zero or non-finite xyz is returned as zero, for the caller to replace).
+    /// Reads TANGENT: VEC4 FLOAT, w ±1. A zero or non-finite xyz is returned as it is: the
+    /// caller leaves the triangles that use it without a tangent frame.
     pub fn tangents(&self, acc: &gltf::Accessor, loc: &str) -> Result<Vec<[f32; 4]>, Error> {
         self.check_format(acc, loc, Dimensions::Vec4, &[(DataType::F32, false)])?;
         let out =

@@ -25,7 +25,8 @@ use super::data::{read_uri, Buffers};
 use super::Ctx;
 use crate::error::Error;
 use crate::scene::{
-    srgb_to_linear, Alpha, Material, NormalMap, Pbr, PbrMaps, Texture, TextureRef, Wrap, TEXCOORD_SETS,
+    srgb_to_linear, Alpha, MapRanges, Material, NormalMap, Pbr, PbrMaps, Primitive, Texture, TextureRef,
+    Wrap, TEXCOORD_SETS,
 };
 
 /// The scene's materials and textures, and how glTF materials map onto them.
@@ -325,35 +326,30 @@ pub fn build(
             metallic_roughness: add(&slots.metallic_roughness)?,
             emissive: add(&slots.emissive)?,
             transmission_texture: add(&slots.transmission)?,
+            ranges: MapRanges::ONES,
         };
         let normal_map = add(&slots.normal)?.map(|texture| NormalMap {
             texture,
             scale: m.normal_texture().map_or(1.0, |n| n.scale() as f64),
         });
-        // The scalar terms: the factors' where no map varies them; else the mirror weight,
-        // transmittance and emission are bounds over the maps (each map's extreme in the
-        // direction that makes more rays: the mirror of the most metallic and least rough
-        // texel, the transmittance of the most transmitting and least metallic one).
+        // The scalar terms: the factors' where no map varies them; else bounds over the maps
+        // ([`PbrMaps::bounds`]), from the extremes of their texels.
+        let mut maps = maps;
         let image = |r: Option<TextureRef>| r.map(|r| &textures.out[r.texture as usize]);
-        let (mut metal, mut glass) = (factors, factors);
         if let Some(t) = image(maps.metallic_roughness) {
             let (m, rough) = (channel_range(t, 2), channel_range(t, 1));
-            (metal.metallic, glass.metallic) = (factors.metallic * m.1, factors.metallic * m.0);
-            metal.roughness = factors.roughness * rough.0;
-            glass.roughness = metal.roughness;
+            (maps.ranges.metallic, maps.ranges.roughness_min) = ([m.0, m.1], rough.0);
         }
         if let Some(t) = image(maps.transmission_texture) {
-            glass.transmission = factors.transmission * channel_range(t, 0).1;
+            maps.ranges.transmission_max = channel_range(t, 0).1;
         }
-        metal.transmission = 0.0;
-        let mut sh = glass.whitted();
-        sh.mirror = sh.mirror.max(metal.whitted().mirror);
         if let Some(t) = image(maps.emissive) {
-            sh.emission = (factors.emission * max_srgb(t)).max(DVec3::ZERO);
+            maps.ranges.emission_max = max_srgb(t);
         }
         let has_maps = maps.metallic_roughness.is_some()
             || maps.emissive.is_some()
             || maps.transmission_texture.is_some();
+        let sh = if has_maps { maps.bounds(factors.base, factors.ior) } else { factors.whitted() };
         let alpha = match m.alpha_mode() {
             AlphaMode::Opaque => Alpha::Opaque,
             AlphaMode::Mask => Alpha::Mask { cutoff: m.alpha_cutoff().unwrap_or(0.5) as f64 },
@@ -393,6 +389,25 @@ pub fn build(
         table.materials.push(Material { name: Some("default".into()), ..Material::default() });
     }
     Ok(table)
+}
+
+/// Widens the map bounds of every material some of whose triangles lack a UV set its maps
+/// read: there the maps count as 1 ([`PbrMaps`]), which the bounds must cover too.
+pub fn widen_bounds_for_missing_uvs(materials: &mut [Material], primitives: &[Primitive]) {
+    let mut lacking = vec![false; materials.len()];
+    for p in primitives {
+        let Primitive::Triangle(t) = p else { continue };
+        let Some(maps) = materials[t.material as usize].maps.as_deref() else { continue };
+        let has = [t.uv.is_some(), t.uv1.is_some()];
+        let refs = [maps.metallic_roughness, maps.emissive, maps.transmission_texture];
+        lacking[t.material as usize] |= refs.iter().flatten().any(|r| !has[r.texcoord as usize]);
+    }
+    for (m, lacks) in materials.iter_mut().zip(lacking) {
+        let Some(maps) = m.maps.as_deref_mut().filter(|_| lacks) else { continue };
+        maps.ranges = maps.ranges.with_fallback();
+        let sh = maps.bounds(m.color, m.ior);
+        (m.mirror, m.transmittance, m.emission) = (sh.mirror, sh.transmittance, sh.emission);
+    }
 }
 
 /// The texture slots of one material.
