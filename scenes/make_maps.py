@@ -7,11 +7,12 @@
 - scenes/metal_half.gltf: a floor whose metallic-roughness texture is smooth metal on its
   left half (x < 0) and rough dielectric on its right, below a light and in front of a
   green-glowing card: the card is mirrored on the metal half only.
-- scenes/normal_tilt.gltf: a white, rough quad whose one-texel normal map tilts every
-  normal towards +x and up the image (+y), lit by a directional light from (1, 1, 1) and
-  seen straight on: each pixel is the light times the base colour times n'·L for the
-  tilted normal n'. Its left half carries a TANGENT attribute, its right half none
-  (tangents from MikkTSpace), and both must agree on which way +y is.
+- scenes/normal_tilt.gltf: a grey, half-rough dielectric quad whose one-texel normal map
+  tilts every normal towards +x and up the image (+y), close to the half-way vector of a
+  directional light from (1, 1, 1) and a viewer on +z: each pixel is the closed form's
+  diffuse and Phong highlight for the tilted normal n' (a flat normal would show no
+  highlight). Its left half carries a TANGENT attribute, its right half none (tangents from
+  MikkTSpace), and both must agree on which way +y is.
 
 Run from the repository root:
     python3 scenes/make_maps.py
@@ -149,9 +150,9 @@ d.write("scenes/normal_tilt.gltf", {
               {"name": "camera", "camera": 0, "translation": [0, 0, 3]},
               sun_node([-0.3250575836718681, 0.3250575836718681, 0.0, 0.8880738339771153])],
     "cameras": [ORTHO],
-    "images": [{"uri": png(1, 1, [[(160, 200, 230, 255)]])}], "samplers": [NEAREST],
+    "images": [{"uri": png(1, 1, [[(169, 169, 241, 255)]])}], "samplers": [NEAREST],
     "textures": [{"source": 0, "sampler": 0}],
     "materials": [{"name": "tilted", "normalTexture": {"index": 0},
                    "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0.0,
-                                            "roughnessFactor": 1.0}}],
+                                            "roughnessFactor": 0.4}}],
 })

@@ -452,11 +452,12 @@ fn half_metal_texture_reflects_only_on_the_metal_half() {
     assert!(g.stats.rays.reflect > 0);
 }
 
-/// A one-texel normal map tilts every normal of a quad towards +x and +y
-/// (`scenes/normal_tilt.gltf`): each pixel is the light times the base colour times n'·L for
-/// the tilted normal n' of the closed form, on the half with a TANGENT attribute and on the
-/// half whose tangents come from MikkTSpace alike (so both agree on glTF's +Y: up the image,
-/// where v grows down), on both backends, which agree (FLIP ≤ 0.01).
+/// A one-texel normal map tilts every normal of a quad towards +x and +y, near the half-way
+/// vector of the light and the viewer (`scenes/normal_tilt.gltf`): each pixel is the closed
+/// form's diffuse kd·C·(n'·L) plus Phong highlight ks·(R'·V)^shine for the tilted normal n'
+/// (a flat normal's highlight is 0.577^76: none), on the half with a TANGENT attribute and on
+/// the half whose tangents come from MikkTSpace alike (so both agree on glTF's +Y: up the
+/// image, where v grows down), on both backends, which agree (FLIP ≤ 0.01).
 #[test]
 fn normal_map_tilts_shading_as_the_closed_form_says() {
     let scene = own_scene("normal_tilt.gltf");
@@ -464,13 +465,18 @@ fn normal_map_tilts_shading_as_the_closed_form_says() {
     let opts = RenderOptions::new(48, 48);
     let (g, c) = agree("normal_tilt", &scene, &opts, 0.01);
     assert!(g.stats.effects.contains(&"normal_maps"), "{:?}", g.stats.effects);
-    // Texel (160, 200, 230) in tangent space: T = +x (u grows right), B = +y (up the image),
+    // Texel (169, 169, 241) in tangent space: T = +x (u grows right), B = +y (up the image),
     // N = +z.
     let t = |c: f64| 2.0 * c / 255.0 - 1.0;
-    let n = DVec3::new(t(160.0), t(200.0), t(230.0)).normalize();
+    let m = &scene.materials[0];
     let l = -scene.lights[0].direction;
-    let want = 0.5 * n.dot(l);
-    let flat = 0.5 * DVec3::Z.dot(l);
+    let shade = |n: DVec3| {
+        let r = n * (2.0 * n.dot(l)) - l;
+        0.5 * m.kd * n.dot(l) + m.ks * r.dot(DVec3::Z).max(0.0).powf(m.shine)
+    };
+    let want = shade(DVec3::new(t(169.0), t(169.0), t(241.0)).normalize());
+    let flat = shade(DVec3::Z);
+    assert!(m.ks > 0.01 && (m.shine - 76.125).abs() < 1e-3, "{m:?}");
     for (backend, img) in [("GPU", &g.image), ("CPU", &c.image)] {
         for y in 0..opts.height {
             for x in 0..opts.width {
@@ -483,6 +489,7 @@ fn normal_map_tilts_shading_as_the_closed_form_says() {
         }
     }
     eprintln!("normal_tilt: every pixel {want:.5} (an untilted normal gives {flat:.5})");
+    assert!(want - flat > 0.1);
 }
 
 cases!(gltf_models_agree_with_the_cpu: super::gltf_model_agrees_with_the_cpu {
