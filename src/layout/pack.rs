@@ -12,7 +12,8 @@ use crate::arith::spawn::SpawnPolicy;
 use crate::job::RenderOptions;
 use crate::sampling::{self, Sampling};
 use crate::scene::{
-    Alpha, LightKind, Material as SceneMaterial, Primitive, Projection, Scene, TextureRef, Triangle, Wrap,
+    Alpha, LightKind, Material as SceneMaterial, Primitive, Projection, Scene, Texture, TextureRef, Triangle,
+    Wrap,
 };
 
 fn v3(v: DVec3) -> [f32; 3] {
@@ -147,29 +148,7 @@ pub fn pack(scene: &Scene, width: u32, height: u32, spawn: SpawnPolicy) -> Packe
             }
         })
         .collect();
-    let mut texels = Vec::new();
-    let texture_infos = scene
-        .textures
-        .iter()
-        .map(|t| {
-            let wrap = |w: Wrap| match w {
-                Wrap::Repeat => WRAP_REPEAT,
-                Wrap::MirroredRepeat => WRAP_MIRRORED_REPEAT,
-                Wrap::ClampToEdge => WRAP_CLAMP_TO_EDGE,
-            };
-            let info = TextureInfo {
-                offset: texels.len() as u32,
-                width: t.width,
-                height: t.height,
-                flags: wrap(t.wrap_s)
-                    | wrap(t.wrap_t) << 2
-                    | if t.linear { TEX_BILINEAR } else { 0 }
-                    | if t.srgb { TEX_SRGB } else { 0 },
-            };
-            texels.extend(t.texels.iter().map(|c| u32::from_le_bytes(*c)));
-            info
-        })
-        .collect();
+    let (texture_infos, texels) = pack_textures(&scene.textures);
 
     let cam = &scene.camera;
     // screen_offsets is affine in (x, y): its scale is the difference of unit steps.
@@ -203,6 +182,35 @@ pub fn pack(scene: &Scene, width: u32, height: u32, spawn: SpawnPolicy) -> Packe
         params,
         bvh: None,
     }
+}
+
+/// The textures as the kernels read them: one [`TextureInfo`] each, and all their texels in
+/// one array (RGBA8 in a `u32`). The preview packs a moved camera without them (they do not
+/// depend on the eye) and calls this only when it must upload anew.
+pub fn pack_textures(textures: &[Texture]) -> (Vec<TextureInfo>, Vec<u32>) {
+    let mut texels = Vec::new();
+    let infos = textures
+        .iter()
+        .map(|t| {
+            let wrap = |w: Wrap| match w {
+                Wrap::Repeat => WRAP_REPEAT,
+                Wrap::MirroredRepeat => WRAP_MIRRORED_REPEAT,
+                Wrap::ClampToEdge => WRAP_CLAMP_TO_EDGE,
+            };
+            let info = TextureInfo {
+                offset: texels.len() as u32,
+                width: t.width,
+                height: t.height,
+                flags: wrap(t.wrap_s)
+                    | wrap(t.wrap_t) << 2
+                    | if t.linear { TEX_BILINEAR } else { 0 }
+                    | if t.srgb { TEX_SRGB } else { 0 },
+            };
+            texels.extend(t.texels.iter().map(|c| u32::from_le_bytes(*c)));
+            info
+        })
+        .collect();
+    (infos, texels)
 }
 
 /// The attribute entries of triangle `t` (one to three; `shaders/shared/layout.wgsl`, `TriAttr`).

@@ -33,7 +33,7 @@ use crate::gpu::{self, GpuRenderer, SceneBuffers};
 use crate::job::{grid_image, Precision, RenderOptions};
 use crate::layout::budget::{retry_passes, tile_points, MAX_DEPTH, TESTS_PER_DISPATCH};
 use crate::layout::bvh::BVH_ORDERS;
-use crate::layout::{job_params, pack, Packed, Params};
+use crate::layout::{job_params, pack, pack_textures, Packed, Params};
 use crate::output::Image;
 use crate::sampling::Sampling;
 use crate::scene::{Camera, Effects, Scene, Transfer};
@@ -475,13 +475,22 @@ impl Session {
         self.points_traced
     }
 
+    /// The scene packed for the current camera without its textures, which do not depend on
+    /// the eye (copying DamagedHelmet's four 2048² maps took 30 ms a frame): what a camera
+    /// move writes in place; `install` adds the textures only if it must upload anew.
+    fn pack_moved(&mut self) -> Packed {
+        let textures = std::mem::take(&mut self.scene.textures);
+        let packed = pack_scene(&self.scene, &self.opts, self.opts.width, self.opts.height);
+        self.scene.textures = textures;
+        packed
+    }
+
     fn update_eye(&mut self) -> Result<()> {
-        let (w, h) = (self.opts.width, self.opts.height);
         if self.wants_tables || self.queries == Queries::Bvh {
             // The BVH over the re-centred scene (in milliseconds) traces at once; with the
             // tables, the eye's table follows from a worker thread once the camera rests.
             let t0 = Instant::now();
-            let mut packed = pack_scene(&self.scene, &self.opts, w, h);
+            let mut packed = self.pack_moved();
             make_room_for_moves(&mut packed, &self.scene);
             let t1 = Instant::now();
             self.install(Queries::Bvh, packed, None)?;
@@ -492,10 +501,8 @@ impl Session {
             );
             return Ok(());
         }
-        // Brute force: only the geometry moves (textures do not depend on the eye).
-        let textures = std::mem::take(&mut self.scene.textures);
-        let packed = pack_scene(&self.scene, &self.opts, w, h);
-        self.scene.textures = textures;
+        // Brute force: only the geometry moves.
+        let packed = self.pack_moved();
         let queue = &self.gpu.ctx.queue;
         if !packed.prims.is_empty() {
             queue.write_buffer(&self.buffers.prims, 0, packed.prim_bytes());
@@ -563,8 +570,7 @@ impl Session {
         }
         if self.eye_ready.is_some() && self.schedule.at_pass_start() {
             let mut tables = self.eye_ready.take().expect("checked");
-            let (w, h) = (self.opts.width, self.opts.height);
-            let mut packed = pack_scene(&self.scene, &self.opts, w, h);
+            let mut packed = self.pack_moved();
             gpu::point_at(&mut packed.params, &tables.flat);
             gpu::add_surface_bvh(&mut packed, &self.scene, &eye_build_params(&self.scene, &self.opts));
             make_room_for_moves(&mut packed, &self.scene);
@@ -619,6 +625,9 @@ impl Session {
             log::debug!("new buffers for the {} kernels", queries.name());
             if let Some(t) = tables.as_mut() {
                 make_room_for_eye_tables(&mut t.flat, &ctx.device.limits());
+            }
+            if packed.texture_infos.is_empty() && !self.scene.textures.is_empty() {
+                (packed.texture_infos, packed.texels) = pack_textures(&self.scene.textures);
             }
             self.buffers = self.upload(&mut packed, tables.as_ref().map(|t| &t.flat))?;
             self.rebind();
