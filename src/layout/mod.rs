@@ -10,5 +10,5 @@ pub mod counters;
 pub mod pack;
 pub mod structs;
 
-pub use pack::{job_params, pack, pack_textures, Packed};
+pub use pack::{job_params, pack, pack_moved, Packed};
 pub use structs::*;

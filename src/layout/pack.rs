@@ -36,6 +36,9 @@ pub struct Packed {
     pub texture_infos: Vec<TextureInfo>,
     /// RGBA8 texels, R in the low byte.
     pub texels: Vec<u32>,
+    /// Whether the parts that do not depend on the eye (materials, triangle attributes,
+    /// textures) are packed: [`pack`] packs them, [`pack_moved`] leaves them out.
+    pub fixed: bool,
     /// The camera part of [`Params`], with background, ambient and counts.
     pub params: Params,
     /// `--accel bvh`, or `cube` when rays leave surfaces: the BVH over these primitives
@@ -44,6 +47,31 @@ pub struct Packed {
 }
 
 impl Packed {
+    /// Packs the parts of `scene` that do not depend on the eye, where [`pack_moved`] left
+    /// them out.
+    pub fn add_fixed(&mut self, scene: &Scene) {
+        if self.fixed {
+            return;
+        }
+        let mut tri_attrs = Vec::new();
+        for (p, packed) in scene.primitives.iter().zip(&self.prims) {
+            if let Primitive::Triangle(t) = p {
+                if attr_entries(t) > 0 {
+                    debug_assert_eq!(
+                        packed.attr as usize,
+                        tri_attrs.len(),
+                        "attribute entries counted apart"
+                    );
+                    tri_attr(t, &mut tri_attrs);
+                }
+            }
+        }
+        self.tri_attrs = tri_attrs;
+        self.materials = scene.materials.iter().map(gpu_material).collect();
+        (self.texture_infos, self.texels) = pack_textures(&scene.textures);
+        self.fixed = true;
+    }
+
     /// Adds the BVH of `scene` (packed into `self`) and points the params at it; its shadow
     /// walks get an inline budget of loop iterations ([`super::budget::bvh_shadow_inline`]).
     pub fn with_bvh(mut self, scene: &Scene) -> Packed {
@@ -97,22 +125,44 @@ impl Packed {
 /// Packs `scene` for a `width`×`height` image whose rays spawn under `spawn`, subtracting the
 /// eye position (in f64) from every position.
 pub fn pack(scene: &Scene, width: u32, height: u32, spawn: SpawnPolicy) -> Packed {
+    let mut packed = pack_moved(scene, width, height, spawn);
+    packed.add_fixed(scene);
+    packed
+}
+
+/// The entries of [`TriAttr`] triangle `t` takes: none without attributes, else normals and
+/// set 0; then tangents and set 1 where it has either or colours; then colours (the layout
+/// `shaders/shared/layout.wgsl` documents, which [`tri_attr`] writes).
+fn attr_entries(t: &Triangle) -> u32 {
+    let more = has_more(t);
+    let any = more || t.n.is_some() || t.uv.is_some();
+    any as u32 + more as u32 + t.color.is_some() as u32
+}
+
+/// Whether triangle `t` takes a second attribute entry (tangents, set 1; or a third).
+fn has_more(t: &Triangle) -> bool {
+    t.uv1.is_some() || t.tangent.is_some() || t.color.is_some()
+}
+
+/// What of `scene` depends on the eye, packed as [`pack`] packs it: the primitives
+/// re-centred on the eye (pointing at their attributes' entries), the lights and the
+/// params. Materials, triangle attributes and textures are left out, and
+/// [`Packed::fixed`] is false: a camera move of the preview writes only these into its
+/// buffers (packing DamagedHelmet's four 2048² maps again took 30 ms a frame), and
+/// [`Packed::add_fixed`] adds the rest where it must upload anew.
+pub fn pack_moved(scene: &Scene, width: u32, height: u32, spawn: SpawnPolicy) -> Packed {
     let eye = scene.camera.eye;
-    let mut tri_attrs = Vec::new();
+    let mut entries = 0;
     let prims = scene
         .primitives
         .iter()
         .map(|p| {
             let mut attr = 0;
             if let Primitive::Triangle(t) = p {
-                if t.n.is_some()
-                    || t.uv.is_some()
-                    || t.uv1.is_some()
-                    || t.color.is_some()
-                    || t.tangent.is_some()
-                {
-                    attr = tri_attrs.len() as u32;
-                    tri_attrs.extend(tri_attr(t));
+                let n = attr_entries(t);
+                if n > 0 {
+                    attr = entries;
+                    entries += n;
                 }
             }
             let m = &scene.materials[p.material() as usize];
@@ -121,7 +171,6 @@ pub fn pack(scene: &Scene, width: u32, height: u32, spawn: SpawnPolicy) -> Packe
             Prim::from(&wide_prim(p, eye, attr, cutout))
         })
         .collect();
-    let materials = scene.materials.iter().map(gpu_material).collect();
     let lights = scene
         .lights
         .iter()
@@ -148,8 +197,6 @@ pub fn pack(scene: &Scene, width: u32, height: u32, spawn: SpawnPolicy) -> Packe
             }
         })
         .collect();
-    let (texture_infos, texels) = pack_textures(&scene.textures);
-
     let cam = &scene.camera;
     // screen_offsets is affine in (x, y): its scale is the difference of unit steps.
     let (x0, _) = cam.screen_offsets(0.0, 0.0, width, height);
@@ -174,20 +221,20 @@ pub fn pack(scene: &Scene, width: u32, height: u32, spawn: SpawnPolicy) -> Packe
     Packed {
         prims,
         prims64: Vec::new(),
-        tri_attrs,
-        materials,
+        tri_attrs: Vec::new(),
+        materials: Vec::new(),
         lights,
-        texture_infos,
-        texels,
+        texture_infos: Vec::new(),
+        texels: Vec::new(),
+        fixed: false,
         params,
         bvh: None,
     }
 }
 
 /// The textures as the kernels read them: one [`TextureInfo`] each, and all their texels in
-/// one array (RGBA8 in a `u32`). The preview packs a moved camera without them (they do not
-/// depend on the eye) and calls this only when it must upload anew.
-pub fn pack_textures(textures: &[Texture]) -> (Vec<TextureInfo>, Vec<u32>) {
+/// one array (RGBA8 in a `u32`).
+fn pack_textures(textures: &[Texture]) -> (Vec<TextureInfo>, Vec<u32>) {
     let mut texels = Vec::new();
     let infos = textures
         .iter()
@@ -213,8 +260,8 @@ pub fn pack_textures(textures: &[Texture]) -> (Vec<TextureInfo>, Vec<u32>) {
     (infos, texels)
 }
 
-/// The attribute entries of triangle `t` (one to three; `shaders/shared/layout.wgsl`, `TriAttr`).
-fn tri_attr(t: &Triangle) -> Vec<TriAttr> {
+/// Appends the attribute entries of triangle `t` ([`attr_entries`] of them) to `out`.
+fn tri_attr(t: &Triangle, out: &mut Vec<TriAttr>) {
     let mut a = TriAttr::default();
     let v2 = |p: DVec2, q: DVec2| [p.x as f32, p.y as f32, q.x as f32, q.y as f32];
     if let Some(n) = t.n {
@@ -233,15 +280,14 @@ fn tri_attr(t: &Triangle) -> Vec<TriAttr> {
         let w = |v: DVec4| [v.x as f32, v.y as f32, v.z as f32, v.w as f32];
         (more.n0, more.n1, more.n2) = (w(tg[0]), w(tg[1]), w(tg[2]));
     }
-    let mut out = vec![a];
-    if t.uv1.is_some() || t.tangent.is_some() || t.color.is_some() {
+    out.push(a);
+    if has_more(t) {
         out.push(more);
     }
     if let Some(c) = &t.color {
         let (c0, c1, c2) = (v4(c[0], 1.0), v4(c[1], 1.0), v4(c[2], 1.0));
         out.push(TriAttr { n0: c0, n1: c1, n2: c2, ..TriAttr::default() });
     }
-    out
 }
 
 /// A texture reference as the kernels read it (none: all zero).

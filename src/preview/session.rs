@@ -33,7 +33,7 @@ use crate::gpu::{self, GpuRenderer, SceneBuffers};
 use crate::job::{grid_image, Precision, RenderOptions};
 use crate::layout::budget::{retry_passes, tile_points, MAX_DEPTH, TESTS_PER_DISPATCH};
 use crate::layout::bvh::BVH_ORDERS;
-use crate::layout::{job_params, pack, pack_textures, Packed, Params};
+use crate::layout::{job_params, pack, pack_moved, Packed, Params};
 use crate::output::Image;
 use crate::sampling::Sampling;
 use crate::scene::{Camera, Effects, Scene, Transfer};
@@ -270,9 +270,10 @@ fn make_room_for_eye_tables(flat: &mut FlatTables, limits: &wgpu::Limits) {
     flat.entries.resize((len + len / 4 + 64).min(most).max(len), Default::default());
 }
 
-/// `scene` packed for a `w`×`h` image under `opts` (in f64 for `--precision f64`).
-fn pack_scene(scene: &Scene, opts: &RenderOptions, w: u32, h: u32) -> Packed {
-    let mut packed = pack(scene, w, h, opts.spawn);
+/// `scene` packed for a `w`×`h` image under `opts` (in f64 for `--precision f64`): all of it
+/// (`fixed`), or for a camera move only what depends on the eye ([`pack_moved`]).
+fn pack_scene(scene: &Scene, opts: &RenderOptions, w: u32, h: u32, fixed: bool) -> Packed {
+    let mut packed = if fixed { pack(scene, w, h, opts.spawn) } else { pack_moved(scene, w, h, opts.spawn) };
     if opts.precision == Precision::F64 {
         packed.use_f64(scene, opts.spawn);
     }
@@ -296,7 +297,7 @@ impl Session {
                 gpu.ctx.info.name
             )));
         }
-        let mut packed = pack_scene(&scene, &opts, opts.width, opts.height);
+        let mut packed = pack_scene(&scene, &opts, opts.width, opts.height, true);
         // Tables for every effect the scene has at any depth, so that toggling one back on
         // or deepening the trees needs none.
         let all = GpuRenderer::variant(scene.effects(), MAX_DEPTH, opts.accel);
@@ -475,14 +476,10 @@ impl Session {
         self.points_traced
     }
 
-    /// The scene packed for the current camera without its textures, which do not depend on
-    /// the eye (copying DamagedHelmet's four 2048² maps took 30 ms a frame): what a camera
-    /// move writes in place; `install` adds the textures only if it must upload anew.
-    fn pack_moved(&mut self) -> Packed {
-        let textures = std::mem::take(&mut self.scene.textures);
-        let packed = pack_scene(&self.scene, &self.opts, self.opts.width, self.opts.height);
-        self.scene.textures = textures;
-        packed
+    /// What of the scene depends on the current camera, packed: what a camera move writes in
+    /// place; `install` adds the rest only if it must upload anew.
+    fn pack_moved(&self) -> Packed {
+        pack_scene(&self.scene, &self.opts, self.opts.width, self.opts.height, false)
     }
 
     fn update_eye(&mut self) -> Result<()> {
@@ -626,9 +623,7 @@ impl Session {
             if let Some(t) = tables.as_mut() {
                 make_room_for_eye_tables(&mut t.flat, &ctx.device.limits());
             }
-            if packed.texture_infos.is_empty() && !self.scene.textures.is_empty() {
-                (packed.texture_infos, packed.texels) = pack_textures(&self.scene.textures);
-            }
+            packed.add_fixed(&self.scene);
             self.buffers = self.upload(&mut packed, tables.as_ref().map(|t| &t.flat))?;
             self.rebind();
         }

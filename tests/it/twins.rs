@@ -447,3 +447,51 @@ fn workgroup_sizes_are_the_shared_constants() {
         }
     }
 }
+
+/// A camera move packs only what depends on the eye (`pack_moved`): the same primitives as
+/// `pack`, pointing at the same attribute entries, which `Packed::add_fixed` then writes
+/// as `pack` does; the entries are where the WGSL reads them (a colour-only triangle's
+/// colours in its third entry, a normal-mapped one's tangents in its second).
+#[test]
+fn a_move_packs_what_depends_on_the_eye_and_points_at_the_same_entries() {
+    use cuberay::arith::spawn::SpawnPolicy;
+    use cuberay::layout::{pack, pack_moved};
+    use cuberay::scene::Primitive;
+    let own = |f: &str| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(f);
+    let helmet = crate::common::shared("gltf/DamagedHelmet/DamagedHelmet.gltf");
+    for path in [own("vertex_colors.gltf"), own("normal_tilt.gltf"), own("alpha_mask.gltf"), helmet] {
+        let scene = cuberay::load::load(&path, &Default::default()).unwrap().scene;
+        let spawn = SpawnPolicy::default();
+        let full = pack(&scene, 32, 32, spawn);
+        let mut moved = pack_moved(&scene, 32, 32, spawn);
+        assert!(full.fixed && !moved.fixed);
+        assert!(moved.tri_attrs.is_empty() && moved.materials.is_empty() && moved.texels.is_empty());
+        let bits = |p: &[cuberay::layout::Prim]| bytemuck::cast_slice::<_, u8>(p).to_vec();
+        assert_eq!(bits(&moved.prims), bits(&full.prims), "{}", path.display());
+        moved.add_fixed(&scene);
+        assert_eq!(
+            bytemuck::cast_slice::<_, u8>(&moved.tri_attrs),
+            bytemuck::cast_slice::<_, u8>(&full.tri_attrs)
+        );
+        assert_eq!(moved.texels, full.texels);
+        assert_eq!(moved.materials.len(), scene.materials.len());
+        for (p, packed) in scene.primitives.iter().zip(&full.prims) {
+            let Primitive::Triangle(t) = p else { continue };
+            let at = |k: u32| full.tri_attrs[(packed.attr + k) as usize];
+            if let Some(c) = &t.color {
+                assert_eq!(
+                    at(2).n0[..3],
+                    [c[0].x as f32, c[0].y as f32, c[0].z as f32],
+                    "{}",
+                    path.display()
+                );
+            }
+            if let Some(tg) = t.tangent.as_deref() {
+                assert_eq!(at(1).n1, [tg[1].x, tg[1].y, tg[1].z, tg[1].w].map(|v| v as f32));
+            }
+            if let Some(uv) = t.uv {
+                assert_eq!(at(0).uv2_1[..2], [uv[2].x as f32, uv[2].y as f32]);
+            }
+        }
+    }
+}
