@@ -386,23 +386,7 @@ impl Variant {
 
     /// Every effect with `queries`.
     pub fn full(queries: Queries) -> Variant {
-        Variant {
-            shadows: true,
-            reflection: true,
-            refraction: true,
-            textures: true,
-            emission: true,
-            vertex_colors: true,
-            maps: true,
-            normal_maps: true,
-            alpha: true,
-            blend: true,
-            queries,
-            f64: false,
-            shapes: Shapes::ALL,
-            surface_rays: true,
-            counters: true,
-        }
+        Variant { queries, ..Variant::for_effects(Effects::ALL, crate::layout::MAX_DEPTH) }
     }
 
     fn flag(&self, name: &str) -> Option<bool> {
