@@ -17,41 +17,21 @@
 Run from the repository root:
     python3 scenes/make_maps.py
 """
-import base64
 import json
-import struct
-import zlib
 
-
-def png(width, height, rows):
-    """An RGBA8 PNG of `rows` (lists of (r, g, b, a)), as a data URI."""
-    raw = b"".join(b"\0" + bytes(c for px in row for c in px) for row in rows)
-
-    def chunk(kind, data):
-        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
-
-    data = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 6, 0, 0, 0))
-            + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
-    return "data:image/png;base64," + base64.b64encode(data).decode()
+from gltfkit import Blob, png
 
 
 class Doc:
+    """A glTF document of quads: its buffer (gltfkit.Blob) and meshes."""
+
     def __init__(self, generator):
-        self.blob = bytearray()
-        self.views, self.accessors, self.meshes = [], [], []
+        self.blob = Blob()
+        self.meshes = []
         self.generator = generator
 
-    def add(self, data, fmt, count, kind, comp=5126, minmax=None):
-        while len(self.blob) % 4:
-            self.blob.append(0)
-        offset = len(self.blob)
-        self.blob.extend(struct.pack("<" + fmt * len(data), *data))
-        self.views.append({"buffer": 0, "byteOffset": offset, "byteLength": len(self.blob) - offset})
-        acc = {"bufferView": len(self.views) - 1, "componentType": comp, "count": count, "type": kind}
-        if minmax:
-            acc["min"], acc["max"] = minmax
-        self.accessors.append(acc)
-        return len(self.accessors) - 1
+    def add(self, *args, **kw):
+        return self.blob.add(*args, **kw)
 
     def quad(self, corners, normal, uvs, material, tangent=None):
         """A mesh of one quad (corners counter-clockwise seen from `normal`); its index."""
@@ -70,9 +50,7 @@ class Doc:
 
     def write(self, path, rest):
         doc = {"asset": {"version": "2.0", "generator": self.generator}, "scene": 0, **rest,
-               "meshes": self.meshes, "accessors": self.accessors, "bufferViews": self.views,
-               "buffers": [{"byteLength": len(self.blob), "uri": "data:application/octet-stream;base64,"
-                            + base64.b64encode(bytes(self.blob)).decode()}]}
+                "meshes": self.meshes, **self.blob.json()}
         with open(path, "w") as f:
             json.dump(doc, f, indent=1)
             f.write("\n")

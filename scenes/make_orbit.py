@@ -7,30 +7,13 @@ camera sits on a rig node that turns once about +Y in 4 s (LINEAR rotation keyfr
 and the red box turns in steps (STEP rotation). Run from the repository root:
     python3 scenes/make_orbit.py
 """
-import base64
 import json
 import math
-import struct
 
-blob = bytearray()
-views, accessors = [], []
+from gltfkit import Blob
 
-
-def add(data, fmt, count, kind, comp=5126, target=None, minmax=None):
-    """Appends packed `data` as a buffer view and an accessor; returns the accessor index."""
-    while len(blob) % 4:
-        blob.append(0)
-    offset = len(blob)
-    blob.extend(struct.pack("<" + fmt * (len(data)), *data))
-    view = {"buffer": 0, "byteOffset": offset, "byteLength": len(blob) - offset}
-    if target:
-        view["target"] = target
-    views.append(view)
-    acc = {"bufferView": len(views) - 1, "componentType": comp, "count": count, "type": kind}
-    if minmax:
-        acc["min"], acc["max"] = minmax
-    accessors.append(acc)
-    return len(accessors) - 1
+blob = Blob()
+add = blob.add
 
 
 def box_mesh(material):
@@ -127,9 +110,7 @@ gltf = {
             {"sampler": 2, "target": {"node": 1, "path": "rotation"}},
         ],
     }],
-    "accessors": accessors,
-    "bufferViews": views,
-    "buffers": [{"byteLength": len(blob), "uri": "data:application/octet-stream;base64," + base64.b64encode(bytes(blob)).decode()}],
+    **blob.json(),
 }
 with open("scenes/orbit.gltf", "w") as f:
     json.dump(gltf, f, indent=1)

@@ -9,28 +9,12 @@ and its pixels' colours are the interpolated vertex colours times one number.
 Run from the repository root:
     python3 scenes/make_vertex_colors.py
 """
-import base64
 import json
-import struct
 
-blob = bytearray()
-views, accessors = [], []
+from gltfkit import Blob
 
-
-def add(data, fmt, count, kind, comp=5126, normalized=False, minmax=None):
-    """Appends packed `data` as a buffer view and an accessor; returns the accessor index."""
-    while len(blob) % 4:
-        blob.append(0)
-    offset = len(blob)
-    blob.extend(struct.pack("<" + fmt * len(data), *data))
-    views.append({"buffer": 0, "byteOffset": offset, "byteLength": len(blob) - offset})
-    acc = {"bufferView": len(views) - 1, "componentType": comp, "count": count, "type": kind}
-    if normalized:
-        acc["normalized"] = True
-    if minmax:
-        acc["min"], acc["max"] = minmax
-    accessors.append(acc)
-    return len(accessors) - 1
+blob = Blob()
+add = blob.add
 
 
 corners = [(-1, -1), (1, -1), (1, 1), (-1, 1)]
@@ -59,10 +43,7 @@ doc = {
         "indices": indices, "material": 0}]}],
     "materials": [{"name": "white", "pbrMetallicRoughness": {
         "baseColorFactor": [1, 1, 1, 1], "metallicFactor": 0.0, "roughnessFactor": 1.0}}],
-    "accessors": accessors,
-    "bufferViews": views,
-    "buffers": [{"byteLength": len(blob),
-                 "uri": "data:application/octet-stream;base64," + base64.b64encode(bytes(blob)).decode()}],
+    **blob.json(),
 }
 with open("scenes/vertex_colors.gltf", "w") as f:
     json.dump(doc, f, indent=1)
