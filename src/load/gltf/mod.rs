@@ -207,9 +207,8 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, Error> {
         Some(t) => animation::pose_at(&reader, &doc, t, &mut warnings)?,
     };
     let hierarchy = geometry::walk(&ctx, &doc, &pose)?;
-    let table = materials::build(&ctx, &doc, &buffers, &used_materials(&doc, &hierarchy), &mut warnings)?;
+    let mut table = materials::build(&ctx, &doc, &buffers, &used_materials(&doc, &hierarchy), &mut warnings)?;
     let primitives = geometry::triangles(&reader, &doc, &hierarchy, &table, &mut warnings)?;
-    let mut table = table;
     materials::widen_bounds_for_missing_uvs(&mut table.materials, &primitives);
     if primitives.is_empty() {
         return Err(ctx.invalid(format!(
