@@ -1,8 +1,10 @@
 //! What `cuberay info` reports about a scene: primitive counts, lights, materials, bounds
-//! and the effects the scene calls for, as text or as one JSON object.
+//! the effects the scene calls for and the precision it calls for, as text or as one JSON
+//! object.
 
 use serde::Serialize;
 
+use crate::arith::precision::f32_need;
 use crate::scene::{LightSource, Projection, Scene};
 
 /// The scene summary. Serialised as-is by `cuberay info --json`.
@@ -28,6 +30,29 @@ pub struct SceneInfo {
     pub camera: CameraInfo,
     /// The resolution the file asks for, if any.
     pub resolution: Option<[u32; 2]>,
+    /// The GPU kernels' arithmetic under `--precision auto` at the default image size:
+    /// `f32` or `f64` ([`crate::arith::precision`]).
+    pub precision: &'static str,
+    /// Why: the comparison that decided it.
+    pub precision_auto: PrecisionInfo,
+}
+
+/// The comparison `--precision auto` makes ([`crate::arith::precision::F32Need`]).
+#[derive(Clone, Debug, Serialize)]
+pub struct PrecisionInfo {
+    /// The image height it was decided for (the file's, else the default 512).
+    pub height: u32,
+    /// The ratio of f32's spawn offset to a feature of the comparison that set the margin.
+    pub ratio: f64,
+    /// That comparison's limit, beyond which the render is in f64.
+    pub limit: f64,
+    /// `limit / ratio`: above 1, f32 resolves the scene by that factor (`null`: no
+    /// geometry).
+    pub margin: Option<f64>,
+    /// False when `margin` is a lower bound (no primitive came near the limit).
+    pub exact: bool,
+    /// The same in words.
+    pub reason: String,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -45,6 +70,8 @@ pub struct CameraInfo {
 impl SceneInfo {
     pub fn of(scene: &Scene) -> SceneInfo {
         let counts = scene.counts();
+        let height = scene.resolution.unwrap_or_else(|| scene.camera.default_resolution()).1;
+        let need = f32_need(scene, height);
         let b = scene.bounds();
         let cam = &scene.camera;
         let (projection, fov, half) = match cam.projection {
@@ -71,6 +98,15 @@ impl SceneInfo {
                 half_height: half,
             },
             resolution: scene.resolution.map(|(w, h)| [w, h]),
+            precision: if need.needs_f64() { "f64" } else { "f32" },
+            precision_auto: PrecisionInfo {
+                height,
+                ratio: need.ratio,
+                limit: need.limit,
+                margin: Some(need.margin).filter(|m| m.is_finite()),
+                exact: need.exact,
+                reason: need.reason(),
+            },
         }
     }
 
@@ -107,6 +143,8 @@ impl SceneInfo {
         if let Some([w, h]) = self.resolution {
             s += &format!("resolution: {w}x{h}\n");
         }
+        let p = &self.precision_auto;
+        s += &format!("precision:  {} (auto, {} pixels high: {})\n", self.precision, p.height, p.reason);
         s
     }
 }

@@ -7,6 +7,7 @@
 
 use glam::DVec3;
 
+use crate::arith::precision::{f32_need, F32Need};
 use crate::arith::spawn::SpawnPolicy;
 use crate::error::{Error, Result};
 use crate::output::Image;
@@ -30,12 +31,16 @@ pub enum AccelKind {
 }
 
 /// The arithmetic of the GPU kernels' intersection tests and hit points (`--precision`):
-/// f32, or f64 where the adapter has `SHADER_F64` (a kernel variant; `cuberay accuracy`
-/// measures its cost). The scene,
-/// the rays and the tables stay in f32; the CPU reference always computes in f64.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+/// f32, f64 where the adapter has `SHADER_F64` (a kernel variant; `cuberay accuracy`
+/// measures its cost), or, by default, whichever the scene calls for
+/// ([`crate::arith::precision`]). The CPU reference always computes in f64.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Precision {
+    /// f64 where f32 cannot resolve the scene as the image shows it, else f32
+    /// ([`RenderOptions::resolved`]).
     #[default]
+    Auto,
     F32,
     F64,
 }
@@ -43,6 +48,7 @@ pub enum Precision {
 impl Precision {
     pub fn name(self) -> &'static str {
         match self {
+            Precision::Auto => "auto",
             Precision::F32 => "f32",
             Precision::F64 => "f64",
         }
@@ -67,6 +73,9 @@ pub struct RenderOptions {
     pub spawn: SpawnPolicy,
     /// The GPU kernels' intersection arithmetic ([`Precision`]).
     pub precision: Precision,
+    /// Why [`Precision::Auto`] chose what `precision` now says: set by
+    /// [`RenderOptions::resolved`], `None` where the precision was given.
+    pub auto_precision: Option<F32Need>,
     /// Cells per face edge of the eye's direction cube; `None`: about two pixels a cell.
     /// Changes the tables' time and memory, never the image.
     pub eye_cells: Option<u32>,
@@ -117,7 +126,8 @@ impl RenderOptions {
             max_depth: 5,
             accel: AccelKind::Auto,
             spawn: SpawnPolicy::Scaled,
-            precision: Precision::F32,
+            precision: Precision::Auto,
+            auto_precision: None,
             eye_cells: None,
             transfer: None,
             region: None,
@@ -192,6 +202,24 @@ impl RenderOptions {
         self.transfer.unwrap_or(scene.transfer)
     }
 
+    /// These options with [`Precision::Auto`] replaced by the precision `scene` calls for at
+    /// this image height ([`crate::arith::precision::f32_need`]), and why in
+    /// `auto_precision`; options whose precision is given come back as they are.
+    pub fn resolved(&self, scene: &Scene) -> RenderOptions {
+        if self.precision != Precision::Auto {
+            return self.clone();
+        }
+        let need = f32_need(scene, self.height);
+        let precision = if need.needs_f64() { Precision::F64 } else { Precision::F32 };
+        log::info!("precision {}: {}", precision.name(), need.reason());
+        RenderOptions { precision, auto_precision: Some(need), ..self.clone() }
+    }
+
+    /// The kernels' precision for `scene`: f32 or f64, never [`Precision::Auto`].
+    pub fn precision_for(&self, scene: &Scene) -> Precision {
+        self.resolved(scene).precision
+    }
+
     /// The settings block of the statistics of a render of `scene`.
     pub fn settings(&self, scene: &Scene, backend: &str, accel: &str) -> stats::Settings {
         stats::Settings {
@@ -206,7 +234,10 @@ impl RenderOptions {
             },
             seed: self.seed,
             max_depth: self.max_depth,
-            precision: if backend == "cpu" { "f64".into() } else { self.precision.name().into() },
+            precision: if backend == "cpu" { "f64".into() } else { self.precision_for(scene).name().into() },
+            precision_auto: (backend != "cpu")
+                .then(|| self.auto_precision.as_ref().map(|n| n.reason()))
+                .flatten(),
             transfer: self.transfer_for(scene),
             window: self.region.filter(|w| !w.is_full(self.width, self.height)),
         }

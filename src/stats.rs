@@ -250,6 +250,10 @@ pub struct Settings {
     /// The intersection arithmetic: `f32` or `f64` (the CPU reference: always `f64`).
     #[serde(default)]
     pub precision: String,
+    /// Why `--precision auto` chose `precision` (the offset, the feature and the margin of
+    /// `crate::arith::precision`); absent where the precision was given, and on the CPU.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub precision_auto: Option<String>,
     /// How a PNG encodes the values: `srgb` or `display` (see [`crate::scene::Transfer`]).
     pub transfer: crate::scene::Transfer,
     /// `--tile` or `--crop`: the pixels rendered, `{x0, y0, x1, y1}` (ends exclusive) of the
@@ -368,6 +372,10 @@ impl Stats {
             o += &format!("window:   pixels x {}..{}, y {}..{} of the image\n", w.x0, w.x1, w.y0, w.y1);
         }
         o += &format!("effects:  {effects}\n");
+        match &s.precision_auto {
+            Some(why) => o += &format!("precision: {} (auto: {why})\n", s.precision),
+            None => o += &format!("precision: {}\n", s.precision),
+        }
         if self.texture_bytes > 0 {
             o += &format!(
                 "textures: {:.1} MiB on the device\n",

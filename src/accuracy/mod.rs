@@ -101,6 +101,9 @@ pub struct Settings {
     /// 64×64, at most 8 samples per pixel, one timed run (for tests).
     pub quick: bool,
     pub parameters: Vec<Parameter>,
+    /// The base setting's precision (`--precision`; default auto). The precision row
+    /// renders f32 and f64 whatever it is.
+    pub precision: Precision,
 }
 
 impl Settings {
@@ -117,6 +120,7 @@ impl Settings {
             threshold: 0.01,
             quick,
             parameters,
+            precision: Precision::Auto,
         }
     }
 
@@ -128,6 +132,7 @@ impl Settings {
             sampling: Sampling::Pixels,
             max_depth: self.max_depth,
             accel: AccelKind::Cube,
+            precision: self.precision,
             ..RenderOptions::new(self.width, self.height)
         }
     }
@@ -159,7 +164,8 @@ impl Settings {
                 .map(|max_depth| with(max_depth.to_string(), RenderOptions { max_depth, ..base.clone() }))
                 .collect(),
             Parameter::Precision => {
-                let mut v = vec![with("f32".into(), base.clone())];
+                let mut v =
+                    vec![with("f32".into(), RenderOptions { precision: Precision::F32, ..base.clone() })];
                 if gpu.ctx.f64 {
                     v.push(with("f64".into(), RenderOptions { precision: Precision::F64, ..base.clone() }));
                 }

@@ -9,7 +9,8 @@
 //!   the distance type so that the f64 reference can use it too, and brute force;
 //! - [`spawn`]: the one spawn-offset model: where a ray leaving a surface starts, under a
 //!   [`spawn::SpawnPolicy`], and the largest offset a render can see (what the tables inflate
-//!   their origins by).
+//!   their origins by);
+//! - [`precision`]: whether f32 resolves a scene as its image shows it (`--precision auto`).
 //!
 //! Everything here is written so that the WGSL can follow it line by line: no recursion, no
 //! allocation, no NaN or infinity as a sentinel (a miss is [`FAR`], `0x1.fffffep+127f`), only
@@ -18,6 +19,7 @@
 
 pub mod closest;
 pub mod geometry;
+pub mod precision;
 pub mod spawn;
 
 /// The largest finite f32: the open end of an unbounded ray, and "no hit" (WGSL `FAR`).

@@ -11,7 +11,7 @@ use serde::Serialize;
 
 use cuberay::accuracy::{self, plot, Parameter, Row, Settings, Summary};
 
-use super::args::ParameterArg;
+use super::args::{ParameterArg, PrecisionArg};
 use cuberay::gpu::GpuRenderer;
 use cuberay::output::write_atomically;
 
@@ -51,6 +51,10 @@ pub struct AccuracyArgs {
     /// (default: the first; none: a camera framing the scene).
     #[arg(long)]
     pub camera: Option<usize>,
+    /// The base setting's precision (auto: f64 where f32 cannot resolve the scene); the
+    /// precision row renders both.
+    #[arg(long, value_enum, default_value_t = PrecisionArg::Auto)]
+    pub precision: PrecisionArg,
 }
 
 #[derive(Serialize)]
@@ -106,6 +110,7 @@ pub fn run(args: AccuracyArgs) -> anyhow::Result<()> {
     }
     let mut settings = Settings::new(args.width, args.height, args.quick, params);
     settings.threshold = args.threshold;
+    settings.precision = args.precision.into();
     if !args.quick {
         settings.runs = args.runs;
     }

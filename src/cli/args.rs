@@ -38,6 +38,8 @@ impl From<AccelArg> for AccelKind {
 /// `--precision`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum PrecisionArg {
+    /// f64 where f32 cannot resolve the scene at this image size, else f32.
+    Auto,
     F32,
     F64,
 }
@@ -45,6 +47,7 @@ pub enum PrecisionArg {
 impl From<PrecisionArg> for Precision {
     fn from(p: PrecisionArg) -> Precision {
         match p {
+            PrecisionArg::Auto => Precision::Auto,
             PrecisionArg::F32 => Precision::F32,
             PrecisionArg::F64 => Precision::F64,
         }
@@ -161,7 +164,7 @@ mod tests {
             assert_eq!(mapped.len(), all);
         }
         distinct(|a: &AccelArg| AccelKind::from(*a), 4);
-        distinct(|a: &PrecisionArg| Precision::from(*a), 2);
+        distinct(|a: &PrecisionArg| Precision::from(*a), 3);
         distinct(|a: &SamplingArg| Sampling::from(*a), 2);
         distinct(|a: &AovArg| Aov::from(*a), 3);
         distinct(|a: &TransferArg| Transfer::from(*a), 2);

@@ -19,7 +19,7 @@ use cuberay::layout::MAX_DEPTH;
 use cuberay::reference;
 use cuberay::stats::{Stats, TestsPerRay};
 
-use super::args::{AccelArg, SamplingArg};
+use super::args::{AccelArg, PrecisionArg, SamplingArg};
 use super::render::progress_bar;
 
 /// The SPD canonical scenes (Haines' sizes of 1987), the default set.
@@ -60,6 +60,9 @@ pub struct BenchArgs {
     /// Maximum ray-tree depth (SPD: 5).
     #[arg(long, default_value_t = 5)]
     pub max_depth: u32,
+    /// The GPU kernels' precision (auto: f64 where f32 cannot resolve the scene, else f32).
+    #[arg(long, value_enum, default_value_t = PrecisionArg::Auto)]
+    pub precision: PrecisionArg,
     /// Print one JSON object instead of the table.
     #[arg(long)]
     pub json: bool,
@@ -71,6 +74,9 @@ struct Row {
     scene: String,
     accel: String,
     backend: &'static str,
+    /// The kernels' precision (`f32` or `f64`; what `--precision auto` chose); the CPU
+    /// reference's is always `f64`.
+    precision: String,
     /// Seconds to load and validate the scene file (once per scene, before any render).
     load_s: f64,
     preprocess_s: f64,
@@ -206,6 +212,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
                     max_depth: args.max_depth,
                     accel,
                     count,
+                    precision: args.precision.into(),
                     ..RenderOptions::new(args.width, args.height)
                 };
                 let what = format!("{name}, --accel {accel:?} --backend {backend:?}").to_lowercase();
@@ -262,6 +269,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
                         BenchBackend::Gpu => "gpu",
                         BenchBackend::Cpu => "cpu",
                     },
+                    precision: s.settings.precision.clone(),
                     load_s,
                     preprocess_s: median(timed.iter().map(|t| t.preprocess_s).collect()),
                     accel_bytes: s.accel_bytes,
@@ -326,7 +334,7 @@ fn table(rows: &[Row], args: &BenchArgs, adapter: Option<&str>) -> String {
             "| {} | {} | {} | {:.3} | {:.1} | {:.3} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {} |\n",
             r.scene,
             r.accel,
-            r.backend,
+            if r.backend == "gpu" && r.precision == "f64" { "gpu f64" } else { r.backend },
             r.preprocess_s,
             r.accel_bytes as f64 / (1u64 << 20) as f64,
             r.kernel_s,
@@ -381,6 +389,7 @@ mod tests {
             scene: "s".into(),
             accel: "cube".into(),
             backend: "gpu",
+            precision: "f32".into(),
             load_s: 0.0,
             preprocess_s: 0.0,
             accel_bytes: 0,

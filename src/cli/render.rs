@@ -137,9 +137,11 @@ pub struct TraceArgs {
     /// baseline); brute: every primitive for every ray.
     #[arg(long, value_enum, default_value_t = AccelArg::Auto)]
     pub accel: AccelArg,
-    /// The GPU kernels' intersection arithmetic: f32, or f64 where the adapter has 64-bit
-    /// floats in shaders (lavapipe has; much slower). The CPU reference is always f64.
-    #[arg(long, value_enum, default_value_t = PrecisionArg::F32)]
+    /// The GPU kernels' intersection arithmetic. auto: f64 where f32 cannot resolve the
+    /// scene at this image size (`cuberay info` says which, and why), else f32; f32; f64,
+    /// where the adapter has 64-bit floats in shaders (lavapipe has; slower). The CPU
+    /// reference is always f64.
+    #[arg(long, value_enum, default_value_t = PrecisionArg::Auto)]
     pub precision: PrecisionArg,
     /// Cells per face edge of the eye's direction cube (default: about two pixels a cell):
     /// the tables' time and memory, never the image.

@@ -17,4 +17,6 @@ pub mod shaders;
 pub use buffers::SceneBuffers;
 pub use context::GpuContext;
 pub use render::GpuRenderer;
-pub use setup::{add_surface_bvh, check, point_at, queue_sizes, uses_tables, walk_bounds, F32_REACH};
+pub use setup::{
+    add_surface_bvh, check, check_f64, point_at, queue_sizes, uses_tables, walk_bounds, F32_REACH,
+};

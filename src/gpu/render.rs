@@ -15,13 +15,13 @@ use indicatif::ProgressBar;
 use super::buffers::{upload, QueueSizes, SceneBuffers};
 use super::kernels::{first_compile_marker, mark_compiled, Kernels};
 use super::schedule::{self, Pacing, Pipelines, Progress, Schedule, WavePlan};
-use super::setup::{add_surface_bvh, check, point_at, queue_sizes, walk_bounds};
+use super::setup::{add_surface_bvh, check, check_f64, point_at, queue_sizes, walk_bounds};
 use super::shaders::{Depths, Kernel, Queries, Stage, Variant};
 use super::GpuContext;
 use crate::coherence::reach::WalkBounds;
 use crate::coherence::{self, FlatTables, Tables};
 use crate::error::{Error, Result};
-use crate::job::{grid_image, simulated_effects, Precision, RenderOptions, Rendered};
+use crate::job::{grid_image, simulated_effects, RenderOptions, Rendered};
 use crate::layout::budget::{self, check_loop_budget, TESTS_PER_DISPATCH};
 use crate::layout::counters::{decode_counters, decode_lanes, COUNTER_BYTES};
 use crate::layout::{job_params, pack, Packed, AOV_DEPTH, AOV_ID, AOV_NORMAL};
@@ -176,12 +176,7 @@ impl GpuRenderer {
         stored: Option<StoredTables>,
     ) -> Result<Prepared> {
         check(scene, opts)?;
-        if opts.precision == Precision::F64 && !self.ctx.f64 {
-            return Err(Error::Options(format!(
-                "--precision f64 needs 64-bit floats in shaders (SHADER_F64), which {} does not offer",
-                self.ctx.info.name
-            )));
-        }
+        check_f64(&self.ctx, opts)?;
         let variant = Self::job_variant(scene, opts, aov);
         debug_assert!(
             variant.shapes.contains(scene.shapes()),
@@ -363,6 +358,7 @@ impl GpuRenderer {
         stored: Option<StoredTables>,
         progress: &ProgressBar,
     ) -> Result<Rendered> {
+        let opts = &opts.resolved(scene);
         let Prepared { variant, pipelines, mut packed, tables, start } =
             self.prepare(scene, opts, false, stored)?;
         packed.params = job_params(opts, packed.params);
@@ -415,6 +411,7 @@ impl GpuRenderer {
         stored: Option<StoredTables>,
         progress: &ProgressBar,
     ) -> Result<Rendered> {
+        let opts = &opts.resolved(scene);
         let (w, h) = (opts.region().width(), opts.region().height());
         let Prepared { variant, pipelines, mut packed, tables, start } =
             self.prepare(scene, opts, true, stored)?;

@@ -26,7 +26,8 @@ impl GpuRenderer {
     pub fn job_variant(scene: &Scene, opts: &RenderOptions, aov: bool) -> Variant {
         let effects = if aov { Effects::default() } else { scene.effects() };
         let depth = if aov { 1 } else { opts.max_depth };
-        let v = Self::variant(effects, depth, opts.accel).with_f64(opts.precision == Precision::F64);
+        let v =
+            Self::variant(effects, depth, opts.accel).with_f64(opts.precision_for(scene) == Precision::F64);
         Self::for_scene(scene, opts, v)
     }
 
@@ -105,6 +106,27 @@ pub fn queries(accel: AccelKind) -> Queries {
 /// Whether the GPU traces the candidate tables for `accel`.
 pub fn uses_tables(accel: AccelKind) -> bool {
     queries(accel) == Queries::Tables
+}
+
+/// Checks that the adapter of `ctx` has the 64-bit floats an f64 render of `opts` (resolved:
+/// [`RenderOptions::resolved`]) needs; the error says why `auto` chose f64 where it did.
+pub fn check_f64(ctx: &super::GpuContext, opts: &RenderOptions) -> Result<()> {
+    if opts.precision != Precision::F64 || ctx.f64 {
+        return Ok(());
+    }
+    let why = match &opts.auto_precision {
+        Some(need) => format!(
+            "this scene needs f64 ({}), and f64 kernels need 64-bit floats in shaders (SHADER_F64), which {} does \
+             not offer; --precision f32 renders it in f32 anyway",
+            need.reason(),
+            ctx.info.name
+        ),
+        None => format!(
+            "--precision f64 needs 64-bit floats in shaders (SHADER_F64), which {} does not offer",
+            ctx.info.name
+        ),
+    };
+    Err(Error::Options(why))
 }
 
 /// Checks that the GPU backend can render `scene` with `opts`.

@@ -290,13 +290,9 @@ impl Session {
         toggles: Toggles,
         limit: u32,
     ) -> Result<Session> {
+        let opts = opts.resolved(&scene);
         gpu::check(&scene, &opts)?;
-        if opts.precision == Precision::F64 && !gpu.ctx.f64 {
-            return Err(Error::Options(format!(
-                "--precision f64 needs 64-bit floats in shaders (SHADER_F64), which {} does not offer",
-                gpu.ctx.info.name
-            )));
-        }
+        gpu::check_f64(&gpu.ctx, &opts)?;
         let mut packed = pack_scene(&scene, &opts, opts.width, opts.height, true);
         // Tables for every effect the scene has at any depth, so that toggling one back on
         // or deepening the trees needs none.

@@ -647,13 +647,14 @@ fn ring_error(img: &Image, cpu: &Image, ring: &[(u32, u32)]) -> (f32, usize) {
 }
 
 /// A unit ball resting on a sphere of radius 1e5 (6c), and the same 1e5 from the origin
-/// (6d). With `--precision f64` (primitives, ray origins and spawn offsets in f64) the case
-/// passes `run`'s checks (every accelerator alike, no self-hit, the reference's image), and
-/// on the ring of ground pixels around the contact it equals the f64 reference within
-/// 2/255 at every pixel (measured: 0.0000 at all 454). The f32 render is off there by at
-/// most `F32_WORST` at no more than `F32_OVER` pixels (measured: 0.175 at 54 pixels, with
-/// 10 self-hits where shadow rays start 0.1 off the ground, inside the ball's underside),
-/// and the f64 render is nearer the reference than the f32 one.
+/// (6d), rendered with no flag: `--precision auto` picks f64 for them (primitives, ray
+/// origins and spawn offsets in f64; `precision::` pins the rule), the case passes `run`'s
+/// checks (every accelerator alike, no self-hit, the reference's image), and on the ring of
+/// ground pixels around the contact it equals the f64 reference within 2/255 at every pixel
+/// (measured: 0.0000 at all 454). Forced to f32, the render is off there by at most
+/// `F32_WORST` at no more than `F32_OVER` pixels (measured: 0.175 at 54 pixels, with 10
+/// self-hits where shadow rays start 0.1 off the ground, inside the ball's underside), and
+/// the f64 render is nearer the reference than the f32 one.
 #[test]
 fn contact_on_huge_geometry() {
     const F32_WORST: f32 = 0.25;
@@ -661,10 +662,12 @@ fn contact_on_huge_geometry() {
     for (file, contact) in [("huge_contact.nff", DVec3::ZERO), ("huge_contact_1e5.nff", DVec3::splat(1e5))] {
         let scene = load_case(file).scene;
         let (w, h) = scene.resolution.expect("hard-case scenes give their resolution");
-        let f32_opts = RenderOptions::new(w, h);
-        let f64_opts = RenderOptions { precision: Precision::F64, ..f32_opts.clone() };
+        let auto_opts = RenderOptions::new(w, h);
+        let f32_opts = RenderOptions { precision: Precision::F32, ..auto_opts.clone() };
         let g32 = renderer().render(&scene, &f32_opts, &hidden()).unwrap_or_else(|e| panic!("{file}: {e}"));
-        let c = run(file, scene, f64_opts, 0.005, 2);
+        let c = run(file, scene, auto_opts, 0.005, 2);
+        assert_eq!(c.gpu.stats.settings.precision, "f64", "{file}: auto must choose f64");
+        assert!(c.gpu.stats.settings.precision_auto.as_ref().is_some_and(|w| w.contains("touches")));
         let ring = contact_ring(&c.scene, &c.cpu_id, contact);
         let (e32, over32) = ring_error(&g32.image, &c.cpu.image, &ring);
         let (e64, over64) = ring_error(&c.gpu.image, &c.cpu.image, &ring);

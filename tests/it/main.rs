@@ -15,6 +15,7 @@ mod gpu;
 mod hard;
 mod nff;
 mod parts;
+mod precision;
 mod preview;
 mod reference;
 mod shaders;
