@@ -1,8 +1,8 @@
-// The preview's `accumulate` kernel (src/preview/session.rs): adds one finished tile of the
-// wavefront kernels' output (`resolve`) to the whole-image accumulation.
+// The preview's `accumulate` kernel (src/preview/session/accumulate.rs): adds one finished
+// tile of the wavefront kernels' output (`resolve`) to the whole-image accumulation.
 
 // Which points of the image the tile holds. Keep in sync with `Tile` in
-// src/preview/session.rs.
+// src/preview/session/accumulate.rs.
 struct Tile {
     first_point: u32,
     point_count: u32,

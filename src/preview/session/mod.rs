@@ -17,17 +17,26 @@
 //! swaps the tables in between two passes once they match the camera (a newer move sends
 //! the worker's tables back for another rebuild). Every accelerator gives the same pixels,
 //! so the swap shows only in speed.
+//!
+//! - this module: the session, its camera moves and effect changes, the uploads they make,
+//!   and the steps that refine it;
+//! - `eye_table`: the eye's table rebuilt on a worker thread after a camera move;
+//! - `coarse`: the coarse image of a moving camera, and what the window shows;
+//! - `accumulate`: the accumulation pass and the order of the passes' samples.
 
-use std::sync::mpsc::{self, Receiver, TryRecvError};
+mod accumulate;
+mod coarse;
+mod eye_table;
+
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use crate::coherence::reach::WalkBounds;
-use crate::coherence::{BuildParams, FlatTables, Tables};
+use crate::coherence::{FlatTables, Tables};
 use crate::error::{Error, Result};
 use crate::gpu::buffers::check_limits;
 use crate::gpu::kernels::compute_pipeline;
-use crate::gpu::schedule::{Pacing, Pipelines, Progress, Schedule, WavePlan};
+use crate::gpu::schedule::{Pacing, Schedule, WavePlan};
 use crate::gpu::shaders::{Kernel, Queries, Stage, Variant};
 use crate::gpu::{self, GpuRenderer, SceneBuffers};
 use crate::job::{grid_image, Precision, RenderOptions};
@@ -35,35 +44,16 @@ use crate::layout::budget::{retry_passes, tile_points, MAX_DEPTH, TESTS_PER_DISP
 use crate::layout::bvh::BVH_ORDERS;
 use crate::layout::{job_params, pack, pack_moved, Packed, Params};
 use crate::output::Image;
-use crate::sampling::Sampling;
 use crate::scene::{Camera, Effects, Scene, Transfer};
+use accumulate::{accumulate_bind, step_tile};
+pub use accumulate::{pass_sample, Tile, ACCUMULATE_WORKGROUP};
+use coarse::Coarse;
+pub use coarse::{Shown, COARSE_TARGET};
+pub use eye_table::EyeTable;
+use eye_table::{make_room_for_eye_tables, EyeBuild};
 
 /// The wall time one submission should take; tiles shrink or grow towards it.
 const STEP_TARGET: Duration = Duration::from_millis(30);
-
-/// The time a moving camera's coarse image should take; its block grows or shrinks towards
-/// it.
-pub const COARSE_TARGET: Duration = Duration::from_millis(20);
-/// How long the camera rests before the eye's table is rebuilt for it.
-const REST_BEFORE_REBUILD: Duration = Duration::from_millis(100);
-/// Pixels per coarse block edge: the first, and the range it adapts in.
-const FIRST_BLOCK: u32 = 8;
-const MIN_BLOCK: u32 = 2;
-const MAX_BLOCK: u32 = 32;
-
-/// Which points of the image a finished tile holds, read by the `accumulate` kernel (WGSL
-/// `Tile` in `shaders/accumulate.wgsl`, keep them in sync).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct Tile {
-    pub first_point: u32,
-    pub point_count: u32,
-    pub pad0: u32,
-    pub pad1: u32,
-}
-
-/// Invocations per workgroup of the `accumulate` kernel (WGSL `ACCUMULATE_WORKGROUP`).
-pub const ACCUMULATE_WORKGROUP: u32 = 64;
 
 /// Which of the scene's effects are switched on (all at first). Refraction rays are
 /// spawned beside reflection rays: with reflection off there is no refraction either.
@@ -88,29 +78,6 @@ impl Toggles {
         e.refraction &= self.refraction && self.reflection;
         e
     }
-}
-
-/// The pass order: `σ(k) = k·g mod n` with `g` coprime to `n` and near `n/φ`.
-fn golden_step(n: u32) -> u32 {
-    if n <= 2 {
-        return 1;
-    }
-    let gcd = |mut a: u32, mut b: u32| {
-        while b != 0 {
-            (a, b) = (b, a % b);
-        }
-        a
-    };
-    let g0 = ((n as f64) * 0.618_033_988_749_895).round() as u32;
-    (0..n)
-        .flat_map(|d| [g0 + d, g0.saturating_sub(d)])
-        .find(|&g| g > 0 && g < n && gcd(g, n) == 1)
-        .unwrap_or(1)
-}
-
-/// The sample rendered by pass `k` of `n`.
-pub fn pass_sample(k: u32, n: u32) -> u32 {
-    ((k as u64 * golden_step(n) as u64) % n.max(1) as u64) as u32
 }
 
 /// A scene on the GPU being refined pass by pass.
@@ -160,60 +127,6 @@ pub struct Session {
     coarse: Option<Coarse>,
 }
 
-/// An eye-table rebuild running on a worker thread for camera change `generation`.
-struct EyeBuild {
-    generation: u64,
-    result: Receiver<Result<Tables>>,
-}
-
-/// The coarse image of a moving camera: one eye ray per `block`×`block` pixels, traced whole
-/// in one frame into an accumulation of its own.
-struct Coarse {
-    /// The block and the depth the next coarse image takes.
-    block: u32,
-    depth: u32,
-    /// The last time of a coarse image at each depth with this block.
-    depth_took: [Option<Duration>; MAX_DEPTH as usize + 1],
-    /// The block, grid and schedule of the image in `accum`.
-    traced: u32,
-    grid: (u32, u32),
-    schedule: Schedule,
-    accum: wgpu::Buffer,
-    /// Whether `accum` holds a complete image of the current camera.
-    complete: bool,
-}
-
-/// What the window shows (`Session::shown`): an accumulation, its grid width, samples per
-/// point, pixels per block edge, and whether it holds pixel corners.
-pub struct Shown<'a> {
-    pub buffer: &'a wgpu::Buffer,
-    pub grid_w: u32,
-    pub samples: u32,
-    pub block: u32,
-    pub corners: bool,
-}
-
-/// What the preview's eye table is doing, for the title and the frame log.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum EyeTable {
-    /// Rebuilding for a moved camera; the BVH traces meanwhile.
-    Building,
-    /// The tables trace.
-    Ready,
-    /// The session traces without tables (`--accel bvh` or `brute`, or a failed rebuild).
-    None,
-}
-
-impl EyeTable {
-    pub fn name(self) -> &'static str {
-        match self {
-            EyeTable::Building => "building",
-            EyeTable::Ready => "ready",
-            EyeTable::None => "none",
-        }
-    }
-}
-
 /// The kernels' variant for the session's toggles and depth.
 fn variant(
     scene: &Scene,
@@ -226,13 +139,6 @@ fn variant(
         .with_queries(queries)
         .with_f64(opts.precision == Precision::F64);
     GpuRenderer::for_scene(scene, opts, v)
-}
-
-/// The build parameters of the session's tables: every effect the scene has, at any depth,
-/// so that toggling one back on or deepening the trees needs no new table.
-fn eye_build_params(scene: &Scene, opts: &RenderOptions) -> BuildParams {
-    let all = Variant::for_effects(scene.effects(), MAX_DEPTH).with_queries(Queries::Tables);
-    GpuRenderer::variant_build_params(scene, opts, all)
 }
 
 /// The walks the kernels of `packed` take: the tables' (if any), and the BVH's where rays
@@ -257,17 +163,6 @@ fn make_room_for_moves(packed: &mut Packed, scene: &Scene) {
         let most = BVH_ORDERS * (2 * scene.primitives.len()).saturating_sub(1);
         b.nodes.resize(b.nodes.len().max(most), Default::default());
     }
-}
-
-/// Gives the candidate list of `flat` room after its end (a quarter more, within the
-/// adapter's binding limit), so that the eye's table rebuilt for another camera, whose list
-/// may come out longer, is written into the same buffer. The walks never read past a
-/// cell's own entries.
-fn make_room_for_eye_tables(flat: &mut FlatTables, limits: &wgpu::Limits) {
-    let entry = std::mem::size_of::<crate::coherence::flat::GpuEntry>() as u64;
-    let most = (limits.max_storage_buffer_binding_size.min(limits.max_buffer_size) / entry) as usize;
-    let len = flat.entries.len();
-    flat.entries.resize((len + len / 4 + 64).min(most).max(len), Default::default());
 }
 
 /// `scene` packed for a `w`×`h` image under `opts` (in f64 for `--precision f64`): all of it
@@ -453,20 +348,6 @@ impl Session {
         self.last_eye_update
     }
 
-    /// What the eye's table is doing.
-    pub fn eye_table(&self) -> EyeTable {
-        if self.eye_build.is_some()
-            || self.eye_ready.is_some()
-            || (self.wants_tables && self.queries != Queries::Tables)
-        {
-            EyeTable::Building
-        } else if self.queries == Queries::Tables {
-            EyeTable::Ready
-        } else {
-            EyeTable::None
-        }
-    }
-
     /// Grid points traced since the session started, over all passes.
     pub fn points_traced(&self) -> u64 {
         self.points_traced
@@ -505,91 +386,6 @@ impl Session {
         }
         self.set_base(&packed.params);
         Ok(())
-    }
-
-    /// Rebuilds the eye's table of `tables` for the current camera on a worker thread.
-    fn start_eye_build(&mut self, mut tables: Tables) {
-        let generation = self.camera_generation;
-        // The tables never read the textures: the worker gets the scene without them.
-        let textures = std::mem::take(&mut self.scene.textures);
-        let scene = self.scene.clone();
-        self.scene.textures = textures;
-        let opts = self.opts.clone();
-        let (send, result) = mpsc::channel();
-        let spawned = std::thread::Builder::new().name("eye table".into()).spawn(move || {
-            let params = eye_build_params(&scene, &opts);
-            let built = tables.rebuild_eye(&scene, &params).map(|eye_only| {
-                log::debug!(
-                    "eye table for camera change {generation} in {:.3} s (eye table only: {eye_only})",
-                    tables.build_s
-                );
-                tables
-            });
-            let _ = send.send(built);
-        });
-        match spawned {
-            Ok(_) => self.eye_build = Some(EyeBuild { generation, result }),
-            Err(e) => {
-                log::error!("cannot start the eye table's worker ({e}): tracing with the BVH");
-                self.wants_tables = false;
-            }
-        }
-    }
-
-    /// Takes a finished eye-table build: tables for the current camera are swapped in at
-    /// the next pass boundary, tables for an older camera go back for another rebuild.
-    fn poll_eye_table(&mut self, force: bool) -> Result<()> {
-        let resting = force || self.last_move.elapsed() >= REST_BEFORE_REBUILD;
-        if self.wants_tables && self.eye_build.is_none() && self.queries != Queries::Tables && resting {
-            // The camera rests (this runs between its frames' passes, not while it moves,
-            // and once it has rested a while: a build a drag overtakes cannot be stopped
-            // and takes a core from the kernels): the eye's table is rebuilt for it.
-            if let Some(tables) = self.tables.take() {
-                self.start_eye_build(tables);
-            }
-        }
-        if let Some(build) = &self.eye_build {
-            let built = match build.result.try_recv() {
-                Ok(built) => Some(built),
-                Err(TryRecvError::Empty) => None,
-                Err(TryRecvError::Disconnected) => {
-                    Some(Err(Error::Scene("the eye table's worker stopped without a result".into())))
-                }
-            };
-            if let Some(built) = built {
-                let generation = build.generation;
-                self.take_build(generation, built);
-            }
-        }
-        if self.eye_ready.is_some() && self.schedule.at_pass_start() {
-            let mut tables = self.eye_ready.take().expect("checked");
-            let mut packed = self.pack_moved();
-            gpu::point_at(&mut packed.params, &tables.flat);
-            gpu::add_surface_bvh(&mut packed, &self.scene, &eye_build_params(&self.scene, &self.opts));
-            make_room_for_moves(&mut packed, &self.scene);
-            if let Err(e) = self.install(Queries::Tables, packed, Some(&mut tables)) {
-                log::warn!("cannot trace the rebuilt tables ({e}): tracing with the BVH");
-                self.wants_tables = false;
-            }
-            self.tables = Some(tables);
-        }
-        Ok(())
-    }
-
-    /// The end of the eye-table build for camera change `generation`: tables for the
-    /// current camera wait for a pass boundary, older ones go back for another rebuild, and
-    /// a failed rebuild leaves the session on the BVH.
-    fn take_build(&mut self, generation: u64, built: Result<Tables>) {
-        self.eye_build = None;
-        match built {
-            Ok(tables) if generation == self.camera_generation => self.eye_ready = Some(tables),
-            // The camera moved on: rebuilt again once it rests (`poll_eye_table`).
-            Ok(tables) => self.tables = Some(tables),
-            Err(e) => {
-                log::warn!("cannot rebuild the candidate tables: {e}; tracing with the BVH");
-                self.wants_tables = false;
-            }
-        }
     }
 
     /// Traces with `queries` over `packed` (and `tables`) from now on. The loop budget is
@@ -663,12 +459,6 @@ impl Session {
         Ok(buffers)
     }
 
-    /// Points the accumulation pass at the current output buffer.
-    fn rebind(&mut self) {
-        self.accumulate_bind =
-            accumulate_bind(&self.gpu.ctx, &self.accumulate, &self.tile_buffer, &self.buffers, &self.accum);
-    }
-
     /// Switches effects on or off and sets the maximum depth; restarts the
     /// accumulation. The kernels of a new combination are compiled on first use.
     pub fn set_effects(&mut self, toggles: Toggles, max_depth: u32) -> Result<()> {
@@ -734,21 +524,6 @@ impl Session {
         Ok(())
     }
 
-    /// Waits for the eye table's rebuild, if one runs, and traces with the tables from the
-    /// next pass boundary on (tests, and a preview about to exit).
-    pub fn wait_for_eye_table(&mut self) -> Result<()> {
-        loop {
-            self.poll_eye_table(true)?;
-            let Some(build) = &self.eye_build else { return Ok(()) };
-            let built = build
-                .result
-                .recv()
-                .map_err(|_| Error::Scene("the eye table's worker stopped without a result".into()));
-            let generation = build.generation;
-            self.take_build(generation, built.and_then(|b| b));
-        }
-    }
-
     /// One submission of the wavefront kernels over the current tile of pass `passes`
     /// (sample `pass_sample(passes)` of the lattice); a finished tile is added to the
     /// accumulation.
@@ -770,144 +545,6 @@ impl Session {
         Ok(())
     }
 
-    /// Traces the coarse image of the current camera, one eye ray per block of pixels, to
-    /// its end (a moving camera's frame: it shows the whole view at once, and the full image
-    /// starts again when the camera rests). The block, and where even the largest block
-    /// takes too long the depth, adapt to keep such a pass within [`COARSE_TARGET`].
-    /// Returns the block and the depth traced.
-    pub fn trace_coarse(&mut self) -> Result<(u32, u32)> {
-        let start = Instant::now();
-        let block = self.coarse.as_ref().map_or(FIRST_BLOCK, |c| c.block);
-        let depth = self.coarse.as_ref().map_or(self.opts.max_depth, |c| c.depth).min(self.opts.max_depth);
-        let (mut params, grid) = self.coarse_params(block);
-        params.max_depth = depth;
-        let ctx = &self.gpu.ctx;
-        let plan = WavePlan::new(
-            variant(&self.scene, &self.opts, self.toggles, self.opts.max_depth, self.queries),
-            depth,
-            retry_passes(&self.scene, self.walks.as_ref()),
-        );
-        if self.coarse.as_ref().is_none_or(|c| c.grid != grid) {
-            let (w, h) = (self.opts.width, self.opts.height);
-            let capacity = (w.div_ceil(MIN_BLOCK) + 1) as u64 * (h.div_ceil(MIN_BLOCK) + 1) as u64;
-            let accum = match self.coarse.take() {
-                Some(c) => c.accum,
-                None => ctx.device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("preview coarse accumulation"),
-                    size: capacity * 16,
-                    usage: wgpu::BufferUsages::STORAGE
-                        | wgpu::BufferUsages::COPY_SRC
-                        | wgpu::BufferUsages::COPY_DST,
-                    mapped_at_creation: false,
-                }),
-            };
-            let total = grid.0 as u64 * grid.1 as u64;
-            let schedule = Schedule::new(
-                ctx,
-                total,
-                self.buffers.tile,
-                Some(plan),
-                Pacing::Adaptive { target: STEP_TARGET },
-                false,
-            );
-            self.coarse = Some(Coarse {
-                block,
-                depth,
-                depth_took: Default::default(),
-                traced: block,
-                grid,
-                schedule,
-                accum,
-                complete: false,
-            });
-        }
-        let c = self.coarse.as_mut().expect("made above");
-        // The depth, the effects or the queries may have changed since the last image.
-        c.schedule.set_plan(ctx, plan);
-        let bind = accumulate_bind(ctx, &self.accumulate, &self.tile_buffer, &self.buffers, &c.accum);
-        let mut enc = ctx.device.create_command_encoder(&Default::default());
-        enc.clear_buffer(&c.accum, 0, None);
-        ctx.queue.submit([enc.finish()]);
-        loop {
-            crate::interrupt::check()?;
-            let accumulate = (&self.tile_buffer, &self.accumulate, &bind);
-            let done = step_tile(
-                ctx,
-                &mut c.schedule,
-                &self.pipelines,
-                &self.buffers,
-                &params,
-                accumulate,
-                &mut self.points_traced,
-            )?;
-            if done {
-                break;
-            }
-        }
-        c.complete = true;
-        c.traced = block;
-        log::debug!(
-            "coarse image: {block}x{block} blocks, depth {depth}, {:.1} ms, tiles run again so far {}",
-            start.elapsed().as_secs_f64() * 1e3,
-            c.schedule.tiles_run_again()
-        );
-        // A pass over 4× the points takes up to 4× as long, and a depth more can cost
-        // several times one less (its rays leave surfaces and walk the BVH).
-        // Each depth's last time at this block is kept, so that a depth found too slow is
-        // not tried again (each try would be a slow frame).
-        let took = start.elapsed();
-        c.depth_took[depth as usize] = Some(took);
-        let fast = |t: Option<Duration>| t.is_none_or(|t| t <= COARSE_TARGET);
-        if took > COARSE_TARGET {
-            // Far over (3× the target or more): a larger step, so that few frames are slow.
-            let far = took > 3 * COARSE_TARGET;
-            if block < MAX_BLOCK {
-                c.block = (block * if far { 4 } else { 2 }).min(MAX_BLOCK);
-                c.depth_took = Default::default();
-            } else if depth > 1 {
-                c.depth = if far { 1 } else { depth - 1 };
-            }
-        } else if took * 8 < COARSE_TARGET {
-            // Well under: a deeper or finer pass may cost several times this one.
-            if depth < self.opts.max_depth && fast(c.depth_took[depth as usize + 1]) {
-                c.depth = depth + 1;
-            } else if depth == self.opts.max_depth && block > MIN_BLOCK {
-                c.block = block / 2;
-                c.depth_took = Default::default();
-            }
-        }
-        Ok((block, depth))
-    }
-
-    /// The params and grid of the coarse image with one eye ray per `block`×`block` pixels:
-    /// grid point (i, j) takes the ray through the centre of pixel (i·b + b/2, j·b + b/2),
-    /// the very ray (bit for bit: `block` is a power of two) of that pixel in a full pass
-    /// with one sample at the pixel centres. The kernels place grid point i at i + 1/2, so
-    /// the image's centre moves to (half − 1/2)/b and a grid step spans b pixels.
-    fn coarse_params(&self, block: u32) -> (Params, (u32, u32)) {
-        let (w, h) = (self.opts.width, self.opts.height);
-        let grid = (w.div_ceil(block), h.div_ceil(block));
-        let b = block as f32;
-        let camera = Params {
-            half_w: (self.base.half_w - 0.5) / b,
-            half_h: (self.base.half_h - 0.5) / b,
-            cam_scale: self.base.cam_scale * b,
-            ..self.base
-        };
-        (Params { sample_first: 0, sample_end: 1, ..job_params(&self.coarse_options(grid), camera) }, grid)
-    }
-
-    /// The options of a coarse image of `grid` points: one sample at each point's centre.
-    fn coarse_options(&self, grid: (u32, u32)) -> RenderOptions {
-        RenderOptions {
-            width: grid.0,
-            height: grid.1,
-            spp: 1,
-            sampling: Sampling::Pixels,
-            ..self.opts.clone()
-        }
-    }
-
     /// The first `grid` points of accumulation `buffer`, read back.
     fn read_grid(&self, buffer: &wgpu::Buffer, grid: (u32, u32)) -> Result<Vec<u8>> {
         let bytes = grid.0 as u64 * grid.1 as u64 * 16;
@@ -917,36 +554,6 @@ impl Session {
         enc.copy_buffer_to_buffer(buffer, 0, &read, 0, bytes);
         ctx.queue.submit([enc.finish()]);
         ctx.read(&read, bytes)
-    }
-
-    /// What the window shows: the full accumulation once a pass of the current camera is
-    /// in it, else the coarse image of the current camera, if there is one.
-    pub fn shown(&self) -> Shown<'_> {
-        if self.passes == 0 {
-            if let Some(c) = self.coarse.as_ref().filter(|c| c.complete) {
-                return Shown {
-                    buffer: &c.accum,
-                    grid_w: c.grid.0,
-                    samples: 1,
-                    block: c.traced,
-                    corners: false,
-                };
-            }
-        }
-        Shown {
-            buffer: &self.accum,
-            grid_w: self.grid.0,
-            samples: self.passes,
-            block: 1,
-            corners: self.opts.sampling == Sampling::Corners,
-        }
-    }
-
-    /// The coarse image of the current camera as a linear image of `grid` size (tests).
-    pub fn coarse_image(&self) -> Result<Option<Image>> {
-        let Some(c) = self.coarse.as_ref().filter(|c| c.complete) else { return Ok(None) };
-        let data = self.read_grid(&c.accum, c.grid)?;
-        Ok(Some(grid_image(&self.coarse_options(c.grid), &self.scene, bytemuck::cast_slice(&data), 1)))
     }
 
     /// Rays traced since the session started (all kinds).
@@ -965,37 +572,6 @@ impl Session {
     }
 }
 
-/// One submission of `schedule` over the kernels `pipelines`; a finished tile is added
-/// to the accumulation that `accumulate`'s bind group names, and its points to
-/// `points_traced`. Returns whether the tile ended a pass.
-fn step_tile(
-    ctx: &gpu::GpuContext,
-    schedule: &mut Schedule,
-    pipelines: &[(Stage, Arc<wgpu::ComputePipeline>)],
-    buffers: &SceneBuffers,
-    base: &Params,
-    accumulate: (&wgpu::Buffer, &wgpu::ComputePipeline, &wgpu::BindGroup),
-    points_traced: &mut u64,
-) -> Result<bool> {
-    let (tile_buffer, pipeline, bind) = accumulate;
-    let kernels = Pipelines::Wavefront(pipelines);
-    let Progress::TileDone { first, count, pass_done } = schedule.step(ctx, &kernels, buffers, base)? else {
-        return Ok(false);
-    };
-    let tile = Tile { first_point: first as u32, point_count: count, ..Tile::default() };
-    ctx.queue.write_buffer(tile_buffer, 0, bytemuck::bytes_of(&tile));
-    let mut enc = ctx.device.create_command_encoder(&Default::default());
-    {
-        let mut pass = enc.begin_compute_pass(&Default::default());
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, bind, &[]);
-        pass.dispatch_workgroups(count.div_ceil(ACCUMULATE_WORKGROUP), 1, 1);
-    }
-    ctx.queue.submit([enc.finish()]);
-    *points_traced += count as u64;
-    Ok(pass_done)
-}
-
 /// The wavefront kernels of `v`, compiled and warmed up on first use.
 fn compile(
     gpu: &GpuRenderer,
@@ -1008,46 +584,9 @@ fn compile(
     Ok(pipelines)
 }
 
-/// The accumulation pass's bind group: the tile, the kernels' output, the
-/// accumulation.
-fn accumulate_bind(
-    ctx: &gpu::GpuContext,
-    accumulate: &wgpu::ComputePipeline,
-    tile: &wgpu::Buffer,
-    buffers: &SceneBuffers,
-    accum: &wgpu::Buffer,
-) -> wgpu::BindGroup {
-    ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("accumulate"),
-        layout: &accumulate.get_bind_group_layout(0),
-        entries: &[(0, tile), (1, &buffers.out), (2, accum)]
-            .map(|(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }),
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn pass_order_is_a_permutation() {
-        for n in 1..200 {
-            let mut seen = vec![false; n as usize];
-            for k in 0..n {
-                let s = pass_sample(k, n);
-                assert!(!seen[s as usize], "n = {n}: sample {s} twice");
-                seen[s as usize] = true;
-            }
-        }
-    }
-
-    #[test]
-    fn early_passes_spread_over_the_pixel() {
-        // The first quarter of the passes reaches both halves of the x strata.
-        let n = 64;
-        let first: Vec<u32> = (0..16).map(|k| pass_sample(k, n)).collect();
-        assert!(first.iter().any(|&s| s < n / 2) && first.iter().any(|&s| s >= n / 2), "{first:?}");
-    }
 
     #[test]
     fn toggles_remove_effects() {

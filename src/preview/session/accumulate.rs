@@ -1,0 +1,130 @@
+//! The accumulation pass: the `accumulate` kernel adds each finished tile of the wavefront
+//! kernels' output to an accumulation; and the order of the passes, each of which renders
+//! one sample of the lattice.
+
+use std::sync::Arc;
+
+use super::Session;
+use crate::error::Result;
+use crate::gpu::schedule::{Pipelines, Progress, Schedule};
+use crate::gpu::shaders::Stage;
+use crate::gpu::{self, SceneBuffers};
+use crate::layout::Params;
+
+/// Which points of the image a finished tile holds, read by the `accumulate` kernel (WGSL
+/// `Tile` in `shaders/accumulate.wgsl`, keep them in sync).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Tile {
+    pub first_point: u32,
+    pub point_count: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+}
+
+/// Invocations per workgroup of the `accumulate` kernel (WGSL `ACCUMULATE_WORKGROUP`).
+pub const ACCUMULATE_WORKGROUP: u32 = 64;
+
+/// The pass order: `σ(k) = k·g mod n` with `g` coprime to `n` and near `n/φ`.
+fn golden_step(n: u32) -> u32 {
+    if n <= 2 {
+        return 1;
+    }
+    let gcd = |mut a: u32, mut b: u32| {
+        while b != 0 {
+            (a, b) = (b, a % b);
+        }
+        a
+    };
+    let g0 = ((n as f64) * 0.618_033_988_749_895).round() as u32;
+    (0..n)
+        .flat_map(|d| [g0 + d, g0.saturating_sub(d)])
+        .find(|&g| g > 0 && g < n && gcd(g, n) == 1)
+        .unwrap_or(1)
+}
+
+/// The sample rendered by pass `k` of `n`.
+pub fn pass_sample(k: u32, n: u32) -> u32 {
+    ((k as u64 * golden_step(n) as u64) % n.max(1) as u64) as u32
+}
+
+impl Session {
+    /// Points the accumulation pass at the current output buffer.
+    pub(super) fn rebind(&mut self) {
+        self.accumulate_bind =
+            accumulate_bind(&self.gpu.ctx, &self.accumulate, &self.tile_buffer, &self.buffers, &self.accum);
+    }
+}
+
+/// One submission of `schedule` over the kernels `pipelines`; a finished tile is added
+/// to the accumulation that `accumulate`'s bind group names, and its points to
+/// `points_traced`. Returns whether the tile ended a pass.
+pub(super) fn step_tile(
+    ctx: &gpu::GpuContext,
+    schedule: &mut Schedule,
+    pipelines: &[(Stage, Arc<wgpu::ComputePipeline>)],
+    buffers: &SceneBuffers,
+    base: &Params,
+    accumulate: (&wgpu::Buffer, &wgpu::ComputePipeline, &wgpu::BindGroup),
+    points_traced: &mut u64,
+) -> Result<bool> {
+    let (tile_buffer, pipeline, bind) = accumulate;
+    let kernels = Pipelines::Wavefront(pipelines);
+    let Progress::TileDone { first, count, pass_done } = schedule.step(ctx, &kernels, buffers, base)? else {
+        return Ok(false);
+    };
+    let tile = Tile { first_point: first as u32, point_count: count, ..Tile::default() };
+    ctx.queue.write_buffer(tile_buffer, 0, bytemuck::bytes_of(&tile));
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    {
+        let mut pass = enc.begin_compute_pass(&Default::default());
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, bind, &[]);
+        pass.dispatch_workgroups(count.div_ceil(ACCUMULATE_WORKGROUP), 1, 1);
+    }
+    ctx.queue.submit([enc.finish()]);
+    *points_traced += count as u64;
+    Ok(pass_done)
+}
+
+/// The accumulation pass's bind group: the tile, the kernels' output, the
+/// accumulation.
+pub(super) fn accumulate_bind(
+    ctx: &gpu::GpuContext,
+    accumulate: &wgpu::ComputePipeline,
+    tile: &wgpu::Buffer,
+    buffers: &SceneBuffers,
+    accum: &wgpu::Buffer,
+) -> wgpu::BindGroup {
+    ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("accumulate"),
+        layout: &accumulate.get_bind_group_layout(0),
+        entries: &[(0, tile), (1, &buffers.out), (2, accum)]
+            .map(|(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pass_order_is_a_permutation() {
+        for n in 1..200 {
+            let mut seen = vec![false; n as usize];
+            for k in 0..n {
+                let s = pass_sample(k, n);
+                assert!(!seen[s as usize], "n = {n}: sample {s} twice");
+                seen[s as usize] = true;
+            }
+        }
+    }
+
+    #[test]
+    fn early_passes_spread_over_the_pixel() {
+        // The first quarter of the passes reaches both halves of the x strata.
+        let n = 64;
+        let first: Vec<u32> = (0..16).map(|k| pass_sample(k, n)).collect();
+        assert!(first.iter().any(|&s| s < n / 2) && first.iter().any(|&s| s >= n / 2), "{first:?}");
+    }
+}
