@@ -240,7 +240,7 @@ const ANY_UNFINISHED: u32 = 2u;
 // A walk interrupted at the end of a pass: the merged lists' positions (`--accel cube`;
 // brute force: `i` the next primitive; the BVH: `i` the node, `j..jend` a leaf's primitives
 // left) and, for a nearest-hit walk, the winner so far (prim NO_ID: none yet) with the tie
-// rule's window and least t (geometry.wgsl `Closest`). A job in the hit queue keeps its hit
+// rule's window and least t (closest.wgsl `Closest`). A job in the hit queue keeps its hit
 // here.
 struct WalkState {
     i: u32,

@@ -6,6 +6,8 @@
 // accelerators', so that which walk a kernel gets is decided in one place.
 #include "shared/layout.wgsl"
 #include "shared/geometry.wgsl"
+#include "shared/intersect.wgsl"
+#include "shared/closest.wgsl"
 #if CUTOUTS
 #if TEXTURES
 #include "shared/texture.wgsl"

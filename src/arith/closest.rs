@@ -1,6 +1,6 @@
 //! The nearest-hit rule every query shares, table walk, BVH and brute force alike, on the GPU
 //! and in the f64 reference (twins of WGSL `Closest`, `no_closest`, `consider`,
-//! `closest_limit` and `closest_again` in `shaders/shared/geometry.wgsl`, and of
+//! `closest_limit` and `closest_again` in `shaders/shared/closest.wgsl`, and of
 //! `brute_nearest` in `shaders/shared/brute.wgsl`; keep them in sync).
 //!
 //! # Ties within the error bound

@@ -1,5 +1,6 @@
-//! Rays and primitive intersection in f32: the twins of `shaders/shared/geometry.wgsl` (keep
-//! them in sync), function for function and with the same names.
+//! Rays and primitive intersection in f32: the twins of `shaders/shared/geometry.wgsl` and
+//! `shaders/shared/intersect.wgsl` (keep them in sync), function for function and with the
+//! same names.
 //!
 //! | Rust | WGSL |
 //! |---|---|

@@ -1,7 +1,8 @@
 //! The kernels' f32 arithmetic on the CPU: line-by-line Rust twins of the WGSL functions in
-//! `shaders/shared/geometry.wgsl` and `shaders/shared/brute.wgsl`, with the same names (the
-//! one exception: WGSL `intersect_prim` is [`geometry::Prim32::intersect`]), so that tests,
-//! the table build and the measurements compute exactly what the GPU computes.
+//! `shaders/shared/geometry.wgsl`, `intersect.wgsl`, `closest.wgsl` and `brute.wgsl`, with
+//! the same names (the one exception: WGSL `intersect_prim` is
+//! [`geometry::Prim32::intersect`]), so that tests, the table build and the measurements
+//! compute exactly what the GPU computes.
 //!
 //! - [`geometry`]: rays, primitive hits, the intersection routines, [`geometry::Prim32`] (a
 //!   primitive as the GPU stores it, re-centred on the eye);

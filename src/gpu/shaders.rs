@@ -34,6 +34,8 @@ const SOURCES: &[(&str, &str)] = &[
     ("display.wgsl", include_str!("../../shaders/display.wgsl")),
     ("shared/layout.wgsl", include_str!("../../shaders/shared/layout.wgsl")),
     ("shared/geometry.wgsl", include_str!("../../shaders/shared/geometry.wgsl")),
+    ("shared/intersect.wgsl", include_str!("../../shaders/shared/intersect.wgsl")),
+    ("shared/closest.wgsl", include_str!("../../shaders/shared/closest.wgsl")),
     ("shared/brute.wgsl", include_str!("../../shaders/shared/brute.wgsl")),
     ("shared/tables.wgsl", include_str!("../../shaders/shared/tables.wgsl")),
     ("shared/walk.wgsl", include_str!("../../shaders/shared/walk.wgsl")),

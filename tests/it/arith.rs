@@ -1,6 +1,6 @@
 //! The kernels' intersection arithmetic on the GPU against its Rust twins
 //! (`cuberay::arith::geometry`, `cuberay::layout::bvh::box_hit`): a test kernel runs the
-//! composed `shaders/shared/geometry.wgsl` and the BVH's box test of
+//! composed `shaders/shared/intersect.wgsl` and the BVH's box test of
 //! `shaders/shared/bvh.wgsl` on many random rays and primitives (grazing spheres and
 //! cylinders, rays through triangles' edges and vertices, axis-parallel rays, boxes touched
 //! at their faces), and each answer is compared with the twin's.
