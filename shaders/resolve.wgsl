@@ -1,6 +1,7 @@
 // The `resolve` kernel: each tile point's radiance, summed in 64-bit fixed point in `accum`
-// (add_radiance, layout.wgsl), as the f32 colour the host and the preview read.
+// (add_radiance, wavefront.wgsl), as the f32 colour the host and the preview read.
 #include "shared/layout.wgsl"
+#include "shared/wavefront.wgsl"
 
 // Channel `c` of point `k`'s sum: the high word (signed whole units) plus the low word's two
 // halves, each exact in f32, so that only the last addition rounds.

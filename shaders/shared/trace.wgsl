@@ -5,6 +5,8 @@
 // the scene's layout and intersection code. The kernels include this file, not the
 // accelerators', so that which walk a kernel gets is decided in one place.
 #include "shared/layout.wgsl"
+#include "shared/wavefront.wgsl"
+#include "shared/counters.wgsl"
 #include "shared/geometry.wgsl"
 #include "shared/intersect.wgsl"
 #include "shared/closest.wgsl"

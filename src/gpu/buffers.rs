@@ -10,9 +10,9 @@ use crate::layout::counters::COUNTER_BYTES;
 use crate::layout::{Packed, Params, PassDesc, QUEUE_SHADOW, QUEUE_WORDS, WORKGROUP};
 
 /// A packed scene's buffers on the GPU with their bind group (the bindings of
-/// `shaders/shared/layout.wgsl`, `shaders/shared/tables.wgsl` and `shaders/shared/bvh.wgsl`),
-/// sized for tiles of up to `tile` grid points. Positions are relative to the eye: a camera
-/// move rewrites `prims`, `lights` and `params`.
+/// `shaders/shared/layout.wgsl`, `wavefront.wgsl`, `counters.wgsl`, `tables.wgsl` and
+/// `bvh.wgsl`), sized for tiles of up to `tile` grid points. Positions are relative to the
+/// eye: a camera move rewrites `prims`, `lights` and `params`.
 pub struct SceneBuffers {
     pub params: wgpu::Buffer,
     pub prims: wgpu::Buffer,

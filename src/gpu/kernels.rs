@@ -1,6 +1,6 @@
 //! Compiled kernels: one pipeline per kernel and [`Variant`], compiled on first use and
-//! cached, over the one bind group layout of the scene buffers (`shaders/shared/layout.wgsl`
-//! `shaders/shared/tables.wgsl` and `shaders/shared/bvh.wgsl`: bindings 0 to 23).
+//! cached, over the one bind group layout of the scene buffers (`shaders/shared/layout.wgsl`,
+//! `wavefront.wgsl`, `counters.wgsl`, `tables.wgsl` and `bvh.wgsl`: bindings 0 to 23).
 //!
 //! Lavapipe compiles a kernel at its first dispatch, not at pipeline creation (seconds over
 //! the wavefront kernels; docs/drivers-and-faults.md has the figures); Mesa's disk cache

@@ -33,6 +33,8 @@ const SOURCES: &[(&str, &str)] = &[
     ("accumulate.wgsl", include_str!("../../shaders/accumulate.wgsl")),
     ("display.wgsl", include_str!("../../shaders/display.wgsl")),
     ("shared/layout.wgsl", include_str!("../../shaders/shared/layout.wgsl")),
+    ("shared/wavefront.wgsl", include_str!("../../shaders/shared/wavefront.wgsl")),
+    ("shared/counters.wgsl", include_str!("../../shaders/shared/counters.wgsl")),
     ("shared/geometry.wgsl", include_str!("../../shaders/shared/geometry.wgsl")),
     ("shared/intersect.wgsl", include_str!("../../shaders/shared/intersect.wgsl")),
     ("shared/closest.wgsl", include_str!("../../shaders/shared/closest.wgsl")),

@@ -1,6 +1,6 @@
 //! The kernels' statistics counters: 64-bit slots in the `counters` buffer (low word first),
 //! and decoding them into [`crate::stats::Counters`] and the lane coherence ([`LaneStats`]). The slot
-//! numbers are twins of the `C_*` and `LANE_*` constants in `shaders/shared/layout.wgsl`
+//! numbers are twins of the `C_*` and `LANE_*` constants in `shaders/shared/counters.wgsl`
 //! (keep them in sync).
 
 use super::structs::MAX_DEPTH;

@@ -1,6 +1,6 @@
 //! The flat GPU layout, without wgpu: the `#[repr(C)]` twins of the structs and constants of
-//! `shaders/shared/layout.wgsl` ([`structs`], [`counters`]; the tables' are in
-//! [`crate::coherence::flat`]), the scene packed into them
+//! `shaders/shared/layout.wgsl`, `wavefront.wgsl` and `counters.wgsl` ([`structs`],
+//! [`counters`]; the tables' are in [`crate::coherence::flat`]), the scene packed into them
 //! ([`pack`](mod@pack)), the BVH flattened for the kernels' walk ([`bvh`]), and the limits
 //! one kernel pass keeps to ([`budget`]).
 

@@ -1,8 +1,9 @@
-//! The Rust twins of the structs and constants in `shaders/shared/layout.wgsl` (keep them in
-//! sync): one `#[repr(C)]` bytemuck struct per WGSL struct, with the same name and fields,
-//! and one constant per WGSL constant. `tests/it/twins.rs` reads the WGSL through naga and
-//! compares every layout and value. The table structs (`GpuOrigin`, `GpuFace`, `GpuEntry`,
-//! `GpuGroup`) are twinned in [`crate::coherence::flat`].
+//! The Rust twins of the structs and constants in `shaders/shared/layout.wgsl` and
+//! `shaders/shared/wavefront.wgsl` (keep them in sync): one `#[repr(C)]` bytemuck struct per
+//! WGSL struct, with the same name and fields, and one constant per WGSL constant.
+//! `tests/it/twins.rs` reads the WGSL through naga and compares every layout and value. The
+//! table structs (`GpuOrigin`, `GpuFace`, `GpuEntry`, `GpuGroup`) are twinned in
+//! [`crate::coherence::flat`].
 
 use bytemuck::{Pod, Zeroable};
 
@@ -193,7 +194,7 @@ pub struct TextureInfo {
 }
 
 /// A ray of a grid point's ray tree (WGSL `Pending`, keep in sync with
-/// `shaders/shared/layout.wgsl`). `kind` is a `RAY_*` kind, with [`RAY_SKIP_FROM`] set when
+/// `shaders/shared/wavefront.wgsl`). `kind` is a `RAY_*` kind, with [`RAY_SKIP_FROM`] set when
 /// `from_prim` need not be tested, and the ray's depth from bit [`RAY_DEPTH_SHIFT`] on (a
 /// shadow ray: its light, with what the light adds unless blocked in `weight`). `spawn` is
 /// how far the origin was moved off the surface it leaves (0 for the eye).
@@ -227,7 +228,7 @@ pub struct Pending64 {
 pub const MAX_DEPTH: u32 = 16;
 
 /// A walk interrupted between passes (WGSL `WalkState`, keep in sync with
-/// `shaders/shared/layout.wgsl`): where the walk stands, and for a nearest-hit walk the
+/// `shaders/shared/wavefront.wgsl`): where the walk stands, and for a nearest-hit walk the
 /// winner so far with the tie rule's window and least t ([`crate::arith::closest`]).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
@@ -253,7 +254,7 @@ pub const WALK_RESUME: u32 = 1;
 pub const WALK_RESUME_LOST: u32 = 2;
 
 /// A ray in a queue of the wavefront kernels (WGSL `Job`, keep in sync with
-/// `shaders/shared/layout.wgsl`): the ray, the tile point it adds to (with
+/// `shaders/shared/wavefront.wgsl`): the ray, the tile point it adds to (with
 /// [`POINT_UNOWNED`]), and its walk when a pass ended it unfinished (`walking` not
 /// [`WALK_START`]). 96 bytes.
 #[repr(C)]
@@ -278,7 +279,7 @@ pub struct Job64 {
 }
 
 /// One pass of the wavefront kernels (WGSL `PassDesc`, keep in sync with
-/// `shaders/shared/layout.wgsl`): the queue it works through ([`SRC_EYE`]: the tile's eye
+/// `shaders/shared/wavefront.wgsl`): the queue it works through ([`SRC_EYE`]: the tile's eye
 /// rays, made by the pass itself), the queues the jobs it makes go to (`hit`: traced rays to
 /// shade; `next`: secondary rays; `shadow`: shadow rays; `retry`: walks that go on), the
 /// sample the wave traces and the depth of its rays.
