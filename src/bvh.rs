@@ -1,8 +1,9 @@
-//! The bounding volume hierarchy both backends may trace (`--accel bvh`): built by the `obvhs`
-//! crate (PLOC with reinsertion, leaves of up to 8 primitives collapsed by SAH) over boxes
-//! rounded outward to f32, so that every f32 box contains its primitive. The CPU reference
-//! traverses it in f64 with a stack; the GPU ([`crate::layout::bvh`]) flattens it into six
-//! threaded orders that WGSL walks without one.
+//! The bounding volume hierarchies of `--accel bvh` and of the rays leaving surfaces, built by
+//! the `obvhs` crate (PLOC with reinsertion) over boxes rounded outward to f32, so that every
+//! f32 box contains its primitive: a binary tree ([`build`], leaves of up to 8 primitives
+//! collapsed by SAH) that the CPU reference traverses in f64 with a stack, and the compressed
+//! 8-wide tree of Ylitie, Karras and Laine (2017) that the GPU walks ([`build_wide`], leaves
+//! of up to 3 primitives; [`crate::layout::bvh`] re-quantises its boxes conservatively).
 //!
 //! This is the baseline every speed claim of the candidate tables is a ratio against: what a
 //! user would pick instead of them.
@@ -109,6 +110,28 @@ pub fn build(boxes: &[([f32; 3], [f32; 3])]) -> BvhTree {
         })
         .collect();
     BvhTree { nodes, order: bvh.primitive_indices }
+}
+
+/// The most primitives one leaf of the wide BVH holds (obvhs's CWBVH: 3), and one node of it
+/// in all (its eight children's leaves: 24).
+pub const WIDE_LEAF: u32 = 3;
+pub const WIDE_NODE_PRIMS: u32 = 24;
+
+/// Builds the compressed 8-wide BVH of boxes (`min`, `max`), one per primitive, already in
+/// f32 (see [`outward_box`]): obvhs's CWBVH (a binary PLOC tree with reinsertion, collapsed
+/// to eight children a node by the paper's SAH decisions, children in slots by direction
+/// octant). Its quantised child boxes are not conservative as obvhs builds them; callers
+/// quantise them again from the boxes ([`crate::layout::bvh`]). Empty for no primitives.
+pub fn build_wide(boxes: &[([f32; 3], [f32; 3])]) -> obvhs::cwbvh::CwBvh {
+    if boxes.is_empty() {
+        return Default::default();
+    }
+    let prims: Vec<PrimBox> = boxes
+        .iter()
+        .map(|(lo, hi)| PrimBox(ObvhsAabb { min: Vec3A::from(*lo), max: Vec3A::from(*hi) }))
+        .collect();
+    let params = BvhBuildParams { max_prims_per_leaf: WIDE_LEAF, ..BvhBuildParams::medium_build() };
+    obvhs::cwbvh::builder::build_cwbvh(&prims, params, &mut Default::default())
 }
 
 #[cfg(test)]

@@ -251,8 +251,8 @@ pub struct Settings {
     #[serde(default)]
     pub precision: String,
     /// Why `--precision auto` chose `precision` (the offset, the feature and the margin of
-    /// `crate::arith::precision`); absent where the precision was given, and on the CPU.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    /// `crate::arith::precision`); `null` where the precision was given, and on the CPU.
+    #[serde(default)]
     pub precision_auto: Option<String>,
     /// How a PNG encodes the values: `srgb` or `display` (see [`crate::scene::Transfer`]).
     pub transfer: crate::scene::Transfer,

@@ -50,8 +50,8 @@ struct Params {
     win_w: u32,
     own_w: u32,
     own_h: u32,
-    // --accel bvh: the nodes of one threaded order of the BVH (bvh.wgsl).
-    bvh_stride: u32,
+    // The BVH's nodes (0: none; bvh.wgsl), with --accel bvh and for the rays leaving surfaces.
+    bvh_node_count: u32,
     // The wavefront's queues: jobs each ray queue and each shadow queue holds.
     ray_queue: u32,
     shadow_queue: u32,

@@ -12,8 +12,8 @@
 #endif
 
 // A position in the merged walk of a cell's list (i..iend) and the always list (j..jend);
-// with `iend` BVH_WALK, a walk of the BVH (bvh.wgsl: node `i`, the leaf's primitives j..jend
-// left).
+// with `iend` BVH_WALK, a walk of the BVH (bvh.wgsl: the node `i` whose children it takes,
+// those children and its primitives left in `j`).
 struct Walk {
     i: u32,
     iend: u32,
@@ -40,7 +40,7 @@ fn walk_from(from_prim: u32, d: vec3<f32>) -> Walk {
     }
 #if SURFACE_RAYS
     if params.surface_bvh != 0u {
-        return Walk(0u, BVH_WALK, 0u, 0u);
+        return Walk(BVH_FRESH, BVH_WALK, 0u, 0u);
     }
 #endif
     return cell_walk(params.fallback_origin, d);

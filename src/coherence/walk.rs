@@ -30,9 +30,10 @@ pub const WALK_CHUNK: u32 = 8192;
 /// The budget of a walk that runs to its end in one go (WGSL `UNBOUNDED`).
 pub const UNBOUNDED: u32 = u32::MAX;
 
-/// The kernels mark a walk of the BVH (a ray leaving a surface) with this `Walk::iend`, its
-/// node in `i` and its leaf's primitives left in `j..jend` (WGSL `BVH_WALK`); the CPU
-/// reference walks its own BVH instead.
+/// The kernels mark a walk of the BVH (a ray leaving a surface) with this `Walk::iend`, the
+/// node whose children it takes in `i` and those children and its primitives left in `j`
+/// (WGSL `BVH_WALK`; `shaders/shared/bvh.wgsl`); the CPU reference walks its own BVH
+/// instead.
 pub const BVH_WALK: u32 = u32::MAX;
 
 /// A ray's origin entity: what its table is keyed by.

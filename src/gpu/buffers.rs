@@ -31,9 +31,10 @@ pub struct SceneBuffers {
     /// The dispatch arguments of the current pass, copied from `queues` (a buffer the kernel
     /// writes cannot also be its dispatch's argument buffer).
     pub indirect: wgpu::Buffer,
-    /// The BVH's threaded orders and primitive list (a placeholder word without a BVH).
+    /// The BVH's nodes, primitive list and parents (a placeholder word without a BVH).
     pub bvh_nodes: wgpu::Buffer,
     pub bvh_prims: wgpu::Buffer,
+    pub bvh_parents: wgpu::Buffer,
     /// The candidate tables' buffers ([`FlatTables`]; placeholders without tables).
     pub tables: [wgpu::Buffer; 5],
     pub bind: wgpu::BindGroup,
@@ -57,11 +58,15 @@ impl SceneBuffers {
     /// zeroing). Returns whether it did.
     pub fn rewrite_moved(&self, ctx: &GpuContext, packed: &Packed) -> bool {
         let Some(bvh) = &packed.bvh else { return false };
-        let (nodes, prims): (&[u8], &[u8]) =
-            (bytemuck::cast_slice(&bvh.nodes), bytemuck::cast_slice(&bvh.prims));
+        let (nodes, prims, parents): (&[u8], &[u8], &[u8]) = (
+            bytemuck::cast_slice(&bvh.nodes),
+            bytemuck::cast_slice(&bvh.prims),
+            bytemuck::cast_slice(&bvh.parents),
+        );
         let fits = |bytes: &[u8], b: &wgpu::Buffer| !bytes.is_empty() && bytes.len() as u64 <= b.size();
         if !fits(nodes, &self.bvh_nodes)
             || !fits(prims, &self.bvh_prims)
+            || !fits(parents, &self.bvh_parents)
             || packed.prim_bytes().len() as u64 != self.prims.size()
         {
             return false;
@@ -73,6 +78,7 @@ impl SceneBuffers {
         }
         queue.write_buffer(&self.bvh_nodes, 0, nodes);
         queue.write_buffer(&self.bvh_prims, 0, prims);
+        queue.write_buffer(&self.bvh_parents, 0, parents);
         true
     }
 
@@ -222,6 +228,7 @@ pub fn upload(
     let bvh = packed.bvh.as_ref();
     let bvh_nodes = table("bvh_nodes", bvh.map(|b| bytemuck::cast_slice(&b.nodes)));
     let bvh_prims = table("bvh_prims", bvh.map(|b| bytemuck::cast_slice(&b.prims)));
+    let bvh_parents = table("bvh_parents", bvh.map(|b| bytemuck::cast_slice(&b.parents)));
     let params = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("params"),
         size: std::mem::size_of::<Params>() as u64,
@@ -296,6 +303,7 @@ pub fn upload(
             (21, &bvh_prims),
             (22, &pass_desc),
             (23, &accum),
+            (24, &bvh_parents),
         ]
         .map(|(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }),
     });
@@ -317,6 +325,7 @@ pub fn upload(
         indirect,
         bvh_nodes,
         bvh_prims,
+        bvh_parents,
         tables: [origins, faces, cell_start, entries, light_origin],
         bind,
         tile,

@@ -20,8 +20,8 @@ use super::GpuContext;
 use crate::error::Result;
 
 /// The scene buffers' bindings: 0 `params`, 1–6 the read-only scene, 7–10 the kernels'
-/// outputs and queues, 11–15 the candidate tables, 20–21 the BVH (a kernel binds only the
-/// buffers of its own queries), 22 the current pass, 23 the radiance sums.
+/// outputs and queues, 11–15 the candidate tables, 20–21 and 24 the BVH (a kernel binds only
+/// the buffers of its own queries), 22 the current pass, 23 the radiance sums.
 /// `params` is a read-only storage buffer, not a uniform: lavapipe would compile a variant
 /// of the kernel for every tile's values (see `shaders/shared/layout.wgsl`).
 fn bind_layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
@@ -35,8 +35,8 @@ fn bind_layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
     let mut entries = vec![entry(0, storage(true))];
     entries.extend((1..=6).map(|b| entry(b, storage(true))));
     entries.extend((7..=10).map(|b| entry(b, storage(false))));
-    // 11–15 the candidate tables, 20–21 the BVH.
-    entries.extend([11, 12, 13, 14, 15, 20, 21].map(|b| entry(b, storage(true))));
+    // 11–15 the candidate tables, 20, 21 and 24 the BVH.
+    entries.extend([11, 12, 13, 14, 15, 20, 21, 24].map(|b| entry(b, storage(true))));
     entries.push(entry(22, storage(true)));
     entries.push(entry(23, storage(false)));
     entries

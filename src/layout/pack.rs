@@ -116,7 +116,7 @@ impl Packed {
     /// [`Packed::with_bvh`] in place.
     pub fn add_bvh(&mut self, scene: &Scene) {
         let bvh = pack_bvh(scene);
-        self.params.bvh_stride = bvh.stride;
+        self.params.bvh_node_count = bvh.nodes.len() as u32;
         self.params.bvh_inline = super::budget::bvh_shadow_inline(scene);
         self.bvh = Some(bvh);
     }

@@ -55,8 +55,9 @@ pub struct Params {
     pub win_w: u32,
     pub own_w: u32,
     pub own_h: u32,
-    /// `--accel bvh`: the nodes of one threaded order of the BVH ([`crate::layout::bvh`]).
-    pub bvh_stride: u32,
+    /// The BVH's nodes (0: none; [`crate::layout::bvh`]), with `--accel bvh` and for the rays
+    /// leaving surfaces.
+    pub bvh_node_count: u32,
     /// The wavefront's queues: jobs each ray queue and each shadow queue holds
     /// ([`crate::gpu::schedule`]).
     pub ray_queue: u32,

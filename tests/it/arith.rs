@@ -1,9 +1,12 @@
 //! The kernels' intersection arithmetic on the GPU against its Rust twins
-//! (`cuberay::arith::geometry`, `cuberay::layout::bvh::box_hit`): a test kernel runs the
-//! composed `shaders/shared/intersect.wgsl` and the BVH's box test of
+//! (`cuberay::arith::geometry`, `cuberay::layout::bvh::WideNode::hits`): a test kernel runs
+//! the composed `shaders/shared/intersect.wgsl` and the BVH's node test of
 //! `shaders/shared/bvh.wgsl` on many random rays and primitives (grazing spheres and
 //! cylinders, rays through triangles' edges and vertices, axis-parallel rays, boxes touched
-//! at their faces), and each answer is compared with the twin's.
+//! at their faces), and each answer is compared with the twin's. Each primitive's box is one
+//! child, in a slot of its own and inner or a leaf, of a wide node whose other children are
+//! random boxes around it: the node test decodes all eight and orders them by the ray's
+//! octant.
 //!
 //! The twins claim the same operations in the same order, but Vulkan lets a driver fuse a
 //! multiply and an add (rounding once instead of twice) and divide or take square roots to
@@ -12,14 +15,14 @@
 //! where the hit lies within [`NEAR`] of the boundary (a barycentric coordinate, a grazing
 //! ray's cosine, a cylinder's end, `t_max`: a few ulps decide those), and a shared hit's t
 //! and barycentrics agree within [`T_ULPS`] and [`B_ULPS`] ulps of the numbers they are
-//! computed from. The box test fuses and approximates nothing: it agrees bit for bit. A one-sided change of a twin (a term dropped, an operation of another
+//! computed from. The node test approximates nothing and, on lavapipe, fuses nothing: it agrees bit for bit. A one-sided change of a twin (a term dropped, an operation of another
 //! precision) breaks far more cases than that.
 
 use cuberay::arith::geometry::{make_ray, Prim32, PrimHit};
 use cuberay::gpu::shaders::{compose_root, Queries, Variant};
 use cuberay::gpu::GpuContext;
-use cuberay::layout::bvh::{box_hit, box_ray, BvhNode};
-use cuberay::layout::{Params, Prim, KIND_CYLINDER, KIND_SPHERE, KIND_TRIANGLE};
+use cuberay::layout::bvh::{box_ray, quantise, WideNode};
+use cuberay::layout::{Prim, KIND_CYLINDER, KIND_SPHERE, KIND_TRIANGLE};
 use glam::Vec3;
 
 /// How far a shared hit's t may differ between the twins (spheres, triangles, cylinders), in
@@ -54,10 +57,10 @@ fn twins(@builtin(global_invocation_id) gid: vec3<u32>) {
     let c = cases[i];
     let ray = make_ray(c.o, c.d);
     let h = intersect_prim(prims[c.prim], ray, c.t_max);
-    let boxed = box_hit(bvh_nodes[c.prim], box_ray(ray), c.t_max);
-    let flags = select(0u, 1u, h.ok) | select(0u, 2u, boxed);
+    let boxed = node_hits(bvh_nodes[c.prim], box_ray(ray), c.t_max);
+    let flags = select(0u, 1u, h.ok);
     answers[2u * i] = vec4<u32>(flags, bitcast<u32>(h.t), bitcast<u32>(h.b1), bitcast<u32>(h.b2));
-    answers[2u * i + 1u] = vec4<u32>(bitcast<u32>(h.err), 0u, 0u, 0u);
+    answers[2u * i + 1u] = vec4<u32>(bitcast<u32>(h.err), boxed.inner, boxed.prims, 0u);
 }
 "#;
 
@@ -102,21 +105,75 @@ impl Rng {
     }
 }
 
-/// A primitive, its packed twin and its box, and the rays aimed at it.
+/// A primitive, its packed twin, its box, and the wide node its box is slot `slot` of.
 struct Shape {
     prim: Prim32,
     packed: Prim,
-    node: BvhNode,
+    lo: [f32; 3],
+    hi: [f32; 3],
+    node: WideNode,
+    slot: u32,
 }
 
 impl Shape {
     /// The largest coordinate of the primitive's box.
     fn extent(&self) -> f32 {
-        self.node.lo.iter().chain(&self.node.hi).fold(0.0f32, |m, x| m.max(x.abs()))
+        self.lo.iter().chain(&self.hi).fold(0.0f32, |m, x| m.max(x.abs()))
+    }
+
+    /// Whether the node test's answer (`inner`, `prims`) for a ray of octant `octant` holds
+    /// the primitive's own slot.
+    fn slot_hit(&self, inner: u32, prims: u32, octant: u32) -> bool {
+        if self.node.imask() & (1 << self.slot) != 0 {
+            inner & (1 << (self.slot ^ octant)) != 0
+        } else {
+            prims & (1 << (self.node.meta(self.slot as usize) & 31)) != 0
+        }
     }
 }
 
-fn shape(prim: Prim32) -> Shape {
+/// A wide node whose slot `slot` holds the box `lo`..`hi` (an inner child if `inner`, else
+/// a leaf), the other slots empty or random boxes around it, inner or leaves of 1–3
+/// primitives; quantised as the BVH's nodes are.
+fn node_around(lo: Vec3, hi: Vec3, slot: usize, inner: bool, rng: &mut Rng) -> WideNode {
+    let size = (hi - lo).max_element().max(1e-3);
+    let mut children = [None; 8];
+    let (mut meta, mut imask, mut offset) = ([0u8; 8], 0u32, 0u8);
+    for s in 0..8 {
+        let b = if s == slot {
+            (lo, hi)
+        } else if rng.next() % 4 == 0 {
+            continue;
+        } else {
+            let a = (lo + hi) * 0.5 + rng.vec(size);
+            (a, a + Vec3::new(rng.unit(), rng.unit(), rng.unit()) * size)
+        };
+        children[s] = Some((b.0.to_array(), b.1.to_array()));
+        if if s == slot { inner } else { rng.next() % 2 == 0 } {
+            imask |= 1 << s;
+            meta[s] = 0b0010_0000 | (24 + s as u8);
+        } else {
+            let count = 1 + (rng.next() % 3) as u8;
+            meta[s] = offset | ([0, 0b001, 0b011, 0b111][count as usize] << 5);
+            offset += count;
+        }
+    }
+    let all = children.iter().flatten().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(l, h), (a, b)| {
+        (l.min(Vec3::from(*a)), h.max(Vec3::from(*b)))
+    });
+    let mut node = WideNode {
+        e_imask: imask << 24,
+        child_meta: [
+            u32::from_le_bytes(meta[..4].try_into().unwrap()),
+            u32::from_le_bytes(meta[4..].try_into().unwrap()),
+        ],
+        ..WideNode::default()
+    };
+    quantise(&mut node, (all.0.to_array(), all.1.to_array()), &children);
+    node
+}
+
+fn shape(prim: Prim32, rng: &mut Rng) -> Shape {
     let v4 = |v: Vec3, w: f32| [v.x, v.y, v.z, w];
     let (packed, lo, hi) = match prim {
         Prim32::Sphere { c, r, inside_only } => (
@@ -145,7 +202,9 @@ fn shape(prim: Prim32) -> Shape {
             )
         }
     };
-    Shape { prim, packed, node: BvhNode { lo: lo.to_array(), skip: 0, hi: hi.to_array(), leaf: 0 } }
+    let slot = (rng.next() % 8) as usize;
+    let node = node_around(lo, hi, slot, rng.next() % 2 == 0, rng);
+    Shape { prim, packed, lo: lo.to_array(), hi: hi.to_array(), node, slot: slot as u32 }
 }
 
 /// Random primitives and rays at them: rays aimed at a random point of the primitive,
@@ -160,31 +219,37 @@ fn cases(n: usize) -> (Vec<Shape>, Vec<Case>) {
         let scale = rng.pick(&[1e-3f32, 1.0, 1e3]);
         let centre = rng.vec(4.0 * scale);
         let s = match rng.next() % 3 {
-            0 => shape(Prim32::Sphere {
-                c: centre,
-                r: rng.range(0.1, 2.0) * scale,
-                inside_only: rng.next() % 5 == 0,
-            }),
-            1 => shape(Prim32::Triangle {
-                p: [
+            0 => {
+                let sphere = Prim32::Sphere {
+                    c: centre,
+                    r: rng.range(0.1, 2.0) * scale,
+                    inside_only: rng.next() % 5 == 0,
+                };
+                shape(sphere, &mut rng)
+            }
+            1 => {
+                let p = [
                     centre + rng.vec(2.0 * scale),
                     centre + rng.vec(2.0 * scale),
                     centre + rng.vec(2.0 * scale),
-                ],
-            }),
+                ];
+                shape(Prim32::Triangle { p }, &mut rng)
+            }
             _ => {
                 let base = centre;
                 let apex = centre + rng.vec(2.0 * scale);
                 let (rb, ra) = (rng.range(0.05, 1.0) * scale, rng.pick(&[0.0, 0.3, 1.0]) * scale);
-                shape(Prim32::Cylinder {
+                let inside_only = rng.next() % 5 == 0;
+                let cylinder = Prim32::Cylinder {
                     base: [base.x, base.y, base.z, rb],
                     apex: [apex.x, apex.y, apex.z, ra],
-                    inside_only: rng.next() % 5 == 0,
-                })
+                    inside_only,
+                };
+                shape(cylinder, &mut rng)
             }
         };
         let id = shapes.len() as u32;
-        let (lo, hi) = (Vec3::from(s.node.lo), Vec3::from(s.node.hi));
+        let (lo, hi) = (Vec3::from(s.lo), Vec3::from(s.hi));
         for k in 0..24 {
             // A target on or near the primitive.
             let target = match s.prim {
@@ -242,8 +307,9 @@ fn cases(n: usize) -> (Vec<Shape>, Vec<Case>) {
     (shapes, cases)
 }
 
-/// What the GPU answered for each case: (hit, box hit, t, b1, b2, err bits).
-fn on_the_gpu(shapes: &[Shape], cases: &[Case]) -> Vec<[u32; 5]> {
+/// What the GPU answered for each case: (hit, t, b1, b2, err bits, the node test's inner
+/// and primitive masks).
+fn on_the_gpu(shapes: &[Shape], cases: &[Case]) -> Vec<[u32; 7]> {
     let ctx = GpuContext::new().unwrap_or_else(|e| panic!("{e}"));
     let variant = Variant { counters: false, ..Variant::full(Queries::Bvh) };
     let source = compose_root(KERNEL, variant).expect("the test kernel composes");
@@ -269,12 +335,10 @@ fn on_the_gpu(shapes: &[Shape], cases: &[Case]) -> Vec<[u32; 5]> {
         })
     };
     let read = wgpu::BufferUsages::STORAGE;
-    let params = Params { bvh_stride: 0, ..Params::default() };
     let prims: Vec<Prim> = shapes.iter().map(|s| s.packed).collect();
-    let nodes: Vec<BvhNode> = shapes.iter().map(|s| s.node).collect();
+    let nodes: Vec<WideNode> = shapes.iter().map(|s| s.node).collect();
     let answer_bytes = (cases.len() * 32) as u64;
     let buffers = [
-        (0, storage("params", bytemuck::bytes_of(&params), read)),
         (1, storage("prims", bytemuck::cast_slice(&prims), read)),
         (20, storage("bvh_nodes", bytemuck::cast_slice(&nodes), read)),
         (30, storage("cases", bytemuck::cast_slice(cases), read)),
@@ -305,11 +369,11 @@ fn on_the_gpu(shapes: &[Shape], cases: &[Case]) -> Vec<[u32; 5]> {
         pass.set_bind_group(0, &bind, &[]);
         pass.dispatch_workgroups((cases.len() as u32).div_ceil(64), 1, 1);
     }
-    enc.copy_buffer_to_buffer(&buffers[4].1, 0, &readback, 0, answer_bytes);
+    enc.copy_buffer_to_buffer(&buffers[3].1, 0, &readback, 0, answer_bytes);
     ctx.queue.submit([enc.finish()]);
     let bytes = ctx.read(&readback, answer_bytes).expect("the answers read back");
     let words: &[[u32; 8]] = bytemuck::cast_slice(&bytes);
-    words.iter().map(|w| [w[0], w[1], w[2], w[3], w[4]]).collect()
+    words.iter().map(|w| [w[0], w[1], w[2], w[3], w[4], w[5], w[6]]).collect()
 }
 
 /// Where a hit at distance `t` along `c`'s ray lies on `s`, computed in f64: the cosine
@@ -441,9 +505,7 @@ fn the_intersection_tests_and_the_box_test_match_their_rust_twins_on_the_gpu() {
             let t_ulps = ((g_t - cpu.t).abs() as f64 * cosine / (scale * f32::EPSILON) as f64).ceil() as u32;
             // Barycentrics lie in [0, 1]: their error counts in ulps of 1, and their point
             // moves with t, over the triangle's size.
-            let size = (s.node.hi[0] - s.node.lo[0])
-                .max(s.node.hi[1] - s.node.lo[1])
-                .max(s.node.hi[2] - s.node.lo[2]);
+            let size = (s.hi[0] - s.lo[0]).max(s.hi[1] - s.lo[1]).max(s.hi[2] - s.lo[2]);
             let db = (f32::from_bits(g[2]) - cpu.b1).abs().max((f32::from_bits(g[3]) - cpu.b2).abs()) as f64;
             let b_err = (db * cosine * (size / scale) as f64 / f32::EPSILON as f64) as f32;
             let kind = match s.prim {
@@ -482,17 +544,23 @@ fn the_intersection_tests_and_the_box_test_match_their_rust_twins_on_the_gpu() {
                 ));
             }
         }
-        // The box test takes differences, products, minima and maxima, which no driver may
-        // fuse or approximate: the same answer, bit for bit.
-        let r = box_ray(c.o, ray.d.to_array(), 0);
-        let cpu_box = box_hit(&s.node, &r, c.t_max);
+        // The node test takes differences, products, sums, minima and maxima: nothing is
+        // approximated, and lavapipe fuses no product into a sum, so the answer is the same
+        // bit for bit (a driver that fused would move a few answers at a slab's edge, where
+        // the slabs' margin keeps every box the primitive's hit needs).
+        let r = box_ray(c.o, ray.d.to_array());
+        let (inner, prims) = s.node.hits(&r, c.t_max);
+        let cpu_box = s.slot_hit(inner, prims, r.octant);
         boxes += cpu_box as u32;
-        if (g[0] & 2 != 0) != cpu_box {
-            failures.push(format!("box {:?}: GPU {}, CPU {cpu_box}, ray {c:?}", s.node, g[0] & 2 != 0));
+        if (g[5], g[6]) != (inner, prims) {
+            failures.push(format!(
+                "node {:?}: GPU (inner, prims) ({:#b}, {:#b}), CPU ({inner:#b}, {prims:#b}), ray {c:?}",
+                s.node, g[5], g[6]
+            ));
         }
-        // Every box holds its primitive: a hit on the primitive is a hit on its box.
+        // Every decoded box holds its primitive: a hit on the primitive is a hit on its slot.
         if cpu.ok {
-            assert!(cpu_box, "the box test missed a box whose primitive is hit: {:?} {c:?}", s.prim);
+            assert!(cpu_box, "the node test missed the slot of a primitive that is hit: {:?} {c:?}", s.prim);
         }
     }
     let n = cases.len();

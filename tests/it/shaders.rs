@@ -161,7 +161,7 @@ fn each_kernel_contains_only_its_own_queries() {
         assert_eq!(has_function(&m, "walk_any"), v.shadows, "{v:?}");
         let walks_bvh = bvh || (cube && v.surface_rays);
         assert_eq!(has_function(&m, "bvh_nearest"), walks_bvh, "{v:?}");
-        assert_eq!(has_function(&m, "box_hit"), walks_bvh, "{v:?}");
+        assert_eq!(has_function(&m, "node_hits"), walks_bvh, "{v:?}");
         assert_eq!(has_function(&m, "bvh_any"), walks_bvh && v.shadows, "{v:?}");
         assert_eq!(has_function(&m, "bvh_walk"), walks_bvh, "{v:?}");
         // Every accelerator traces the one shadow ray, and only where there are shadows.

@@ -13,7 +13,7 @@ use cuberay::arith::{FAR, NO_ID, SHADOW_END_REL};
 use cuberay::coherence::flat::{GpuEntry, GpuFace, GpuOrigin, NO_ORIGIN};
 use cuberay::coherence::walk::{AnyHit, BVH_WALK, UNBOUNDED, WALK_CHUNK};
 use cuberay::gpu::shaders::{compose, Kernel, Queries, Variant};
-use cuberay::layout::bvh::{BvhNode, BVH_LEAF_SHIFT, BVH_SLACK};
+use cuberay::layout::bvh::{WideNode, BVH_DECODE_REL, BVH_FRESH, BVH_NO_PARENT, BVH_SLACK, BVH_STACK};
 use cuberay::layout::counters::*;
 use cuberay::layout::*;
 use cuberay::preview::display::{View, ENCODE_LINEARIZE, ENCODE_NONE, ENCODE_SRGB};
@@ -107,7 +107,7 @@ fn rust_structs() -> BTreeMap<&'static str, Layout> {
             win_w,
             own_w,
             own_h,
-            bvh_stride,
+            bvh_node_count,
             ray_queue,
             shadow_queue,
             surface_bvh,
@@ -166,7 +166,7 @@ fn rust_structs() -> BTreeMap<&'static str, Layout> {
         twin!(GpuOrigin { n, always_start, always_count, kind }),
         twin!(GpuFace { iu0, iv0, width, height, cell_base, _pad0, _pad1, _pad2 }),
         twin!(GpuEntry { id, d_min }),
-        twin!(BvhNode { lo, skip, hi, leaf }),
+        twin!(WideNode { p, e_imask, child_base, prim_base, child_meta, q }),
         twin!(Tile { first_point, point_count, pad0, pad1 }),
         twin!(View { width, height, grid_w, samples, corners, encode, block, pad1 }),
     ])
@@ -262,8 +262,11 @@ fn rust_constants() -> BTreeMap<&'static str, Value> {
         ("NO_ID", U32(NO_ID)),
         ("SHADOW_END_REL", F32(SHADOW_END_REL)),
         ("NO_ORIGIN", U32(NO_ORIGIN)),
-        ("BVH_LEAF_SHIFT", U32(BVH_LEAF_SHIFT)),
+        ("BVH_NO_PARENT", U32(BVH_NO_PARENT)),
+        ("BVH_FRESH", U32(BVH_FRESH)),
+        ("BVH_STACK", U32(BVH_STACK)),
         ("BVH_SLACK", F32(BVH_SLACK)),
+        ("BVH_DECODE_REL", F32(BVH_DECODE_REL)),
         ("ACCUMULATE_WORKGROUP", U32(ACCUMULATE_WORKGROUP)),
         ("ENCODE_NONE", U32(ENCODE_NONE)),
         ("ENCODE_SRGB", U32(ENCODE_SRGB)),
@@ -375,6 +378,8 @@ const WGSL_ONLY_STRUCTS: &[&str] = &[
     "Occlusion",
     "ShadowRay",
     "BoxRay",
+    "NodeHits",
+    "BvhWalk",
     "VertexOut",
 ];
 

@@ -41,7 +41,6 @@ use crate::gpu::shaders::{Kernel, Queries, Stage, Variant};
 use crate::gpu::{self, GpuRenderer, SceneBuffers};
 use crate::job::{grid_image, Precision, RenderOptions};
 use crate::layout::budget::{retry_passes, tile_points, MAX_DEPTH, TESTS_PER_DISPATCH};
-use crate::layout::bvh::BVH_ORDERS;
 use crate::layout::{job_params, pack, pack_moved, Packed, Params};
 use crate::output::Image;
 use crate::scene::{Camera, Effects, Scene, Transfer};
@@ -151,8 +150,9 @@ fn traced_walks(tables: Option<&WalkBounds>, packed: &Packed) -> Option<WalkBoun
     }
 }
 
-/// Gives `packed` (of `scene`) a BVH, and room after it for the BVH of any camera (a binary
-/// tree over n primitives has at most 2n − 1 nodes in each order), so that a camera move
+/// Gives `packed` (of `scene`) a BVH, and room after it for the BVH of any camera (a wide
+/// tree over n primitives has at most n − 1 nodes, one a node of the binary tree it is
+/// collapsed from, and a tree over one primitive one), so that a camera move
 /// writes its BVH into the buffers in place: new buffers would cost the zeroing of a
 /// tile's queues, a stall of about 50 ms on lavapipe. The tables' kernels ignore it.
 fn make_room_for_moves(packed: &mut Packed, scene: &Scene) {
@@ -160,8 +160,9 @@ fn make_room_for_moves(packed: &mut Packed, scene: &Scene) {
         packed.add_bvh(scene);
     }
     if let Some(b) = packed.bvh.as_mut() {
-        let most = BVH_ORDERS * (2 * scene.primitives.len()).saturating_sub(1);
+        let most = scene.primitives.len().saturating_sub(1).max(1);
         b.nodes.resize(b.nodes.len().max(most), Default::default());
+        b.parents.resize(b.nodes.len(), crate::layout::bvh::BVH_NO_PARENT);
     }
 }
 
@@ -440,7 +441,7 @@ impl Session {
             ortho: p.ortho,
             eye_origin: p.eye_origin,
             fallback_origin: p.fallback_origin,
-            bvh_stride: p.bvh_stride,
+            bvh_node_count: p.bvh_node_count,
             bvh_inline: p.bvh_inline,
             surface_bvh: p.surface_bvh,
             ray_queue: self.buffers.ray_queue,
