@@ -18,33 +18,35 @@ fn eye_job(k: u32) -> Job {
 
 // Traces job `job` (or the next part of its walk; an unfinished walk goes to the pass's
 // retry queue); once its nearest hit is known, a miss adds the background to its point and
-// a hit goes to the pass's hit queue, the hit in the job's walk state (prim, t, b1, b2).
+// a hit goes to the pass's hit queue, the hit in the job's walk state (prim, t, b1, b2). A
+// retried walk and a hit share one push: lavapipe (Mesa 22.3) runs the code of every
+// branch for every invocation, taken or not.
 fn trace_job(job: Job) {
     let pending = job.ray;
     let kind = pending.kind & RAY_KIND_MASK;
     let ray = make_ray(pending.o, pending.d);
     let skip = select(NO_ID, pending.from_prim, (pending.kind & RAY_SKIP_FROM) != 0u);
     let stepped = closest_step(ray, FAR, kind, pending.from_prim, skip, job.walking, job.walk);
-    var next = job;
-    if !stepped.done {
-        next.walking = select(WALK_RESUME, WALK_RESUME_LOST, stepped.c.lost);
-        next.walk = stepped.state;
-        push_job(pass_desc.retry, next);
-        return;
-    }
     let h = stepped.c;
-    count(C_RAYS + kind);
-    if !h.found {
-        add_radiance(job.point, pending.weight * params.background);
-        return;
+    if stepped.done {
+        count(C_RAYS + kind);
+        if !h.found {
+            add_radiance(job.point, pending.weight * params.background);
+            return;
+        }
+        if kind == RAY_EYE {
+            count(C_EYE_HIT);
+        } else if h.hit.t < SELF_HIT_SPAWNS * pending.spawn {
+            count(C_SELF_HITS);
+        }
     }
-    if kind == RAY_EYE {
-        count(C_EYE_HIT);
-    } else if h.hit.t < SELF_HIT_SPAWNS * pending.spawn {
-        count(C_SELF_HITS);
+    var next = job;
+    next.walking = select(select(WALK_RESUME, WALK_RESUME_LOST, h.lost), WALK_START, stepped.done);
+    next.walk = stepped.state;
+    if stepped.done {
+        next.walk = WalkState(0u, 0u, 0u, 0u, h.prim, h.hit.t, h.hit.b1, h.hit.b2, h.window, h.t_min);
     }
-    next.walk = WalkState(0u, 0u, 0u, 0u, h.prim, h.hit.t, h.hit.b1, h.hit.b2, h.window, h.t_min);
-    push_job(pass_desc.hit, next);
+    push_job(select(pass_desc.retry, pass_desc.hit, stepped.done), next);
 }
 
 @compute @workgroup_size(WORKGROUP)

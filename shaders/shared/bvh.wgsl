@@ -42,6 +42,11 @@ const BVH_NO_PARENT: u32 = 0xffffffffu;
 const BVH_FRESH: u32 = 0xffffffffu;
 // Entries of the in-pass stack of nodes with children left (BvhWalk's s0..s3).
 const BVH_STACK: u32 = 4u;
+// Loop iterations one pass gives a nearest-hit walk of the BVH as an accelerator of its own:
+// WALK_CHUNK less the room a walk takes to test the primitives it holds when they run out.
+const BVH_CHUNK: u32 = WALK_CHUNK - 2u * WIDE_NODE_PRIMS;
+// The most primitives of one node's leaves.
+const WIDE_NODE_PRIMS: u32 = 24u;
 
 @group(0) @binding(20) var<storage, read> bvh_nodes: array<WideNode>;
 @group(0) @binding(21) var<storage, read> bvh_prims: array<u32>;
@@ -142,8 +147,8 @@ fn node_hits(n: WideNode, r: BoxRay, t_far: f32) -> NodeHits {
 
 #if BVH
 // A position in a walk between passes: `i` the node whose children the walk is taking
-// (BVH_FRESH: not started), `j` those children left (bits 0-7, by rank) and the node's
-// primitives left to test (bits 8-31); `iend` and `jend` unused.
+// (BVH_FRESH: not started), `j` those children left (by rank); `iend` and `jend` unused. A
+// walk stops between passes only with no primitive left to test.
 struct Walk {
     i: u32,
     iend: u32,
@@ -157,10 +162,11 @@ fn bvh_walk() -> Walk {
 }
 
 // A walk within a pass: the node whose children it is taking, with its `child_base`, its
-// inner-child mask and the children left (by rank); the primitives left (bits of `pmask`,
-// at `bvh_prims[pbase + bit]`); the stack (`s0` on top: node, child_base, inner mask,
-// children left); and whether nodes above the stack's bottom may have children left (the
-// stack dropped one, or the walk was resumed).
+// inner-child mask and the children left (by rank); two groups of primitives to test, each
+// a node's hit leaves (bits of `pmask` at `bvh_prims[pbase + bit]`): the group being tested,
+// and the group of the node entered last, waiting; the stack (`s0` on top: node,
+// child_base, inner mask, children left); and whether nodes above the stack's bottom may
+// have children left (the stack dropped one, or the walk was resumed).
 struct BvhWalk {
     node: u32,
     base: u32,
@@ -168,6 +174,8 @@ struct BvhWalk {
     hits: u32,
     pbase: u32,
     pmask: u32,
+    next_pbase: u32,
+    next_pmask: u32,
     depth: u32,
     climb: bool,
     s0: vec4<u32>,
@@ -177,7 +185,7 @@ struct BvhWalk {
 }
 
 // Makes node `node` the one whose children the walk takes: its hit inner children, and its
-// hit leaves' primitives to test.
+// hit leaves' primitives, which wait for the group being tested.
 fn bvh_enter(st: ptr<function, BvhWalk>, node: u32, r: BoxRay, limit: f32, ray_kind: u32) {
     count_bound(ray_kind);
     let n = bvh_nodes[node];
@@ -186,8 +194,8 @@ fn bvh_enter(st: ptr<function, BvhWalk>, node: u32, r: BoxRay, limit: f32, ray_k
     (*st).base = n.child_base;
     (*st).imask = n.e_imask >> 24u;
     (*st).hits = h.inner;
-    (*st).pbase = n.prim_base;
-    (*st).pmask = h.prims;
+    (*st).next_pbase = n.prim_base;
+    (*st).next_pmask = h.prims;
 }
 
 // The walk `w` within a pass: one not started enters the root (a BVH without nodes has
@@ -205,21 +213,37 @@ fn bvh_resume(w: Walk, r: BoxRay, limit: f32, ray_kind: u32) -> BvhWalk {
     st.node = w.i;
     st.base = n.child_base;
     st.imask = n.e_imask >> 24u;
-    st.hits = w.j & 0xffu;
-    st.pbase = n.prim_base;
-    st.pmask = w.j >> 8u;
+    st.hits = w.j;
     st.climb = true;
     return st;
 }
 
-// Where `st` stands, to resume in a later pass (`w`'s `iend`, the table walk's tag, kept).
+// Where `st` stands, with no primitive left to test, to resume in a later pass (`w`'s
+// `iend`, the table walk's tag, kept).
 fn bvh_saved(st: BvhWalk, w: Walk) -> Walk {
-    return Walk(st.node, w.iend, st.hits | (st.pmask << 8u), 0u);
+    return Walk(st.node, w.iend, st.hits, 0u);
 }
 
-// Whether walk `st` is over: nothing left to test, on the stack or above it.
+// The waiting group of primitives becomes the one tested once that is done.
+fn bvh_next_group(st: ptr<function, BvhWalk>) {
+    if (*st).pmask == 0u {
+        (*st).pbase = (*st).next_pbase;
+        (*st).pmask = (*st).next_pmask;
+        (*st).next_pmask = 0u;
+    }
+}
+
+// Whether walk `st` is over (after `bvh_next_group`): nothing left to test, on the stack or
+// above it.
 fn bvh_over(st: BvhWalk) -> bool {
     return st.pmask == 0u && st.hits == 0u && st.depth == 0u && !(st.climb && st.node != 0u);
+}
+
+// The next primitive of the group being tested (one is left).
+fn bvh_next_prim(st: ptr<function, BvhWalk>) -> u32 {
+    let b = firstTrailingBit((*st).pmask);
+    (*st).pmask &= (*st).pmask - 1u;
+    return bvh_prims[(*st).pbase + b];
 }
 
 // One node of the walk: the next hit child is entered (its parent, if it has children left,
@@ -270,44 +294,50 @@ fn bvh_step(st: ptr<function, BvhWalk>, r: BoxRay, limit: f32, ray_kind: u32) {
     if climbed_from < 8u {
         // Its leaves were tested when it was entered, its children up to this one taken.
         (*st).hits &= ~((2u << climbed_from) - 1u);
-        (*st).pmask = 0u;
+        (*st).next_pmask = 0u;
     }
 }
 
 // Continues the nearest-hit walk `w` for at most `*left` more loop iterations (taken from
 // `*left`), taking the hits into `best` by the tie rule (`consider`; `skip` never tested),
 // and entering the boxes the window reaches. True when the walk is over. Each iteration
-// tests the next queued primitive, and enters a node once the queue is empty: a node
-// entered before its parent's last primitives would only see a farther nearest hit and
-// enter more, never less, so the hits are those of the walk that tests them in turn.
+// tests the next primitive of the group being tested, and enters a node unless a group
+// waits already: a node entered before the last primitives only sees a farther nearest hit
+// and enters more, never less, so the hits are those of the walk that tests them in turn;
+// and a walk of p primitives and n nodes takes about max(p, n) iterations, not p + n. With
+// `*left` spent, the walk enters no more nodes and tests the groups it holds (at most
+// 2·WIDE_NODE_PRIMS iterations more: `walk_chunk` leaves room), so that it stops with none.
 fn bvh_nearest(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, t_max: f32, skip: u32,
     ray_kind: u32, left: ptr<function, u32>) -> bool {
     let r = box_ray(ray);
     var limit = closest_limit(*best, t_max);
     var st = bvh_resume(*w, r, limit, ray_kind);
+    var draining = false;
     loop {
+        bvh_next_group(&st);
+        if draining && st.pmask == 0u {
+            *w = bvh_saved(st, *w);
+            return false;
+        }
         if bvh_over(st) {
             break;
         }
         count_step();
         if *left == 0u {
-            *w = bvh_saved(st, *w);
-            return false;
+            draining = true;
+        } else {
+            *left -= 1u;
         }
-        *left -= 1u;
         if st.pmask != 0u {
-            let b = firstTrailingBit(st.pmask);
-            st.pmask &= st.pmask - 1u;
-            let id = bvh_prims[st.pbase + b];
+            let id = bvh_next_prim(&st);
             if id != skip {
                 limit = consider(id, best, ray, t_max, ray_kind);
             }
         }
-        if st.pmask == 0u {
+        if !draining && st.next_pmask == 0u {
             bvh_step(&st, r, limit, ray_kind);
         }
     }
-    *w = bvh_saved(st, *w);
     return true;
 }
 
@@ -323,32 +353,38 @@ fn walk_nearest(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, 
 }
 
 fn walk_chunk(w: Walk) -> u32 {
-    return WALK_CHUNK;
+    return BVH_CHUNK;
 }
 #endif
 
 #if SHADOWS
-// Continues the any-hit walk `w` for at most `budget` loop iterations (as `bvh_nearest`):
+#if BVH_SHADOWS
+// Continues the any-hit walk `w` for at most `budget` loop iterations (as `bvh_nearest`, and
+// as many more as it takes to test the groups it holds when the budget runs out):
 // ANY_BLOCKED when some primitive other than `skip` is hit at 0 < t < t_max (with its t),
 // ANY_CLEAR when the walk ended without one, ANY_UNFINISHED when the budget ran out first.
 fn bvh_any(w: ptr<function, Walk>, ray: Ray, t_max: f32, skip: u32, budget: u32) -> AnyHit {
     let r = box_ray(ray);
     var st = bvh_resume(*w, r, t_max, RAY_SHADOW);
     var left = budget;
+    var draining = false;
     loop {
+        bvh_next_group(&st);
+        if draining && st.pmask == 0u {
+            *w = bvh_saved(st, *w);
+            return any_answer(ANY_UNFINISHED);
+        }
         if bvh_over(st) {
             break;
         }
         count_step();
         if left == 0u {
-            *w = bvh_saved(st, *w);
-            return any_answer(ANY_UNFINISHED);
+            draining = true;
+        } else {
+            left -= 1u;
         }
-        left -= 1u;
         if st.pmask != 0u {
-            let b = firstTrailingBit(st.pmask);
-            st.pmask &= st.pmask - 1u;
-            let id = bvh_prims[st.pbase + b];
+            let id = bvh_next_prim(&st);
             if id != skip {
                 let h = test_any(id, ray, t_max);
                 if h.ok {
@@ -356,12 +392,13 @@ fn bvh_any(w: ptr<function, Walk>, ray: Ray, t_max: f32, skip: u32, budget: u32)
                 }
             }
         }
-        if st.pmask == 0u {
+        if !draining && st.next_pmask == 0u {
             bvh_step(&st, r, t_max, RAY_SHADOW);
         }
     }
     return any_answer(ANY_CLEAR);
 }
+#endif
 
 #if BVH
 // The protocol of query.wgsl for shadow rays: the BVH from its root; a walk traced at its

@@ -61,18 +61,23 @@ fn restored_closest(s: WalkState, walking: u32) -> Closest {
 }
 
 // Walks on from `w` with the loop iterations `*left`; where the walk ends with its winner
-// lost, walks the ray again from its start within the final window, with what is left.
+// lost, walks the ray again from its start within the final window, with what is left. The
+// second walk is the first's loop again, not a second copy of it: lavapipe (Mesa 22.3) runs
+// a copy's code for every invocation, even where no invocation needs it, and a loop's second
+// round only where one does.
 fn walk_nearest_to_the_end(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, t_max: f32,
     ray_kind: u32, from_prim: u32, skip: u32, left: ptr<function, u32>) -> bool {
-    if !walk_nearest(w, best, ray, t_max, skip, ray_kind, left) {
-        return false;
+    loop {
+        if !walk_nearest(w, best, ray, t_max, skip, ray_kind, left) {
+            return false;
+        }
+        if !(*best).lost {
+            break;
+        }
+        *best = closest_again(*best);
+        *w = walk_of_ray(from_prim, ray);
     }
-    if !(*best).lost {
-        return true;
-    }
-    *best = closest_again(*best);
-    *w = walk_of_ray(from_prim, ray);
-    return walk_nearest(w, best, ray, t_max, skip, ray_kind, left);
+    return true;
 }
 
 // The nearest hit with 0 < t < t_max of a ray leaving primitive `from_prim` (NO_ID: the

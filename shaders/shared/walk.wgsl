@@ -71,7 +71,8 @@ fn walk_done(w: Walk) -> bool {
 
 // The loop iterations one pass spends on walk `w`: WALK_CHUNK, and half of it for a walk of
 // the BVH, whose iterations lavapipe's loop limit may count twice (layout::bvh::walk_bounds),
-// so that either kind of chunk counts as at most one (layout::budget::check_loop_budget).
+// so that either kind of chunk counts as at most one (layout::budget::check_loop_budget); a
+// BVH walk whose chunk runs out takes up to 2·WIDE_NODE_PRIMS more to finish its primitives.
 fn walk_chunk(w: Walk) -> u32 {
     return select(WALK_CHUNK, WALK_CHUNK / 2u, w.iend == BVH_WALK);
 }
@@ -110,9 +111,11 @@ fn walk_nearest(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, 
 #if SHADOWS
 // Continues the any-hit walk `w` for at most about `budget` loop iterations: ANY_BLOCKED
 // when some primitive other than `skip` is hit at 0 < t < t_max (with its t), ANY_CLEAR
-// when the walk ended without one, ANY_UNFINISHED when the budget ran out first.
+// when the walk ended without one, ANY_UNFINISHED when the budget ran out first. Only the
+// shadow rays of directional lights, which have no table, walk the BVH (BVH_SHADOWS: in
+// scenes with such a light).
 fn walk_any(w: ptr<function, Walk>, ray: Ray, t_max: f32, skip: u32, budget: u32) -> AnyHit {
-#if SURFACE_RAYS
+#if BVH_SHADOWS
     if (*w).iend == BVH_WALK {
         return bvh_any(w, ray, t_max, skip, budget);
     }

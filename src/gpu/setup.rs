@@ -13,7 +13,7 @@ use crate::error::{Error, Result};
 use crate::job::{AccelKind, Precision, RenderOptions};
 use crate::layout::budget::{table_params, MAX_DEPTH};
 use crate::layout::Packed;
-use crate::scene::{Effects, Scene};
+use crate::scene::{Effects, LightKind, Scene};
 
 impl GpuRenderer {
     /// The kernels' variant for a job with `effects` at `max_depth`.
@@ -36,11 +36,15 @@ impl GpuRenderer {
     /// leaving surfaces only if the render traces such rays
     /// (`coherence::traces_surface_rays`: mirrors or glass, or shadow rays towards a
     /// directional light), so that a scene lit by point lights alone, without mirrors, gets
-    /// table kernels without a BVH loop.
+    /// table kernels without a BVH loop; and the BVH's shadow walk only where a directional
+    /// light's shadow rays take it.
     pub fn for_scene(scene: &Scene, opts: &RenderOptions, variant: Variant) -> Variant {
         let variant = variant.with_shapes(scene.shapes()).with_counters(opts.count);
         let params = Self::variant_build_params(scene, opts, variant);
-        variant.with_surface_rays(coherence::traces_surface_rays(scene, &params))
+        let directional = scene.lights.iter().any(|l| l.kind == LightKind::Directional);
+        variant
+            .with_surface_rays(coherence::traces_surface_rays(scene, &params))
+            .with_bvh_shadows(directional)
     }
 
     /// The parameters the render of `scene` with `opts` builds its tables with (`aov`: the

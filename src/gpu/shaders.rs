@@ -230,6 +230,12 @@ pub struct Variant {
     /// for every eye and shadow ray on lavapipe, where a loop no invocation enters still
     /// runs once.
     pub surface_rays: bool,
+    /// Whether shadow rays may walk the BVH (`BVH_SHADOWS`): with the tables, the rays of
+    /// directional lights, which have no table. A render narrows it to scenes with such a
+    /// light (`GpuRenderer::for_scene`): on lavapipe (Mesa 22.3) the `shade` kernel ran the
+    /// BVH's shadow walk once for every light of every hit where no shadow ray took it, 10 %
+    /// of the eye's `shade` time on balls_s4 and gears_s4.
+    pub bvh_shadows: bool,
     /// Whether the kernels count rays and tests into the statistics counters (`COUNTERS`).
     /// On lavapipe counting costs a kernel 5–22 % of its time (a private array indexed per
     /// lane at every test, workgroup atomics at the end), so a render counts only when asked
@@ -258,6 +264,7 @@ impl Variant {
             f64: false,
             shapes: Shapes::ALL,
             surface_rays: reflection || e.shadows || (e.blend && secondary),
+            bvh_shadows: e.shadows,
             counters: true,
         }
     }
@@ -271,6 +278,12 @@ impl Variant {
     /// may spawn them).
     pub fn with_surface_rays(self, surface_rays: bool) -> Variant {
         Variant { surface_rays: self.surface_rays && surface_rays, ..self }
+    }
+
+    /// The same effects where shadow rays walk the BVH only if `bvh_shadows` (and the effects
+    /// say they may).
+    pub fn with_bvh_shadows(self, bvh_shadows: bool) -> Variant {
+        Variant { bvh_shadows: self.bvh_shadows && bvh_shadows, ..self }
     }
 
     /// The same effects, counted (`true`) or not.
@@ -315,7 +328,8 @@ impl Variant {
     /// included: a scene may hold no primitive) with every effect (42), then shadows without
     /// rays leaving surfaces (lights with tables, no mirror), with and without textures and
     /// emission (12), then every effect uncounted (6), then maps, normal maps, mask and
-    /// blend each without the others (24), so that each `#if` is compiled both ways. Vertex colours, maps, normal maps, alpha and blend are off in the 32 effect sets
+    /// blend each without the others, and mirrors lit by point lights alone (30), so that
+    /// each `#if` is compiled both ways. Vertex colours, maps, normal maps, alpha and blend are off in the 32 effect sets
     /// and on in the rest (each further effect is compiled on and off against a
     /// representative rest, not in the full product).
     pub fn all() -> Vec<Variant> {
@@ -336,6 +350,7 @@ impl Variant {
                     f64,
                     shapes: Shapes::ALL,
                     surface_rays: b & 3 != 0,
+                    bvh_shadows: b & 1 != 0,
                     counters: true,
                 })
             })
@@ -382,6 +397,7 @@ impl Variant {
                     Variant { textures: true, normal_maps: true, ..base },
                     Variant { textures: true, alpha: true, ..base },
                     Variant { blend: true, surface_rays: true, ..base },
+                    Variant { surface_rays: true, bvh_shadows: false, ..base },
                 ]
             })
         });
@@ -414,6 +430,13 @@ impl Variant {
             // Rays leave surfaces: reflection and refraction rays, and shadow rays towards
             // directional lights (which have no table).
             "SURFACE_RAYS" => self.surface_rays,
+            // Shadow rays walk the BVH: all of them with the BVH, with the tables those
+            // towards directional lights.
+            "BVH_SHADOWS" => match self.queries {
+                Queries::Bvh => true,
+                Queries::Tables => self.surface_rays && self.bvh_shadows,
+                Queries::Brute => false,
+            },
             "COUNTERS" => self.counters,
             "TABLES" => self.queries == Queries::Tables,
             "BVH" => self.queries == Queries::Bvh,

@@ -25,6 +25,7 @@ use bytemuck::{Pod, Zeroable};
 
 use crate::bvh::{self, WIDE_NODE_PRIMS};
 use crate::coherence::reach::WalkBounds;
+use crate::coherence::walk::WALK_CHUNK;
 use crate::scene::{Aabb, Scene};
 
 /// One node of the compressed wide BVH (WGSL `WideNode`, keep in sync with
@@ -75,6 +76,11 @@ pub const BVH_FRESH: u32 = u32::MAX;
 /// Entries of the kernels' in-pass stack of nodes with children left (WGSL `BVH_STACK`):
 /// deeper, the bottom entry drops and is found again by climbing.
 pub const BVH_STACK: u32 = 4;
+
+/// Loop iterations one pass gives a nearest-hit walk under `--accel bvh` (WGSL `BVH_CHUNK`):
+/// [`WALK_CHUNK`] less the room a walk whose budget runs out takes to test the two groups of
+/// primitives it holds (a walk stops between passes with none left).
+pub const BVH_CHUNK: u32 = WALK_CHUNK - 2 * WIDE_NODE_PRIMS;
 
 /// A ray ready for box tests (WGSL `BoxRay`, twin of `box_ray` in
 /// `shaders/shared/bvh.wgsl`: keep them in sync): its reciprocal direction (components below

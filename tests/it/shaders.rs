@@ -268,6 +268,24 @@ fn a_scene_compiles_the_intersections_of_its_kinds_only() {
     }
 }
 
+/// With the tables, the kernels that trace shadow rays (`shade`, `shadow`) hold the BVH's
+/// shadow walk only where a directional light's shadow rays, which have no table, take it:
+/// on lavapipe (Mesa 22.3) a kernel runs the code of a loop no invocation enters once.
+#[test]
+fn only_directional_lights_walk_shadows_in_the_bvh() {
+    let mut seen = [0; 2];
+    for v in Variant::all().into_iter().filter(|v| v.tables() && v.shadows && v.surface_rays) {
+        for s in
+            Kernel::wavefront(v).into_iter().filter(|s| matches!(s.kernel, Kernel::Shade | Kernel::Shadow))
+        {
+            let m = Wavefront(vec![module_of(s.kernel, s.variant(v))]);
+            assert_eq!(has_function(&m, "bvh_any"), v.bvh_shadows, "{v:?} {:?}", s.kernel);
+            seen[v.bvh_shadows as usize] += 1;
+        }
+    }
+    assert!(seen[0] > 0 && seen[1] > 0, "{seen:?}");
+}
+
 /// Where the tables send rays leaving surfaces to the BVH, the eye's depth runs a `nearest`
 /// without the BVH walk and the later depths one without the table walk; without rays
 /// leaving surfaces, one `nearest` serves every depth.

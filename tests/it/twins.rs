@@ -10,10 +10,13 @@ use std::mem::{offset_of, size_of};
 
 use cuberay::arith::geometry::TIE_CAP;
 use cuberay::arith::{FAR, NO_ID, SHADOW_END_REL};
+use cuberay::bvh::WIDE_NODE_PRIMS;
 use cuberay::coherence::flat::{GpuEntry, GpuFace, GpuOrigin, NO_ORIGIN};
 use cuberay::coherence::walk::{AnyHit, BVH_WALK, UNBOUNDED, WALK_CHUNK};
 use cuberay::gpu::shaders::{compose, Kernel, Queries, Variant};
-use cuberay::layout::bvh::{WideNode, BVH_DECODE_REL, BVH_FRESH, BVH_NO_PARENT, BVH_SLACK, BVH_STACK};
+use cuberay::layout::bvh::{
+    WideNode, BVH_CHUNK, BVH_DECODE_REL, BVH_FRESH, BVH_NO_PARENT, BVH_SLACK, BVH_STACK,
+};
 use cuberay::layout::counters::*;
 use cuberay::layout::*;
 use cuberay::preview::display::{View, ENCODE_LINEARIZE, ENCODE_NONE, ENCODE_SRGB};
@@ -265,6 +268,8 @@ fn rust_constants() -> BTreeMap<&'static str, Value> {
         ("BVH_NO_PARENT", U32(BVH_NO_PARENT)),
         ("BVH_FRESH", U32(BVH_FRESH)),
         ("BVH_STACK", U32(BVH_STACK)),
+        ("BVH_CHUNK", U32(BVH_CHUNK)),
+        ("WIDE_NODE_PRIMS", U32(WIDE_NODE_PRIMS)),
         ("BVH_SLACK", F32(BVH_SLACK)),
         ("BVH_DECODE_REL", F32(BVH_DECODE_REL)),
         ("ACCUMULATE_WORKGROUP", U32(ACCUMULATE_WORKGROUP)),
