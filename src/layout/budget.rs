@@ -59,7 +59,7 @@ pub fn shadow_inline(scene: &Scene) -> u32 {
 /// The BVH's inline shadow walks (`Params::bvh_inline`, with `--accel bvh` and for the rays
 /// leaving surfaces with `--accel cube`): a budget of loop iterations (each a queued
 /// primitive and perhaps a node), a quarter of what [`shadow_inline`] entries may take, less
-/// the primitives of the node that ends it. A quarter, because lavapipe ended these walks early
+/// the two groups of primitives a walk whose budget runs out tests before it stops. A quarter, because lavapipe ended these walks early
 /// at half of it (measured with eight lights, nine thousand triangles and walks of thousands
 /// of nodes: `bvh_walks_longer_than_a_step_resume` in `tests/it/gpu.rs`): it counted more
 /// iterations than the walk's (measured when each iteration was one box or one primitive;
@@ -68,7 +68,7 @@ pub fn shadow_inline(scene: &Scene) -> u32 {
 /// almost none do.
 pub fn bvh_shadow_inline(scene: &Scene) -> u32 {
     let iterations = shadow_inline(scene) as u64 / 4;
-    iterations.saturating_sub(crate::bvh::WIDE_NODE_PRIMS as u64).min(u32::MAX as u64) as u32
+    iterations.saturating_sub(2 * crate::bvh::WIDE_NODE_PRIMS as u64).min(u32::MAX as u64) as u32
 }
 
 /// Checks that no invocation of a kernel pass can pass lavapipe's loop limit; were one to
