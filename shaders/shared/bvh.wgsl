@@ -100,8 +100,7 @@ fn half_hits(nx: u32, ny: u32, nz: u32, fx: u32, fy: u32, fz: u32, a: vec3<f32>,
 // `r.pad` and by BVH_DECODE_REL of the magnitudes involved, which bounds the rounding of
 // b and of q·a + b (a product and a sum; a driver that fuses them errs less), so that the
 // slab holds the box the planes decode to (which holds the primitives: src/layout/bvh.rs).
-// The far side grows by BVH_SLACK of itself. (An explicit `fma` cost lavapipe twice the
-// walk's time.)
+// The far side grows by BVH_SLACK of itself.
 fn node_hits(n: WideNode, r: BoxRay, t_far: f32) -> NodeHits {
     let e = n.e_imask;
     let step = vec3<f32>(bitcast<f32>((e & 0xffu) << 23u), bitcast<f32>(((e >> 8u) & 0xffu) << 23u),
