@@ -32,10 +32,14 @@ pub enum Reader {
     /// (when it parses), so that the reader goes past the key check to the arrays and the
     /// index checks that precede an upload.
     Tables,
+    /// An environment map (`--env`): an equirectangular `.hdr` or `.exr`, and the lights
+    /// median cut makes of it.
+    Env,
 }
 
 impl Reader {
-    pub const ALL: [Reader; 5] = [Reader::Nff, Reader::Gltf, Reader::Glb, Reader::PartExr, Reader::Tables];
+    pub const ALL: [Reader; 6] =
+        [Reader::Nff, Reader::Gltf, Reader::Glb, Reader::PartExr, Reader::Tables, Reader::Env];
 
     /// The target's name (its folder under `fuzz/seeds` and `fuzz/regressions`).
     pub fn name(self) -> &'static str {
@@ -45,6 +49,7 @@ impl Reader {
             Reader::Glb => "glb",
             Reader::PartExr => "part_exr",
             Reader::Tables => "tables",
+            Reader::Env => "env",
         }
     }
 
@@ -55,6 +60,7 @@ impl Reader {
             Reader::Glb => "scene.glb",
             Reader::PartExr => "part.exr",
             Reader::Tables => "scene.tables",
+            Reader::Env => "map.hdr",
         }
     }
 }
@@ -112,6 +118,7 @@ pub fn run(reader: Reader, bytes: &[u8]) -> Result<(), String> {
         Reader::Nff | Reader::Gltf | Reader::Glb => scene(&path),
         Reader::PartExr => part(&path),
         Reader::Tables => tables(&path),
+        Reader::Env => env(&path),
     }
 }
 
@@ -165,6 +172,22 @@ fn scene(path: &Path) -> Result<(), String> {
             l.position.iter().chain(&l.direction).chain(&l.radiance).all(|x| x.is_finite())
                 && [l.range, l.cos_outer, l.span].iter().all(|x| x.is_finite()),
             "a non-finite light value reached the packed scene of {}",
+            path.display()
+        );
+    }
+    Ok(())
+}
+
+/// An environment map, read as `--env` reads it (the format by its content, whatever the
+/// name), with its lights: every texel and every light finite.
+fn env(path: &Path) -> Result<(), String> {
+    let e = load::setup::read_environment(path, glam::DVec3::Y, glam::DVec3::X).map_err(|e| e.to_string())?;
+    let probe = e.radiance(glam::DVec3::new(0.3, 0.8, -0.5));
+    assert!(probe.is_finite(), "a non-finite radiance from the map {}", path.display());
+    for l in e.lights(16) {
+        assert!(
+            l.color.is_finite() && l.direction.is_finite() && l.color.min_element() >= 0.0,
+            "a non-finite or negative light from the map {}",
             path.display()
         );
     }

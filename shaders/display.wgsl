@@ -1,5 +1,6 @@
 // The preview's `display` pass (src/preview/display.rs): draws the accumulation's average
-// as the headless PNG output encodes it (clamp to [0, 1], then the render's transfer).
+// as the headless PNG output encodes it (times the exposure, tone mapped, clamped to [0, 1],
+// then the render's transfer).
 
 // What the window shows. Keep in sync with `View` in src/preview/display.rs.
 struct View {
@@ -15,6 +16,10 @@ struct View {
     encode: u32,
     // Pixels per grid point edge: 1, or the block of a moving camera's coarse image.
     block: u32,
+    // The tone mapping before the clamp (TONEMAP_*), after the values are multiplied by
+    // `exposure`.
+    tonemap: u32,
+    exposure: f32,
     pad1: u32,
 }
 
@@ -22,6 +27,8 @@ struct View {
 // `samples` changes with every frame.
 @group(0) @binding(0) var<storage, read> view: View;
 @group(0) @binding(1) var<storage, read> image: array<vec4<f32>>;
+
+#include "shared/tonemap.wgsl"
 
 struct VertexOut {
     @builtin(position) position: vec4<f32>,
@@ -74,7 +81,7 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
     }
     // NaN fails every comparison: max(NaN, 0) is 0 or NaN by platform, so map it first.
     c = select(c, vec3<f32>(0.0), c != c);
-    c = clamp(c, vec3<f32>(0.0), vec3<f32>(1.0));
+    c = tonemap(c * view.exposure, view.tonemap);
     if view.encode == ENCODE_SRGB {
         c = vec3<f32>(srgb(c.x), srgb(c.y), srgb(c.z));
     } else if view.encode == ENCODE_LINEARIZE {

@@ -1,12 +1,15 @@
 // The `nearest` kernel: traces each job of queue `pass_desc.src` (SRC_EYE: the eye ray of
 // sample `pass_desc.sample` of each point of the tile, made here) for its nearest hit (a long
 // walk a chunk per pass, the rest through the retry queue). A miss adds the background to
-// its point; a hit goes, in the job's walk state, into the hit queue, which the `shade`
+// its point (the environment's radiance with ENVIRONMENT); a hit goes, in the job's walk state, into the hit queue, which the `shade`
 // kernel works through (src/gpu/schedule.rs runs the passes). Shading here cost every
 // invocation, hit or not: lavapipe runs both sides of a branch for a group of lanes that
 // disagree (tetra_s6, 513² corners: 0.050 s of which 0.025 s with the shading code absent).
 #include "shared/trace.wgsl"
 #include "shared/sampling.wgsl"
+#if ENVIRONMENT
+#include "shared/environment.wgsl"
+#endif
 
 // The job of tile point `k`'s eye ray, for sample `pass_desc.sample`.
 fn eye_job(k: u32) -> Job {
@@ -31,7 +34,11 @@ fn trace_job(job: Job) {
     if stepped.done {
         count(C_RAYS + kind);
         if !h.found {
+#if ENVIRONMENT
+            add_radiance(job.point, pending.weight * environment(ray.d));
+#else
             add_radiance(job.point, pending.weight * params.background);
+#endif
             return;
         }
         if kind == RAY_EYE {

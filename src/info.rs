@@ -5,7 +5,7 @@
 use serde::Serialize;
 
 use crate::arith::precision::f32_need;
-use crate::scene::{LightSource, Projection, Scene};
+use crate::scene::{Camera, LightSource, Projection, Scene};
 
 /// The scene summary. Serialised as-is by `cuberay info --json`.
 #[derive(Clone, Debug, Serialize)]
@@ -16,10 +16,12 @@ pub struct SceneInfo {
     /// Cylinders and cones.
     pub cylinders: usize,
     pub primitives: usize,
-    /// Lights in the file (not the loader's default light).
+    /// Lights in the file (not the loader's default light or the environment's).
     pub lights: usize,
     /// True when the file has no light and the default headlight was added.
     pub default_light: bool,
+    /// The environment around the scene (`--env`): `null` for none (the background colour).
+    pub environment: Option<EnvironmentInfo>,
     pub materials: usize,
     pub textures: usize,
     /// World-space box of the geometry, `[[min x,y,z],[max x,y,z]]`, in the file's axes.
@@ -55,6 +57,18 @@ pub struct PrecisionInfo {
     pub reason: String,
 }
 
+/// What `--env` set up.
+#[derive(Clone, Debug, Serialize)]
+pub struct EnvironmentInfo {
+    /// `studio`, or the map's file name.
+    pub name: String,
+    pub width: u32,
+    pub height: u32,
+    pub intensity: f64,
+    /// The directional lights standing in for it.
+    pub lights: usize,
+}
+
 #[derive(Clone, Debug, Serialize)]
 pub struct CameraInfo {
     pub projection: &'static str,
@@ -65,6 +79,11 @@ pub struct CameraInfo {
     pub fov_y_degrees: Option<f64>,
     /// Half height of the view volume (orthographic cameras).
     pub half_height: Option<f64>,
+    /// The point at the image's centre (`--look-at`).
+    pub look_at: [f64; 3],
+    /// The camera as the command line's flags give it (perspective cameras: `--fov` between
+    /// the image's edges at the default height), to copy and adjust.
+    pub flags: String,
 }
 
 impl SceneInfo {
@@ -85,6 +104,13 @@ impl SceneInfo {
             primitives: scene.primitives.len(),
             lights: scene.file_lights().count(),
             default_light: scene.lights.iter().any(|l| l.source == LightSource::Default),
+            environment: scene.environment.as_ref().map(|e| EnvironmentInfo {
+                name: e.name.clone(),
+                width: e.width,
+                height: e.height,
+                intensity: e.intensity,
+                lights: scene.lights.iter().filter(|l| l.source == LightSource::Environment).count(),
+            }),
             materials: scene.materials.len(),
             textures: scene.textures.len(),
             bounds: (!b.is_empty()).then(|| [b.min.to_array(), b.max.to_array()]),
@@ -96,6 +122,8 @@ impl SceneInfo {
                 up: cam.up.to_array(),
                 fov_y_degrees: fov,
                 half_height: half,
+                look_at: cam.target.to_array(),
+                flags: camera_flags(scene, height),
             },
             resolution: scene.resolution.map(|(w, h)| [w, h]),
             precision: if need.needs_f64() { "f64" } else { "f32" },
@@ -140,6 +168,16 @@ impl SceneInfo {
             s += &format!(", half height {h}");
         }
         s += "\n";
+        s += &format!("            {}\n", c.flags);
+        match &self.environment {
+            Some(e) => {
+                s += &format!(
+                    "environment: {} ({}x{}, intensity {}), {} directional lights standing in for it\n",
+                    e.name, e.width, e.height, e.intensity, e.lights
+                )
+            }
+            None => s += "environment: none (the background colour)\n",
+        }
         if let Some([w, h]) = self.resolution {
             s += &format!("resolution: {w}x{h}\n");
         }
@@ -147,4 +185,31 @@ impl SceneInfo {
         s += &format!("precision:  {} (auto, {} pixels high: {})\n", self.precision, p.height, p.reason);
         s
     }
+}
+
+/// The camera of `scene` as `--look-from`, `--look-at`, `--up` and `--fov` flags (the field
+/// of view between the image's edges at an image `height` pixels high).
+pub fn camera_flags(scene: &Scene, height: u32) -> String {
+    let c = &scene.camera;
+    let v = |p: glam::DVec3| format!("{},{},{}", fmt(p.x), fmt(p.y), fmt(p.z));
+    // The scene's up where it gives this camera (no roll about the view), else the camera's.
+    let level =
+        Camera::look_at(c.eye, c.target, scene.up, c.projection).is_ok_and(|l| l.up.abs_diff_eq(c.up, 1e-9));
+    let up = if level { scene.up } else { c.up };
+    let mut s = format!("--look-from {} --look-at {} --up {}", v(c.eye), v(c.target), v(up));
+    if let Some(f) = c.fov_edges_degrees(height) {
+        s += &format!(" --fov {}", fmt(f));
+    }
+    s
+}
+
+/// A number as short as it reads back the same to 1e-9 of itself.
+fn fmt(x: f64) -> String {
+    for digits in 0..=12 {
+        let t = format!("{x:.digits$}");
+        if t.parse::<f64>().is_ok_and(|y| (y - x).abs() <= 1e-9 * x.abs().max(1e-3)) {
+            return if t == "-0" { "0".into() } else { t };
+        }
+    }
+    format!("{x}")
 }

@@ -13,7 +13,7 @@ use crate::error::{Error, Result};
 use crate::output::Image;
 pub use crate::region::Region;
 use crate::sampling::Sampling;
-use crate::scene::{Scene, Transfer};
+use crate::scene::{Scene, Tonemap, Transfer};
 use crate::stats::{self, Stats};
 
 /// Which acceleration structure to use.
@@ -81,6 +81,11 @@ pub struct RenderOptions {
     pub eye_cells: Option<u32>,
     /// How a PNG encodes the values; `None`: the scene's ([`Scene::transfer`]).
     pub transfer: Option<Transfer>,
+    /// `--exposure`: a PNG (and the preview) shows the radiance times 2^exposure.
+    pub exposure: f64,
+    /// `--tonemap`: how a PNG (and the preview) brings radiance beyond 1 into range; `None`:
+    /// the scene's default ([`Tonemap::default_for`] its transfer).
+    pub tonemap: Option<Tonemap>,
     /// The part of the image to render (`--tile`, `--crop`); `None`: all of it. The
     /// region changes which grid points are traced, never how: every pixel of it gets the
     /// samples, seeds and tables of the whole render.
@@ -130,6 +135,8 @@ impl RenderOptions {
             auto_precision: None,
             eye_cells: None,
             transfer: None,
+            exposure: 0.0,
+            tonemap: None,
             region: None,
             count: true,
         }
@@ -202,6 +209,19 @@ impl RenderOptions {
         self.transfer.unwrap_or(scene.transfer)
     }
 
+    /// The tone mapping of `scene`'s PNG: the option's, else the scene's default.
+    pub fn tonemap_for(&self, scene: &Scene) -> Tonemap {
+        self.tonemap.unwrap_or(Tonemap::default_for(scene.transfer))
+    }
+
+    /// Gives a rendered image of `scene` the way a PNG shows it: transfer, tone mapping and
+    /// exposure (both backends' images alike).
+    pub fn show(&self, scene: &Scene, image: &mut Image) {
+        image.transfer = self.transfer_for(scene);
+        image.tonemap = self.tonemap_for(scene);
+        image.exposure = self.exposure.exp2() as f32;
+    }
+
     /// These options with [`Precision::Auto`] replaced by the precision `scene` calls for at
     /// this image height ([`crate::arith::precision::f32_need`]), and why in
     /// `auto_precision`; options whose precision is given come back as they are.
@@ -239,6 +259,8 @@ impl RenderOptions {
                 .then(|| self.auto_precision.as_ref().map(|n| n.reason()))
                 .flatten(),
             transfer: self.transfer_for(scene),
+            tonemap: self.tonemap_for(scene),
+            exposure: self.exposure,
             window: self.region.filter(|w| !w.is_full(self.width, self.height)),
         }
     }
@@ -267,7 +289,7 @@ pub fn grid_image(opts: &RenderOptions, scene: &Scene, values: &[[f32; 4]], samp
         DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
     };
     let mut image = Image::new(w, h, false);
-    image.transfer = opts.transfer_for(scene);
+    opts.show(scene, &mut image);
     for j in 0..h {
         for i in 0..w {
             let v = if corners {

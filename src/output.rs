@@ -1,11 +1,12 @@
 //! Images and writing them: PNG for display, OpenEXR (and Radiance HDR) for linear radiance,
 //! OpenEXR for auxiliary outputs (AOVs).
 //!
-//! - **PNG**: each channel is clamped to [0, 1] (exposure 1, no other tone curve) and
-//!   encoded by the image's [`Transfer`], 8 bits per channel, RGB: the sRGB transfer function
-//!   for linear radiance (glTF), or as they are for display values (NFF, whose colours and
-//!   light intensities were chosen for a [0, 1] frame buffer: so the SPD renders look like
-//!   their reference images).
+//! - **PNG**: each value is multiplied by the image's exposure (2^`--exposure`), tone mapped
+//!   by its [`Tonemap`] (by default PBR Neutral for glTF, none for NFF), clamped to [0, 1] and
+//!   encoded by its [`Transfer`], 8 bits per channel, RGB: the sRGB transfer function for
+//!   linear radiance (glTF), or as they are for display values (NFF, whose colours and light
+//!   intensities were chosen for a [0, 1] frame buffer: so the SPD renders look like their
+//!   reference images). EXR and HDR files keep the linear radiance as rendered.
 //! - **EXR**: linear f32 values as rendered: RGB for radiance, RGBA for AOVs (A = 1 where
 //!   the pixel's ray hit something, 0 where it missed; see [`Aov`] for the values),
 //!   ZIP-compressed scan lines written in order, so that equal images give equal files
@@ -25,7 +26,7 @@ use std::path::Path;
 use image::{ImageBuffer, ImageFormat, Rgb};
 
 use crate::error::Error;
-pub use crate::scene::Transfer;
+pub use crate::scene::{Tonemap, Transfer};
 
 /// An image of linear f32 values, row-major from the top-left pixel.
 #[derive(Clone, Debug, PartialEq)]
@@ -38,6 +39,10 @@ pub struct Image {
     pub has_alpha: bool,
     /// How a PNG (or the preview's window) encodes the values.
     pub transfer: Transfer,
+    /// What a PNG (or the window) multiplies the values by first: 2^`--exposure`.
+    pub exposure: f32,
+    /// How a PNG (or the window) brings values beyond 1 into range, before the transfer.
+    pub tonemap: Tonemap,
 }
 
 impl Image {
@@ -48,6 +53,8 @@ impl Image {
             pixels: vec![[0.0, 0.0, 0.0, 1.0]; (width * height) as usize],
             has_alpha,
             transfer: Transfer::Srgb,
+            exposure: 1.0,
+            tonemap: Tonemap::None,
         }
     }
 
@@ -116,13 +123,17 @@ pub fn png_value(v: f32, transfer: Transfer) -> u8 {
     (e * 255.0).round() as u8
 }
 
-/// The 8-bit image a PNG would hold (encoded by the image's transfer).
+/// The 8-bit pixel a PNG holds for linear value `p` of `img`: times the exposure, tone
+/// mapped, clamped to [0, 1] and encoded by the transfer (the preview's `display.wgsl`
+/// likewise).
+pub fn display_rgb8(p: [f32; 4], img: &Image) -> [u8; 3] {
+    let c = img.tonemap.apply([p[0] * img.exposure, p[1] * img.exposure, p[2] * img.exposure]);
+    c.map(|v| png_value(v, img.transfer))
+}
+
+/// The 8-bit image a PNG would hold ([`display_rgb8`]).
 pub fn to_rgb8(img: &Image) -> ImageBuffer<Rgb<u8>, Vec<u8>> {
-    let t = img.transfer;
-    ImageBuffer::from_fn(img.width, img.height, |x, y| {
-        let p = img.get(x, y);
-        Rgb([png_value(p[0], t), png_value(p[1], t), png_value(p[2], t)])
-    })
+    ImageBuffer::from_fn(img.width, img.height, |x, y| Rgb(display_rgb8(img.get(x, y), img)))
 }
 
 /// Writes `img` to `path` in the format its extension names, atomically.
@@ -257,6 +268,36 @@ mod tests {
         assert_eq!(OutputFormat::from_path(Path::new("b.HDR")).unwrap(), OutputFormat::Hdr);
         assert!(OutputFormat::from_path(Path::new("b.jpg")).is_err());
         assert!(OutputFormat::from_path(Path::new("b")).is_err());
+    }
+
+    #[test]
+    fn png_applies_exposure_then_the_tone_mapping_then_the_transfer() {
+        let mut img = Image::new(1, 1, false);
+        img.transfer = Transfer::Display;
+        img.pixels[0] = [0.25, 0.5, 4.0, 1.0];
+        assert_eq!(display_rgb8(img.pixels[0], &img), [64, 128, 255]);
+        img.exposure = 2.0;
+        assert_eq!(display_rgb8(img.pixels[0], &img), [128, 255, 255]);
+        // PBR Neutral keeps a colour below 0.76 but for its offset (0.04 where every
+        // channel is at least 0.08), and brings a bright one below 1.
+        img.exposure = 1.0;
+        img.tonemap = Tonemap::PbrNeutral;
+        img.pixels[0] = [0.3, 0.5, 0.7, 1.0];
+        assert_eq!(display_rgb8(img.pixels[0], &img), png_values([0.26, 0.46, 0.66]));
+        img.pixels[0] = [10.0, 10.0, 10.0, 1.0];
+        let bright = display_rgb8(img.pixels[0], &img);
+        assert!(bright[0] < 255 && bright[0] > 240, "{bright:?}");
+        // ACES maps black to black and a bright grey below white.
+        img.tonemap = Tonemap::Aces;
+        img.pixels[0] = [0.0, 0.0, 0.0, 1.0];
+        assert_eq!(display_rgb8(img.pixels[0], &img), [0, 0, 0]);
+        img.pixels[0] = [1.0, 1.0, 1.0, 1.0];
+        let grey = display_rgb8(img.pixels[0], &img);
+        assert!(grey.iter().all(|&g| g > 150 && g < 255), "{grey:?}");
+    }
+
+    fn png_values(c: [f32; 3]) -> [u8; 3] {
+        c.map(|v| png_value(v, Transfer::Display))
     }
 
     #[test]

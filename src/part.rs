@@ -270,6 +270,8 @@ pub fn read_part(path: &Path) -> Result<Part, Error> {
     }
     let mut image = Image::new(win.width(), win.height(), info.aov.is_some());
     image.transfer = info.settings.transfer;
+    image.tonemap = info.settings.tonemap;
+    image.exposure = info.settings.exposure.exp2() as f32;
     image.pixels = layer.channel_data.pixels.1.clone();
     if !image.is_finite() {
         return Err(bad("it holds a non-finite value".into()));
@@ -392,6 +394,8 @@ pub fn merge(parts: &[Part]) -> Result<Merged, Error> {
 
     let mut image = Image::new(w, h, first.image.has_alpha);
     image.transfer = first.image.transfer;
+    image.tonemap = first.image.tonemap;
+    image.exposure = first.image.exposure;
     let mut counters = Counters::default();
     let mut time = Times::default();
     for p in parts {

@@ -256,6 +256,12 @@ pub struct Settings {
     pub precision_auto: Option<String>,
     /// How a PNG encodes the values: `srgb` or `display` (see [`crate::scene::Transfer`]).
     pub transfer: crate::scene::Transfer,
+    /// How a PNG brings radiance beyond 1 into range (`--tonemap`).
+    #[serde(default)]
+    pub tonemap: crate::scene::Tonemap,
+    /// `--exposure`: a PNG shows the radiance times 2^exposure.
+    #[serde(default)]
+    pub exposure: f64,
     /// `--tile` or `--crop`: the pixels rendered, `{x0, y0, x1, y1}` (ends exclusive) of the
     /// `size` image; absent for a whole image. The counts are those of the grid points the
     /// window owns ([`crate::job::GridRegion`]), so the parts' counts add up to the whole's.

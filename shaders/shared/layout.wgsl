@@ -59,6 +59,15 @@ struct Params {
     surface_bvh: u32,
     // The BVH's inline shadow walks: a budget of loop iterations (nodes and primitives).
     bvh_inline: u32,
+    // The environment map's frame (ENVIRONMENT, environment.wgsl): a direction's local
+    // coordinates are its dot products with env_x (the map's front), env_y (up) and env_z
+    // (side); its texels are texture env_texture - 1, scaled by env_intensity.
+    env_x: vec3<f32>,
+    env_texture: u32,
+    env_y: vec3<f32>,
+    env_intensity: f32,
+    env_z: vec3<f32>,
+    env_pad: u32,
 }
 
 // The precision of positions and of the intersection arithmetic: f32, or f64 in the F64

@@ -89,7 +89,7 @@ pub fn run(args: AccuracyArgs) -> anyhow::Result<()> {
     if args.width == 0 || args.height == 0 {
         bail!("the image is empty: --width and --height must be at least 1");
     }
-    let loaded = super::load_scene(&args.scene, args.camera, None)?;
+    let loaded = super::load_scene(&args.scene, args.camera, None, &Default::default())?;
     // The folder must take files before minutes of rendering, not after; it is made once the
     // scene has loaded, so that a scene that does not load leaves no folder behind.
     std::fs::create_dir_all(&args.out_dir)

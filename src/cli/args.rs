@@ -2,13 +2,18 @@
 //! choice an option takes, each mapped onto the library's type, so that the library does not
 //! depend on the command line's parser. A value's doc comment is its `--help` text.
 
-use clap::ValueEnum;
+use std::path::PathBuf;
+
+use clap::{Args, ValueEnum};
+use glam::DVec3;
 
 use cuberay::accuracy::Parameter;
 use cuberay::job::{AccelKind, Precision};
+use cuberay::load::{EnvChoice, Setup};
 use cuberay::output::Aov;
 use cuberay::sampling::Sampling;
-use cuberay::scene::Transfer;
+use cuberay::scene::environment::DEFAULT_LIGHTS;
+use cuberay::scene::{Tonemap, Transfer, ViewOverride};
 
 /// `--accel`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -116,6 +121,116 @@ impl From<TransferArg> for Transfer {
     }
 }
 
+/// `--tonemap`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum TonemapArg {
+    /// The values as they are, clamped to [0, 1].
+    None,
+    /// Khronos PBR Neutral: colours below 0.76 kept, brighter ones compressed towards white
+    /// (the glTF viewers' reference).
+    PbrNeutral,
+    /// ACES filmic (Hill's fit), as the glTF Sample Viewer's "ACES".
+    Aces,
+}
+
+impl From<TonemapArg> for Tonemap {
+    fn from(t: TonemapArg) -> Tonemap {
+        match t {
+            TonemapArg::None => Tonemap::None,
+            TonemapArg::PbrNeutral => Tonemap::PbrNeutral,
+            TonemapArg::Aces => Tonemap::Aces,
+        }
+    }
+}
+
+/// A point or vector `X,Y,Z`.
+fn vec3(s: &str) -> Result<DVec3, String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|t| t.trim().parse::<f64>().map_err(|e| format!("{t:?}: {e}")))
+        .collect::<Result<_, _>>()?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(DVec3::new(x, y, z)),
+        [_, _, _] => Err(format!("{s:?} is not three finite numbers")),
+        _ => Err(format!("{s:?} is not X,Y,Z (three numbers)")),
+    }
+}
+
+/// The camera instead of the file's, part by part, and the environment around the scene:
+/// what the command line adds to a scene file.
+#[derive(Args, Debug, Clone)]
+pub struct SceneArgs {
+    /// The eye, X,Y,Z in the scene's coordinates (default: the file's camera's).
+    #[arg(long, value_name = "X,Y,Z", value_parser = vec3, allow_hyphen_values = true)]
+    pub look_from: Option<DVec3>,
+    /// The point at the centre of the image (default: the file's camera's; `cuberay info`
+    /// prints the camera in these flags' terms).
+    #[arg(long, value_name = "X,Y,Z", value_parser = vec3, allow_hyphen_values = true)]
+    pub look_at: Option<DVec3>,
+    /// The up direction (default: the scene's up, glTF +Y, NFF the viewpoint's `up`, where
+    /// --look-from or --look-at move the camera; else the camera's own).
+    #[arg(long, value_name = "X,Y,Z", value_parser = vec3, allow_hyphen_values = true)]
+    pub up: Option<DVec3>,
+    /// The vertical field of view in degrees, between the image's top and bottom edges
+    /// (makes the camera a perspective one).
+    #[arg(long, value_name = "DEG")]
+    pub fov: Option<f64>,
+    /// The environment: an equirectangular .hdr or .exr map of the radiance around the scene
+    /// (what rays leaving the scene see, and the light of --env-lights directional lights);
+    /// `studio` for the built-in studio; `none` for the file's background and lights (a
+    /// headlight where it has none). Default: the studio for a glTF scene without lights,
+    /// else none.
+    #[arg(long, value_name = "FILE|studio|none")]
+    pub env: Option<String>,
+    /// Turns the environment by DEG degrees about the up axis (counter-clockwise seen from
+    /// above).
+    #[arg(long, value_name = "DEG", default_value_t = 0.0, allow_hyphen_values = true)]
+    pub env_rotate: f64,
+    /// Multiplies the environment's radiance (and its lights').
+    #[arg(long, value_name = "X", default_value_t = 1.0)]
+    pub env_intensity: f64,
+    /// How many directional lights stand in for the environment (median cut of its power;
+    /// 0: none, the map is only seen).
+    #[arg(long, value_name = "K", default_value_t = DEFAULT_LIGHTS)]
+    pub env_lights: u32,
+}
+
+impl SceneArgs {
+    /// The library's setup of a loaded scene.
+    pub fn setup(&self) -> Setup {
+        let env = match self.env.as_deref() {
+            None => EnvChoice::Auto,
+            Some("none") => EnvChoice::None,
+            Some("studio") => EnvChoice::Studio,
+            Some(path) => EnvChoice::File(PathBuf::from(path)),
+        };
+        Setup {
+            view: ViewOverride { from: self.look_from, at: self.look_at, up: self.up, fov_degrees: self.fov },
+            env,
+            env_rotate: self.env_rotate,
+            env_intensity: self.env_intensity,
+            env_lights: self.env_lights,
+        }
+    }
+}
+
+/// How a PNG (and the preview window) shows the radiance.
+#[derive(Args, Debug, Clone)]
+pub struct DisplayArgs {
+    /// How a PNG (and the preview window) encodes the values: srgb (linear radiance,
+    /// sRGB-encoded) or display (the values as they are). Default: display for NFF, whose
+    /// colours are display values, srgb for glTF.
+    #[arg(long, value_enum)]
+    pub transfer: Option<TransferArg>,
+    /// Multiplies the radiance a PNG (and the preview window) shows by 2^EV.
+    #[arg(long, value_name = "EV", default_value_t = 0.0, allow_hyphen_values = true)]
+    pub exposure: f64,
+    /// How a PNG (and the preview window) brings radiance beyond 1 into range. Default:
+    /// pbr-neutral for glTF, none for NFF. EXR and HDR files keep the radiance as rendered.
+    #[arg(long, value_enum)]
+    pub tonemap: Option<TonemapArg>,
+}
+
 /// `accuracy --params`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum ParameterArg {
@@ -168,6 +283,7 @@ mod tests {
         distinct(|a: &SamplingArg| Sampling::from(*a), 2);
         distinct(|a: &AovArg| Aov::from(*a), 3);
         distinct(|a: &TransferArg| Transfer::from(*a), 2);
+        distinct(|a: &TonemapArg| Tonemap::from(*a), 3);
         distinct(|a: &ParameterArg| Parameter::from(*a), Parameter::ALL.len());
     }
 }

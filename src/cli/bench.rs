@@ -19,7 +19,7 @@ use cuberay::layout::MAX_DEPTH;
 use cuberay::reference;
 use cuberay::stats::{Stats, TestsPerRay};
 
-use super::args::{AccelArg, PrecisionArg, SamplingArg};
+use super::args::{AccelArg, PrecisionArg, SamplingArg, SceneArgs};
 use super::render::progress_bar;
 
 /// The SPD canonical scenes (Haines' sizes of 1987), the default set.
@@ -60,6 +60,8 @@ pub struct BenchArgs {
     /// Maximum ray-tree depth (SPD: 5).
     #[arg(long, default_value_t = 5)]
     pub max_depth: u32,
+    #[command(flatten)]
+    pub scene_args: SceneArgs,
     /// The GPU kernels' precision (auto: f64 where f32 cannot resolve the scene, else f32).
     #[arg(long, value_enum, default_value_t = PrecisionArg::Auto)]
     pub precision: PrecisionArg,
@@ -200,7 +202,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     let progress = progress_bar("bench");
     for path in &scenes {
         let load_start = std::time::Instant::now();
-        let loaded = super::load_scene(path, None, None)?;
+        let loaded = super::load_scene(path, None, None, &args.scene_args.setup())?;
         let load_s = load_start.elapsed().as_secs_f64();
         let scene = &loaded.scene;
         let name =

@@ -41,6 +41,8 @@ enum Command {
         /// (default: the first; none: a camera framing the scene).
         #[arg(long)]
         camera: Option<usize>,
+        #[command(flatten)]
+        scene_args: args::SceneArgs,
     },
     /// Render a scene to an image.
     Render(render::RenderArgs),
@@ -142,8 +144,8 @@ fn quiet_device_selection() {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Command::Info { scene, json, camera, tables } => {
-            let loaded = load_scene(&scene, camera, None)?;
+        Command::Info { scene, json, camera, tables, scene_args } => {
+            let loaded = load_scene(&scene, camera, None, &scene_args.setup())?;
             let info = SceneInfo::of(&loaded.scene);
             let stats = match tables {
                 true => Some(cuberay::coherence::TableStats::of(&cuberay::coherence::build(
@@ -176,9 +178,16 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     }
 }
 
-/// Loads a scene and reports the loader's warnings on stderr.
-fn load_scene(path: &std::path::Path, camera: Option<usize>, time: Option<f64>) -> anyhow::Result<Loaded> {
-    let loaded = load::load(path, &LoadOptions { camera, time }).context("cannot load the scene")?;
+/// Loads a scene, sets it up as the command line says (camera, environment), and reports the
+/// loader's warnings on stderr.
+fn load_scene(
+    path: &std::path::Path,
+    camera: Option<usize>,
+    time: Option<f64>,
+    setup: &load::Setup,
+) -> anyhow::Result<Loaded> {
+    let mut loaded = load::load(path, &LoadOptions { camera, time }).context("cannot load the scene")?;
+    load::apply_setup(&mut loaded, path, setup).context("cannot set the scene up")?;
     for w in &loaded.warnings {
         log::warn!("{}: {w}", path.display());
     }

@@ -14,9 +14,9 @@ use cuberay::load::{self, Loaded};
 use cuberay::output::{self, Aov, OutputFormat};
 use cuberay::part::{self, PartInfo, SceneId};
 use cuberay::reference;
-use cuberay::scene::Transfer;
+use cuberay::scene::{Tonemap, Transfer};
 
-use super::args::{AccelArg, AovArg, PrecisionArg, SamplingArg, TransferArg};
+use super::args::{AccelArg, AovArg, DisplayArgs, PrecisionArg, SamplingArg, SceneArgs};
 use cuberay::tablefile;
 
 /// Which renderer to run.
@@ -151,11 +151,10 @@ pub struct TraceArgs {
     /// (default: the first; none: a camera framing the scene).
     #[arg(long)]
     pub camera: Option<usize>,
-    /// How a PNG (and the preview window) encodes the values: srgb (linear radiance,
-    /// sRGB-encoded) or display (the values as they are). Default: display for NFF, whose
-    /// colours are display values, srgb for glTF.
-    #[arg(long, value_enum)]
-    pub transfer: Option<TransferArg>,
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    #[command(flatten)]
+    pub display: DisplayArgs,
 }
 
 impl TraceArgs {
@@ -172,9 +171,14 @@ impl TraceArgs {
         time: Option<f64>,
     ) -> anyhow::Result<(PathBuf, Loaded, RenderOptions)> {
         let scene_name = scene.clone().unwrap_or_else(|| PathBuf::from(load::SHOWCASE_NAME));
+        let setup = self.scene.setup();
         let loaded = match scene {
-            Some(path) => super::load_scene(path, self.camera, time)?,
-            None => load::showcase().context("the built-in showcase scene does not load")?,
+            Some(path) => super::load_scene(path, self.camera, time, &setup)?,
+            None => {
+                let mut showcase = load::showcase().context("the built-in showcase scene does not load")?;
+                load::apply_setup(&mut showcase, std::path::Path::new(load::SHOWCASE_NAME), &setup)?;
+                showcase
+            }
         };
         let (dw, dh) = loaded.scene.resolution.unwrap_or_else(|| loaded.scene.camera.default_resolution());
         // One of --width and --height alone keeps the default size's aspect.
@@ -195,7 +199,9 @@ impl TraceArgs {
             accel: self.accel.into(),
             precision: self.precision.into(),
             eye_cells: self.eye_cells,
-            transfer: self.transfer.map(Transfer::from),
+            transfer: self.display.transfer.map(Transfer::from),
+            exposure: self.display.exposure,
+            tonemap: self.display.tonemap.map(Tonemap::from),
             ..RenderOptions::new(1, 1)
         };
         opts.validate()?;
@@ -224,11 +230,18 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if args.aov.is_some() && format != OutputFormat::Exr {
         bail!(cuberay::Error::AovNeedsExr { path: args.output.clone() });
     }
-    if args.trace.transfer.is_some() && format != OutputFormat::Png {
-        log::warn!(
-            "--transfer has no effect on {}: EXR and HDR files store the values as rendered",
-            args.output.display()
-        );
+    let d = &args.trace.display;
+    for (flag, given) in [
+        ("--transfer", d.transfer.is_some()),
+        ("--tonemap", d.tonemap.is_some()),
+        ("--exposure", d.exposure != 0.0),
+    ] {
+        if given && format != OutputFormat::Png {
+            log::warn!(
+                "{flag} has no effect on {}: EXR and HDR files store the values as rendered",
+                args.output.display()
+            );
+        }
     }
     if !(args.fps.is_finite() && args.fps > 0.0) {
         bail!("--fps {} is not a positive number of frames per second", args.fps);

@@ -44,6 +44,8 @@ const SOURCES: &[(&str, &str)] = &[
     ("shared/bvh.wgsl", include_str!("../../shaders/shared/bvh.wgsl")),
     ("shared/sampling.wgsl", include_str!("../../shaders/shared/sampling.wgsl")),
     ("shared/texture.wgsl", include_str!("../../shaders/shared/texture.wgsl")),
+    ("shared/environment.wgsl", include_str!("../../shaders/shared/environment.wgsl")),
+    ("shared/tonemap.wgsl", include_str!("../../shaders/shared/tonemap.wgsl")),
     ("shared/shade.wgsl", include_str!("../../shaders/shared/shade.wgsl")),
     ("shared/trace.wgsl", include_str!("../../shaders/shared/trace.wgsl")),
     ("shared/query.wgsl", include_str!("../../shaders/shared/query.wgsl")),
@@ -214,6 +216,8 @@ pub struct Variant {
     /// Hits of blended materials spawn pass-through rays, and shadow walks test alpha at
     /// them (`BLEND`).
     pub blend: bool,
+    /// Rays that leave the scene look up the environment map (`ENVIRONMENT`).
+    pub environment: bool,
     /// The ray queries: the candidate tables, the BVH or brute force.
     pub queries: Queries,
     /// Intersection tests and hit points in f64 (`--precision f64`; `SHADER_F64`).
@@ -260,6 +264,7 @@ impl Variant {
             normal_maps: e.normal_maps,
             alpha: e.alpha,
             blend: e.blend,
+            environment: e.environment,
             queries: Queries::Tables,
             f64: false,
             shapes: Shapes::ALL,
@@ -319,6 +324,7 @@ impl Variant {
             normal_maps: self.normal_maps,
             alpha: self.alpha,
             blend: self.blend,
+            environment: self.environment,
         }
     }
 
@@ -328,7 +334,8 @@ impl Variant {
     /// included: a scene may hold no primitive) with every effect (42), then shadows without
     /// rays leaving surfaces (lights with tables, no mirror), with and without textures and
     /// emission (12), then every effect uncounted (6), then maps, normal maps, mask and
-    /// blend each without the others, and mirrors lit by point lights alone (30), so that
+    /// blend each without the others, mirrors lit by point lights alone and an environment
+    /// alone (36), so that
     /// each `#if` is compiled both ways. Vertex colours, maps, normal maps, alpha and blend are off in the 32 effect sets
     /// and on in the rest (each further effect is compiled on and off against a
     /// representative rest, not in the full product).
@@ -346,6 +353,7 @@ impl Variant {
                     normal_maps: false,
                     alpha: false,
                     blend: false,
+                    environment: false,
                     queries,
                     f64,
                     shapes: Shapes::ALL,
@@ -398,6 +406,7 @@ impl Variant {
                     Variant { textures: true, alpha: true, ..base },
                     Variant { blend: true, surface_rays: true, ..base },
                     Variant { surface_rays: true, bvh_shadows: false, ..base },
+                    Variant { environment: true, ..base },
                 ]
             })
         });
@@ -421,6 +430,7 @@ impl Variant {
             "NORMAL_MAPS" => self.normal_maps,
             "ALPHA" => self.alpha,
             "BLEND" => self.blend,
+            "ENVIRONMENT" => self.environment,
             // Shadow walks test alpha: masked or blended materials.
             "CUTOUTS" => self.alpha || self.blend,
             "F64" => self.f64,

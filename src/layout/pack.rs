@@ -12,8 +12,8 @@ use crate::arith::spawn::SpawnPolicy;
 use crate::job::RenderOptions;
 use crate::sampling::{self, Sampling};
 use crate::scene::{
-    Alpha, LightKind, Material as SceneMaterial, Primitive, Projection, Scene, Texture, TextureRef, Triangle,
-    Wrap,
+    Alpha, Environment, LightKind, Material as SceneMaterial, Primitive, Projection, Scene, Texture,
+    TextureRef, Triangle, Wrap,
 };
 
 fn v3(v: DVec3) -> [f32; 3] {
@@ -68,7 +68,7 @@ impl Packed {
         }
         self.tri_attrs = tri_attrs;
         self.materials = scene.materials.iter().map(gpu_material).collect();
-        (self.texture_infos, self.texels) = pack_textures(&scene.textures);
+        (self.texture_infos, self.texels) = pack_textures(&scene.textures, scene.environment.as_ref());
         self.fixed = true;
     }
 
@@ -201,7 +201,7 @@ pub fn pack_moved(scene: &Scene, width: u32, height: u32, spawn: SpawnPolicy) ->
     // screen_offsets is affine in (x, y): its scale is the difference of unit steps.
     let (x0, _) = cam.screen_offsets(0.0, 0.0, width, height);
     let (x1, _) = cam.screen_offsets(1.0, 0.0, width, height);
-    let params = Params {
+    let mut params = Params {
         cam_forward: v3(cam.forward),
         cam_scale: (x1 - x0) as f32,
         cam_right: v3(cam.right),
@@ -218,6 +218,14 @@ pub fn pack_moved(scene: &Scene, width: u32, height: u32, spawn: SpawnPolicy) ->
         spawn_abs: spawn.rel_abs().1,
         ..Params::default()
     };
+    if let Some(env) = &scene.environment {
+        // Its texels follow the materials' textures' (`pack_textures`).
+        params.env_texture = scene.textures.len() as u32 + 1;
+        params.env_intensity = env.intensity as f32;
+        params.env_x = v3(env.front);
+        params.env_y = v3(env.up);
+        params.env_z = v3(env.side());
+    }
     Packed {
         prims,
         prims64: Vec::new(),
@@ -233,8 +241,9 @@ pub fn pack_moved(scene: &Scene, width: u32, height: u32, spawn: SpawnPolicy) ->
 }
 
 /// The textures as the kernels read them: one [`TextureInfo`] each, and all their texels in
-/// one array (RGBA8 in a `u32`).
-fn pack_textures(textures: &[Texture]) -> (Vec<TextureInfo>, Vec<u32>) {
+/// one array (RGBA8 in a `u32`), then the environment map's (shared-exponent RGB in a `u32`,
+/// `Params::env_texture`).
+fn pack_textures(textures: &[Texture], env: Option<&Environment>) -> (Vec<TextureInfo>, Vec<u32>) {
     let mut texels = Vec::new();
     let infos = textures
         .iter()
@@ -256,7 +265,12 @@ fn pack_textures(textures: &[Texture]) -> (Vec<TextureInfo>, Vec<u32>) {
             texels.extend(t.texels.iter().map(|c| u32::from_le_bytes(*c)));
             info
         })
-        .collect();
+        .collect::<Vec<_>>();
+    let mut infos = infos;
+    if let Some(e) = env {
+        infos.push(TextureInfo { offset: texels.len() as u32, width: e.width, height: e.height, flags: 0 });
+        texels.extend_from_slice(&e.texels);
+    }
     (infos, texels)
 }
 

@@ -68,6 +68,16 @@ pub struct Params {
     /// The BVH's shadow walks traced inline at a hit: a budget of loop iterations (nodes and
     /// primitives, [`super::budget::bvh_shadow_inline`]).
     pub bvh_inline: u32,
+    /// The environment map's frame (`ENVIRONMENT`; [`crate::scene::Environment`]): a
+    /// direction's local coordinates are its dot products with `env_x` (the map's front),
+    /// `env_y` (its up) and `env_z` (its side); its texels are texture `env_texture − 1`
+    /// (shared-exponent RGB), scaled by `env_intensity`.
+    pub env_x: [f32; 3],
+    pub env_texture: u32,
+    pub env_y: [f32; 3],
+    pub env_intensity: f32,
+    pub env_z: [f32; 3],
+    pub env_pad: u32,
 }
 
 /// One primitive (WGSL `Prim`, keep in sync with `shaders/shared/layout.wgsl`): sphere `a` =

@@ -12,6 +12,9 @@ use crate::scene::Scene;
 pub mod gltf;
 pub mod nff;
 mod polygon;
+pub mod setup;
+
+pub use setup::{apply as apply_setup, EnvChoice, Setup};
 
 /// Options that select among what a file offers.
 #[derive(Clone, Debug, Default)]
@@ -31,6 +34,16 @@ pub struct LoadOptions {
 pub struct Loaded {
     pub scene: Scene,
     pub warnings: Vec<String>,
+    /// The file's format: a glTF scene without lights gets the studio environment by
+    /// default ([`setup::apply`]).
+    pub format: SceneFormat,
+}
+
+/// The format a scene was read from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SceneFormat {
+    Nff,
+    Gltf,
 }
 
 /// Loads a scene file, choosing the format by extension.

@@ -116,6 +116,8 @@ struct State {
 /// What the `v` entity gave.
 struct View {
     camera: Camera,
+    /// The viewpoint's `up`, normalised: the world's up.
+    up: DVec3,
     /// The line of the `v`.
     line: usize,
     resolution: Option<(u32, u32)>,
@@ -147,7 +149,7 @@ impl State {
 
     fn finish(mut self, path: &Path) -> Result<Loaded, Error> {
         let invalid = |message: String| Error::Invalid { path: path.to_owned(), message };
-        let Some(View { camera, resolution, .. }) = self.view else {
+        let Some(View { camera, up, resolution, .. }) = self.view else {
             return Err(invalid("no 'v' (viewpoint) entity: an NFF file must say where the eye is".into()));
         };
         let mut warnings = Vec::new();
@@ -198,10 +200,12 @@ impl State {
             textures: Vec::new(),
             primitives: self.primitives,
             resolution,
+            up,
+            environment: None,
             transfer: Transfer::Display,
         };
         scene.validate().map_err(|e| invalid(e.into_message()))?;
-        Ok(Loaded { scene, warnings })
+        Ok(Loaded { scene, warnings, format: super::SceneFormat::Nff })
     }
 }
 
@@ -405,7 +409,7 @@ impl<'a> Parser<'a> {
         let mut camera = Camera::look_at(from, at, up, projection)
             .map_err(|m| self.error(line, Some("v"), format!("impossible view: {}", m.into_message())))?;
         camera.near = hither.unwrap_or(0.0);
-        state.view = Some(View { camera, line, resolution });
+        state.view = Some(View { camera, up: up.normalize(), line, resolution });
         Ok(())
     }
 

@@ -6,7 +6,7 @@ use crate::error::Result;
 use crate::gpu::kernels::shader_module;
 use crate::gpu::shaders::{Kernel, Variant};
 use crate::gpu::GpuContext;
-use crate::scene::Transfer;
+use crate::scene::{Tonemap, Transfer};
 
 /// What the window shows, read by the display pass (WGSL `View` in
 /// `shaders/display.wgsl`, keep them in sync).
@@ -24,8 +24,17 @@ pub struct View {
     pub encode: u32,
     /// Pixels per grid point edge: 1, or a moving camera's coarse block.
     pub block: u32,
+    /// The tone mapping before the clamp: one of the `TONEMAP_*` codes.
+    pub tonemap: u32,
+    /// What the values are multiplied by first: 2^`--exposure`.
+    pub exposure: f32,
     pub pad1: u32,
 }
+
+/// [`View::tonemap`] codes (WGSL `TONEMAP_*`): [`Tonemap`]'s.
+pub const TONEMAP_NONE: u32 = 0;
+pub const TONEMAP_PBR_NEUTRAL: u32 = 1;
+pub const TONEMAP_ACES: u32 = 2;
 
 /// [`View::encode`] codes (WGSL `ENCODE_*`): store the clamped value as it is, sRGB-encode
 /// it, or undo the sRGB encoding an sRGB target format applies.
@@ -91,6 +100,12 @@ impl Display {
                 (Transfer::Display, true) => ENCODE_LINEARIZE,
                 _ => ENCODE_NONE,
             },
+            tonemap: match o.tonemap_for(session.scene()) {
+                Tonemap::None => TONEMAP_NONE,
+                Tonemap::PbrNeutral => TONEMAP_PBR_NEUTRAL,
+                Tonemap::Aces => TONEMAP_ACES,
+            },
+            exposure: o.exposure.exp2() as f32,
             ..View::default()
         };
         ctx.queue.write_buffer(&self.view_buffer, 0, bytemuck::bytes_of(&view));

@@ -95,7 +95,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions, progress: &ProgressBar) -> Re
     let (gw, gh) = grid.size;
     let (ww, wh) = (win.width() as usize, win.height() as usize);
     let mut image = Image::new(win.width(), win.height(), false);
-    image.transfer = opts.transfer_for(scene);
+    opts.show(scene, &mut image);
     let mut counters = Counters::default();
     // One task per row of the window's grid points; a point the window does not own (a
     // corner on its far edges) is traced for its pixels but counted by its owner.

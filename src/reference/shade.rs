@@ -155,7 +155,10 @@ impl Tracer<'_> {
     ) -> DVec3 {
         c.count_ray(kind);
         match self.accel.closest(ray, origin, f64::INFINITY, c.tests_mut(kind)) {
-            None => self.scene.background,
+            None => match &self.scene.environment {
+                Some(env) => env.radiance(ray.dir),
+                None => self.scene.background,
+            },
             Some(h) => {
                 if kind == RayKind::Eye {
                     c.eye_hit += 1;

@@ -18,6 +18,26 @@ pub enum FovSpan {
     EdgePixelCenters,
 }
 
+/// The camera the command line asks for instead of the file's, part by part
+/// ([`Camera::overridden`]): each `None` keeps the file's.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ViewOverride {
+    /// `--look-from`: the eye.
+    pub from: Option<DVec3>,
+    /// `--look-at`: the point at the image's centre.
+    pub at: Option<DVec3>,
+    /// `--up`: the up hint (need not be orthogonal to the view).
+    pub up: Option<DVec3>,
+    /// `--fov`: the vertical field of view in degrees, between the image's outer edges.
+    pub fov_degrees: Option<f64>,
+}
+
+impl ViewOverride {
+    pub fn is_empty(&self) -> bool {
+        *self == ViewOverride::default()
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Projection {
     /// `fov_y`: full vertical field of view in radians, in (0, π).
@@ -37,6 +57,9 @@ pub struct Camera {
     /// Unit screen-right vector, `forward × up`.
     pub right: DVec3,
     pub projection: Projection,
+    /// The point the camera looks at (NFF `at`; for a camera given by its orientation alone,
+    /// a point along `forward`): what `--look-at` replaces, and what `info` prints.
+    pub target: DVec3,
     /// Near clipping distance from the file (NFF `hither`, glTF `znear`). Recorded only:
     /// a ray tracer has no use for it, and the renderers start rays at the eye.
     pub near: f64,
@@ -56,10 +79,11 @@ impl Camera {
         if f.length_squared() == 0.0 {
             return Err(Error::Scene("camera eye and look-at point coincide".into()));
         }
-        Self::from_basis(eye, f, up, projection)
+        Ok(Camera { target: at, ..Self::from_basis(eye, f, up, projection)? })
     }
 
-    /// A camera looking along `forward` (any length) with the given `up` hint.
+    /// A camera looking along `forward` (any length) with the given `up` hint, its target one
+    /// unit ahead.
     pub fn from_basis(eye: DVec3, forward: DVec3, up: DVec3, projection: Projection) -> Result<Camera> {
         let forward = forward.normalize();
         let right = forward.cross(up);
@@ -68,7 +92,16 @@ impl Camera {
         }
         let right = right.normalize();
         let up = right.cross(forward).normalize();
-        let cam = Camera { eye, forward, up, right, projection, near: 0.0, aspect_hint: None };
+        let cam = Camera {
+            eye,
+            forward,
+            up,
+            right,
+            projection,
+            target: eye + forward,
+            near: 0.0,
+            aspect_hint: None,
+        };
         cam.validate()?;
         Ok(cam)
     }
@@ -127,6 +160,56 @@ impl Camera {
                 (self.eye, (self.forward + self.right * sx + self.up * sy).normalize())
             }
             Projection::Orthographic { .. } => (self.eye + self.right * sx + self.up * sy, self.forward),
+        }
+    }
+
+    /// This camera with the parts `o` gives replaced (`--look-from`, `--look-at`, `--up`,
+    /// `--fov`): a new eye or target looks from the one to the other with `o.up`, else
+    /// `world_up`, as the up hint (the camera's own up where neither moves); a field of view
+    /// makes it a perspective camera measured between the image's outer edges.
+    pub fn overridden(&self, o: &ViewOverride, world_up: DVec3) -> Result<Camera> {
+        if o.is_empty() {
+            return Ok(self.clone());
+        }
+        let projection = match o.fov_degrees {
+            Some(f) => Projection::Perspective { fov_y: f.to_radians(), span: FovSpan::ImageEdges },
+            None => self.projection,
+        };
+        let moved = o.from.is_some() || o.at.is_some();
+        let (eye, target) = (o.from.unwrap_or(self.eye), o.at.unwrap_or(self.target));
+        let up = o.up.unwrap_or(if moved { world_up } else { self.up });
+        let mut cam = if moved || o.up.is_some() {
+            if (target - eye).length_squared() == 0.0 {
+                return Err(Error::Options(format!(
+                    "the camera looks from {eye} at {target}: the look-from and look-at points coincide"
+                )));
+            }
+            Camera::look_at(eye, target, up, projection).map_err(|e| {
+                Error::Options(format!(
+                    "the camera from {eye} to {target} with up {up}: {}",
+                    e.into_message()
+                ))
+            })?
+        } else {
+            Camera { projection, ..self.clone() }
+        };
+        cam.near = self.near;
+        cam.aspect_hint = self.aspect_hint;
+        cam.validate().map_err(|e| Error::Options(format!("--fov: {}", e.into_message())))?;
+        Ok(cam)
+    }
+
+    /// The vertical field of view in degrees between the image's outer edges (what `--fov`
+    /// sets) at an image `height` pixels high; `None` for an orthographic camera.
+    pub fn fov_edges_degrees(&self, height: u32) -> Option<f64> {
+        match self.projection {
+            Projection::Perspective { fov_y, span: FovSpan::ImageEdges } => Some(fov_y.to_degrees()),
+            Projection::Perspective { fov_y, span: FovSpan::EdgePixelCenters } => {
+                let h = height as f64;
+                let t = (fov_y * 0.5).tan() * if height > 1 { h / (h - 1.0) } else { 1.0 };
+                Some((2.0 * t.atan()).to_degrees())
+            }
+            Projection::Orthographic { .. } => None,
         }
     }
 

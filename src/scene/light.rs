@@ -24,6 +24,9 @@ pub enum LightSource {
     File,
     /// Added by the loader because the file has no light (see [`Light::default_for`]).
     Default,
+    /// One of the directional lights standing in for the environment
+    /// ([`super::Environment::lights`]).
+    Environment,
 }
 
 #[derive(Clone, Debug, PartialEq)]

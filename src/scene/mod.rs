@@ -61,6 +61,12 @@
 //! emission), which decide the effects a scene calls for. A primitive without a material
 //! gets [`Material::default`] (matte white; glTF's own default, metallic 1 and roughness 1,
 //! would map to black). glTF has no ambient light or background colour: both are black.
+//!
+//! **The environment** ([`Environment`], `--env`): an equirectangular radiance map that
+//! every ray leaving the scene sees instead of the background, and directional lights that
+//! stand in for it in Whitted shading. A glTF scene without lights gets the built-in studio
+//! ([`environment::studio`]) instead of a headlight; NFF scenes keep their background and
+//! lights unless given one.
 
 use glam::{DVec2, DVec3, DVec4};
 use serde::Serialize;
@@ -68,10 +74,12 @@ use serde::Serialize;
 use crate::error::{Error, Result};
 
 mod camera;
+pub mod environment;
 mod light;
 mod material;
 
-pub use camera::{Camera, FovSpan, Projection};
+pub use camera::{Camera, FovSpan, Projection, ViewOverride};
+pub use environment::Environment;
 pub use light::{Light, LightKind, LightSource};
 pub use material::{
     srgb_to_linear, Alpha, MapRanges, Material, NormalMap, Pbr, PbrMaps, Shading, Texture, TextureRef, Wrap,
@@ -309,6 +317,8 @@ pub struct Effects {
     /// Some used material is blended: its hits spawn pass-through rays, and shadow walks
     /// test alpha at them.
     pub blend: bool,
+    /// Rays that leave the scene see an environment map instead of the background colour.
+    pub environment: bool,
 }
 
 impl Effects {
@@ -324,6 +334,7 @@ impl Effects {
         normal_maps: true,
         alpha: true,
         blend: true,
+        environment: true,
     };
 
     /// The names of the effects that are on, in a fixed order.
@@ -340,6 +351,7 @@ impl Effects {
             (self.normal_maps, "normal_maps"),
             (self.alpha, "alpha"),
             (self.blend, "blend"),
+            (self.environment, "environment"),
         ] {
             if on {
                 v.push(name);
@@ -372,6 +384,11 @@ pub struct Scene {
     pub primitives: Vec<Primitive>,
     /// The image size the file asks for (NFF `resolution`), if any.
     pub resolution: Option<(u32, u32)>,
+    /// The world's up direction (unit): glTF +Y, NFF the viewpoint's `up`. An environment
+    /// map's top faces it.
+    pub up: DVec3,
+    /// What rays leaving the scene see, and the lights standing in for it, if anything.
+    pub environment: Option<Environment>,
     /// How the file's colours are meant to reach a display, and so how a PNG encodes the
     /// rendered values: NFF colours are display values, glTF's are linear.
     pub transfer: Transfer,
@@ -388,6 +405,82 @@ pub enum Transfer {
     /// The values are already display values, as the 1987 renderers of the SPD wrote the
     /// shaded colour straight to the frame buffer: store them as they are (NFF).
     Display,
+}
+
+/// How radiance beyond what a display shows becomes display values (`--tonemap`), before the
+/// transfer encodes them. glTF viewers show glTF scenes through Khronos PBR Neutral.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Tonemap {
+    /// The values as they are, clamped to [0, 1].
+    #[default]
+    None,
+    /// Khronos PBR Neutral: colours below 0.76 unchanged (but for a small offset of dark
+    /// ones), brighter ones compressed towards white with little hue shift.
+    PbrNeutral,
+    /// ACES filmic, Hill's fit of the RRT and ODT (as the glTF Sample Viewer's "ACES").
+    Aces,
+}
+
+impl Tonemap {
+    /// The name `--tonemap` and the JSON use.
+    pub fn name(self) -> &'static str {
+        match self {
+            Tonemap::None => "none",
+            Tonemap::PbrNeutral => "pbr-neutral",
+            Tonemap::Aces => "aces",
+        }
+    }
+
+    /// What a scene shows through by default: PBR Neutral where its values are linear
+    /// radiance (glTF), none where they are display values (NFF).
+    pub fn default_for(transfer: Transfer) -> Tonemap {
+        match transfer {
+            Transfer::Srgb => Tonemap::PbrNeutral,
+            Transfer::Display => Tonemap::None,
+        }
+    }
+
+    /// Maps linear RGB (already scaled by the exposure) to [0, 1] (WGSL twin `tonemap` in
+    /// `shaders/display.wgsl`).
+    pub fn apply(self, c: [f32; 3]) -> [f32; 3] {
+        let c = c.map(|v| if v.is_nan() { 0.0 } else { v.max(0.0) });
+        let out = match self {
+            Tonemap::None => c,
+            Tonemap::PbrNeutral => pbr_neutral(c),
+            Tonemap::Aces => aces(c),
+        };
+        out.map(|v| v.clamp(0.0, 1.0))
+    }
+}
+
+/// Khronos PBR Neutral (KhronosGroup/ToneMapping, "PBR Neutral"), f32 as the WGSL twin.
+fn pbr_neutral(c: [f32; 3]) -> [f32; 3] {
+    const START: f32 = 0.8 - 0.04;
+    const DESATURATION: f32 = 0.15;
+    let x = c[0].min(c[1]).min(c[2]);
+    let offset = if x < 0.08 { x - 6.25 * x * x } else { 0.04 };
+    let c = c.map(|v| v - offset);
+    let peak = c[0].max(c[1]).max(c[2]);
+    if peak < START {
+        return c;
+    }
+    let d = 1.0 - START;
+    let new_peak = 1.0 - d * d / (peak + d - START);
+    let c = c.map(|v| v * (new_peak / peak));
+    let g = 1.0 - 1.0 / (DESATURATION * (peak - new_peak) + 1.0);
+    c.map(|v| v * (1.0 - g) + new_peak * g)
+}
+
+/// ACES filmic: sRGB to the RRT's space, Hill's fit of the RRT and ODT, back to sRGB.
+fn aces(c: [f32; 3]) -> [f32; 3] {
+    const INPUT: [[f32; 3]; 3] =
+        [[0.59719, 0.35458, 0.04823], [0.07600, 0.90834, 0.01566], [0.02840, 0.13383, 0.83777]];
+    const OUTPUT: [[f32; 3]; 3] =
+        [[1.60475, -0.53108, -0.07367], [-0.10208, 1.10813, -0.00605], [-0.00327, -0.07276, 1.07602]];
+    let mul = |m: &[[f32; 3]; 3], v: [f32; 3]| m.map(|r| r[0] * v[0] + r[1] * v[1] + r[2] * v[2]);
+    let fit = |v: f32| (v * (v + 0.0245786) - 0.000090537) / (v * (0.983729 * v + 0.432951) + 0.238081);
+    mul(&OUTPUT, mul(&INPUT, c).map(fit))
 }
 
 impl Transfer {
@@ -413,9 +506,23 @@ impl Scene {
         c
     }
 
-    /// Lights that came from the file (not the loader's default).
+    /// Lights that came from the file (not the loader's default or the environment's).
     pub fn file_lights(&self) -> impl Iterator<Item = &Light> {
         self.lights.iter().filter(|l| l.source == LightSource::File)
+    }
+
+    /// Surrounds the scene with `env` lit by up to `lights` of its directional lights
+    /// ([`Environment::lights`]), or with the background colour again (`None`). The file's
+    /// own lights stay; an environment's lights replace the default headlight, which comes
+    /// back without one where the file has no light.
+    pub fn set_environment(&mut self, env: Option<Environment>, lights: u32) {
+        self.lights.retain(|l| l.source == LightSource::File);
+        match &env {
+            Some(e) => self.lights.extend(e.lights(lights)),
+            None if self.lights.is_empty() => self.lights.push(Light::default_for(&self.camera)),
+            None => {}
+        }
+        self.environment = env;
     }
 
     /// World-space bounds of the geometry (no lights, no camera). Empty for an empty scene.
@@ -427,8 +534,11 @@ impl Scene {
     pub fn effects(&self) -> Effects {
         let mut used = vec![false; self.materials.len()];
         let mut has_tangents = vec![false; self.materials.len()];
-        let mut e =
-            Effects { shadows: !self.lights.is_empty() && !self.primitives.is_empty(), ..Effects::default() };
+        let mut e = Effects {
+            shadows: !self.lights.is_empty() && !self.primitives.is_empty(),
+            environment: self.environment.is_some(),
+            ..Effects::default()
+        };
         for p in &self.primitives {
             let m = p.material() as usize;
             used[m] = true;
@@ -472,6 +582,12 @@ impl Scene {
         };
         self.camera.validate()?;
         finite3(self.background, "background")?;
+        if !(self.up.is_finite() && (self.up.length() - 1.0).abs() < 1e-9) {
+            return bad(format!("up {} is not a unit vector", self.up));
+        }
+        if let Some(env) = &self.environment {
+            env.validate()?;
+        }
         finite3(self.ambient, "ambient")?;
         for (i, l) in self.lights.iter().enumerate() {
             l.validate().map_err(|e| e.within(format_args!("light {i}")))?;

@@ -36,9 +36,20 @@ fn info_json_on_a_gltf_scene() {
     let v = info_json(&shared("gltf/Box/Box.gltf"));
     assert_eq!(v["triangles"], 12);
     assert_eq!(v["spheres"], 0);
-    // Box has no light: the default light is used but not counted.
+    // Box has no light: the built-in studio environment lights it (its lights are not the
+    // file's), and no headlight.
     assert_eq!(v["lights"], 0);
-    assert_eq!(v["default_light"], true);
+    assert_eq!(v["default_light"], false);
+    assert_eq!(v["environment"]["name"], "studio");
+    assert_eq!(v["environment"]["lights"], 16);
+    // With --env none, the default headlight instead.
+    let out = cuberay()
+        .args(["info", "--json", "--env", "none"])
+        .arg(shared("gltf/Box/Box.gltf"))
+        .output()
+        .unwrap();
+    let none: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!((none["default_light"].as_bool(), none["environment"].is_null()), (Some(true), true));
     let b = &v["bounds"];
     for axis in 0..3 {
         let (lo, hi) = (b[0][axis].as_f64().unwrap(), b[1][axis].as_f64().unwrap());

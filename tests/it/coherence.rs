@@ -45,6 +45,8 @@ fn scene(eye: DVec3, at: DVec3, lights: &[DVec3], primitives: Vec<Primitive>) ->
         textures: Vec::new(),
         primitives,
         resolution: Some((64, 64)),
+        up: up.normalize(),
+        environment: None,
         transfer: Default::default(),
     };
     s.validate().unwrap();

@@ -9,6 +9,7 @@ mod accuracy;
 mod arith;
 mod cli;
 mod coherence;
+mod environment;
 mod fuzz;
 mod gltf;
 mod gpu;

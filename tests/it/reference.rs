@@ -24,6 +24,7 @@ fn ortho(eye: DVec3, at: DVec3, up: DVec3, half_height: f64) -> Camera {
 }
 
 fn scene(camera: Camera) -> Scene {
+    let camera_up = camera.up;
     Scene {
         camera,
         lights: Vec::new(),
@@ -33,6 +34,8 @@ fn scene(camera: Camera) -> Scene {
         textures: Vec::new(),
         primitives: Vec::new(),
         resolution: None,
+        up: camera_up,
+        environment: None,
         transfer: Default::default(),
     }
 }

@@ -19,7 +19,9 @@ use cuberay::layout::bvh::{
 };
 use cuberay::layout::counters::*;
 use cuberay::layout::*;
-use cuberay::preview::display::{View, ENCODE_LINEARIZE, ENCODE_NONE, ENCODE_SRGB};
+use cuberay::preview::display::{
+    View, ENCODE_LINEARIZE, ENCODE_NONE, ENCODE_SRGB, TONEMAP_ACES, TONEMAP_NONE, TONEMAP_PBR_NEUTRAL,
+};
 use cuberay::preview::session::{Tile, ACCUMULATE_WORKGROUP};
 
 /// One field of a struct: name, offset, size and type (in WGSL's spelling).
@@ -115,6 +117,12 @@ fn rust_structs() -> BTreeMap<&'static str, Layout> {
             shadow_queue,
             surface_bvh,
             bvh_inline,
+            env_x,
+            env_texture,
+            env_y,
+            env_intensity,
+            env_z,
+            env_pad,
         }),
         twin!(Prim { a, b, c, kind, material, flags, attr }),
         twin!(Prim64 { a, b, c, kind, material, flags, attr, pad }),
@@ -171,7 +179,7 @@ fn rust_structs() -> BTreeMap<&'static str, Layout> {
         twin!(GpuEntry { id, d_min }),
         twin!(WideNode { p, e_imask, child_base, prim_base, child_meta, q }),
         twin!(Tile { first_point, point_count, pad0, pad1 }),
-        twin!(View { width, height, grid_w, samples, corners, encode, block, pad1 }),
+        twin!(View { width, height, grid_w, samples, corners, encode, block, tonemap, exposure, pad1 }),
     ])
 }
 
@@ -276,6 +284,9 @@ fn rust_constants() -> BTreeMap<&'static str, Value> {
         ("ENCODE_NONE", U32(ENCODE_NONE)),
         ("ENCODE_SRGB", U32(ENCODE_SRGB)),
         ("ENCODE_LINEARIZE", U32(ENCODE_LINEARIZE)),
+        ("TONEMAP_NONE", U32(TONEMAP_NONE)),
+        ("TONEMAP_PBR_NEUTRAL", U32(TONEMAP_PBR_NEUTRAL)),
+        ("TONEMAP_ACES", U32(TONEMAP_ACES)),
     ])
 }
 

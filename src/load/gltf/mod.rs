@@ -217,7 +217,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, Error> {
         )));
     }
 
-    let camera = match options.camera {
+    let mut camera = match options.camera {
         Some(n) => match hierarchy.cameras.get(n) {
             Some(placed) => view::camera(&ctx, &doc, placed)?,
             None => {
@@ -249,6 +249,14 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, Error> {
         },
     };
 
+    // A camera node gives no look-at point: the one along its view nearest the scene's
+    // centre (one unit ahead where that lies behind it), for `--look-from` and `info`.
+    let centre = primitives.iter().fold(crate::scene::Aabb::EMPTY, |b, p| b.union(&p.bounds())).center();
+    let ahead = (centre - camera.eye).dot(camera.forward);
+    if centre.is_finite() && camera.target == camera.eye + camera.forward {
+        camera.target = camera.eye + camera.forward * if ahead > 0.0 { ahead } else { 1.0 };
+    }
+
     let mut lights = hierarchy
         .lights
         .iter()
@@ -268,8 +276,10 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, Error> {
         textures: table.textures,
         primitives,
         resolution: None,
+        up: DVec3::Y,
+        environment: None,
         transfer: Transfer::Srgb,
     };
     scene.validate().map_err(|e| ctx.invalid(format!("internal check failed: {}", e.into_message())))?;
-    Ok(Loaded { scene, warnings })
+    Ok(Loaded { scene, warnings, format: crate::load::SceneFormat::Gltf })
 }
