@@ -43,7 +43,7 @@ pub const OWN_LIMIT: f64 = 1.0 / 16.0;
 /// The largest offset-to-size ratio f32 is trusted with on the size of what touches a
 /// primitive, `2⁻⁷`: a unit ball on a ground sphere of radius 10⁵ is at 0.095 (12× over; f32
 /// misses the contact, `hard::contact_on_huge_geometry`); the SPD scenes and the glTF sample
-/// models are at least 7× under (`docs/accuracy.md`, "Precision").
+/// models are at least 7× under (`docs/accuracy.md`, "Precision chosen per scene").
 pub const CONTACT_LIMIT: f64 = 1.0 / 128.0;
 
 /// What f32 can resolve of a scene, and the one comparison that decided it.
