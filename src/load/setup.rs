@@ -140,8 +140,8 @@ pub fn read_environment(path: &Path, up: DVec3, front: DVec3) -> Result<Environm
 }
 
 /// [`read_environment`] of a file's bytes (for the fuzz target): the format by its content,
-/// a decoder kept within [`MAX_WIDTH`] and a gigabyte, then [`Environment::from_rgb`]'s
-/// checks. Errors name `path`.
+/// an EXR's header checked first ([`check_exr_header`]), a decoder kept within
+/// [`MAX_WIDTH`] and a gigabyte, then [`Environment::from_rgb`]'s checks. Errors name `path`.
 pub fn environment_from_bytes(
     bytes: &[u8],
     path: &Path,
@@ -153,7 +153,8 @@ pub fn environment_from_bytes(
         .with_guessed_format()
         .map_err(|e| invalid(format!("cannot read the environment map: {e}")))?;
     match reader.format() {
-        Some(image::ImageFormat::Hdr) | Some(image::ImageFormat::OpenExr) => {}
+        Some(image::ImageFormat::Hdr) => {}
+        Some(image::ImageFormat::OpenExr) => check_exr_header(bytes).map_err(invalid)?,
         Some(f) => {
             return Err(invalid(format!(
                 "an environment map is an equirectangular .hdr or .exr image, not {f:?}"
@@ -172,4 +173,37 @@ pub fn environment_from_bytes(
     let name = path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into());
     Environment::from_rgb(&name, w, h, rgb.as_raw(), up, front)
         .map_err(|e| invalid(e.into_message().trim_start_matches("invalid scene: ").to_string()))
+}
+
+/// The most bytes one compressed block of an EXR map may unpack to (64 MiB: 32 lines of a
+/// map `MAX_WIDTH` wide with four f32 channels take 8 MiB).
+const MAX_EXR_BLOCK_BYTES: usize = 1 << 26;
+
+/// Refuses an EXR whose header asks the decoder for more than a map could need, before it
+/// allocates anything by it: the `exr` crate sizes a block's buffers by the header's data
+/// window, tile size and channels, beyond what `image::Limits` bounds (a fuzzed file of a
+/// kilobyte asked for 48 GiB, docs/fuzzing.md).
+fn check_exr_header(bytes: &[u8]) -> Result<(), String> {
+    let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false)
+        .map_err(|e| format!("cannot read the environment map's EXR header: {e}"))?;
+    for h in &meta.headers {
+        let (w, ht) = (h.layer_size.width(), h.layer_size.height());
+        if h.deep {
+            return Err("an environment map holds flat pixels, not deep data".into());
+        }
+        if w > MAX_WIDTH as usize || ht > MAX_WIDTH as usize / 2 + 1 {
+            return Err(format!("its {w}x{ht} pixels are more than an environment map's {MAX_WIDTH} a row"));
+        }
+        if h.channels.list.len() > 16 {
+            return Err(format!("its {} channels are more than an RGB(A) map has", h.channels.list.len()));
+        }
+        // A block's bytes: its tile's pixels, or its scan lines', times the pixel's bytes.
+        let block = h.max_block_byte_size();
+        if block > MAX_EXR_BLOCK_BYTES {
+            return Err(format!(
+                "a block of it unpacks to {block} bytes, more than a map's {MAX_EXR_BLOCK_BYTES}"
+            ));
+        }
+    }
+    Ok(())
 }

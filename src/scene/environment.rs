@@ -240,6 +240,18 @@ impl Environment {
         if !(self.intensity.is_finite() && self.intensity >= 0.0) {
             return bad(format!("intensity {} is not finite and non-negative", self.intensity));
         }
+        // The kernels scale texels by the intensity in f32: the brightest must stay finite.
+        let brightest = self.texels.iter().map(|&t| t >> 24).max().unwrap_or(0) as i32;
+        let bound = 256.0 * 2f64.powi(brightest - 136) * self.intensity;
+        if bound > f32::MAX as f64 {
+            return bad(format!(
+                "intensity {} times its brightest texel (up to {:.3e}) is beyond f32's range ({:.3e}), which the \
+                 GPU holds radiance in",
+                self.intensity,
+                bound / self.intensity,
+                f32::MAX
+            ));
+        }
         let unit = |v: DVec3| v.is_finite() && (v.length() - 1.0).abs() < 1e-9;
         if !(unit(self.up) && unit(self.front) && self.up.dot(self.front).abs() < 1e-9) {
             return bad("its up and front are not orthogonal unit vectors".into());

@@ -335,6 +335,22 @@ fn bad_environment_maps_are_refused_clearly() {
         assert!(!err.contains("panicked"), "{file}: {err}");
         assert!(!out.exists(), "{file}: an image was written");
     }
+    // An intensity that takes the brightest texel beyond f32 never reaches a kernel as Inf,
+    // with or without the lights (whose radiance is checked on its own).
+    for lights in ["0", "16"] {
+        let out = d.join("out.png");
+        let st = cuberay()
+            .args(["render", "--width", "8", "--height", "8", "--env", "studio", "--env-intensity", "1e300"])
+            .args(["--env-lights", lights, "-o"])
+            .arg(&out)
+            .arg(crate::common::shared("gltf/Box/Box.gltf"))
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&st.stderr);
+        assert_eq!(st.status.code(), Some(1), "{lights} lights: {err}");
+        assert!(err.contains("error:") && err.contains("beyond f32"), "{lights} lights: {err}");
+        assert!(!out.exists(), "{lights} lights: an image was written");
+    }
 }
 
 /// The studio and map lookups exist only in kernels whose scene has an environment.
