@@ -37,6 +37,12 @@ pub struct SceneInfo {
     pub precision: &'static str,
     /// Why: the comparison that decided it.
     pub precision_auto: PrecisionInfo,
+    /// Whether the scene sends rays from surfaces (mirrors, glass, blended surfaces, shadow
+    /// rays towards directional lights): under `--accel cube` they take the BVH, or the
+    /// platform's ray queries on an adapter that has them (`--surface-walk`; `--stats` says
+    /// which a render took), while eye rays and shadow rays towards point lights take the
+    /// tables.
+    pub surface_rays: bool,
 }
 
 /// The comparison `--precision auto` makes ([`crate::arith::precision::F32Need`]).
@@ -135,6 +141,7 @@ impl SceneInfo {
                 exact: need.exact,
                 reason: need.reason(),
             },
+            surface_rays: crate::coherence::traces_surface_rays(scene, &Default::default()),
         }
     }
 
@@ -183,6 +190,14 @@ impl SceneInfo {
         }
         let p = &self.precision_auto;
         s += &format!("precision:  {} (auto, {} pixels high: {})\n", self.precision, p.height, p.reason);
+        s += "rays:       eye rays and shadow rays towards point lights take the candidate tables";
+        if self.surface_rays {
+            s += "; rays leaving surfaces take ray queries on a GPU with them (lavapipe's are slower than its BVH), \
+                  else the BVH (--surface-walk)";
+        } else {
+            s += "; no ray leaves a surface";
+        }
+        s += "\n";
         s
     }
 }

@@ -26,8 +26,37 @@ pub enum AccelKind {
     /// Bounding volume hierarchy.
     Bvh,
     /// The direction-cube candidate tables of the coherence method (Ohta and Maekawa) for eye
-    /// and light rays; the BVH for rays leaving surfaces.
+    /// and light rays; for rays leaving surfaces the BVH or the platform's ray queries
+    /// ([`SurfaceWalk`]).
     Cube,
+    /// GPU only: the platform's ray queries for every ray (the driver's structure over a box
+    /// per primitive culls, the kernels test its candidates).
+    RayQuery,
+}
+
+/// What the GPU's rays leaving surfaces take under `--accel cube` and `auto`
+/// (`--surface-walk`): they have no single origin, so no table serves them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum SurfaceWalk {
+    /// The platform's ray queries where the adapter has them, except lavapipe, whose
+    /// software ones measured slower than the BVH (`gpu::setup::resolve_surface`); else the
+    /// BVH.
+    #[default]
+    Auto,
+    /// The BVH walked in the kernels' own code.
+    Bvh,
+    /// The platform's ray queries (an adapter without them refuses the render).
+    RayQuery,
+}
+
+impl SurfaceWalk {
+    pub fn name(self) -> &'static str {
+        match self {
+            SurfaceWalk::Auto => "auto",
+            SurfaceWalk::Bvh => "bvh",
+            SurfaceWalk::RayQuery => "rayquery",
+        }
+    }
 }
 
 /// The arithmetic of the GPU kernels' intersection tests and hit points (`--precision`):
@@ -68,6 +97,10 @@ pub struct RenderOptions {
     /// Maximum ray-tree depth, the eye ray being depth 1 (SPD: 5).
     pub max_depth: u32,
     pub accel: AccelKind,
+    /// What rays leaving surfaces take on the GPU under `cube` and `auto` ([`SurfaceWalk`]):
+    /// the GPU renderer resolves [`SurfaceWalk::Auto`] for its adapter; unresolved, it is the
+    /// BVH.
+    pub surface: SurfaceWalk,
     /// How far the GPU kernels move spawned rays off their surfaces (the candidate tables
     /// are built for it). The CPU reference keeps its own, much smaller f64 offset.
     pub spawn: SpawnPolicy,
@@ -130,6 +163,7 @@ impl RenderOptions {
             sampling: Sampling::Pixels,
             max_depth: 5,
             accel: AccelKind::Auto,
+            surface: SurfaceWalk::Auto,
             spawn: SpawnPolicy::Scaled,
             precision: Precision::Auto,
             auto_precision: None,
@@ -245,6 +279,7 @@ impl RenderOptions {
         stats::Settings {
             backend: backend.into(),
             accel: accel.into(),
+            surface_walk: None,
             size: [self.width, self.height],
             spp: self.spp,
             sampling: match self.sampling {

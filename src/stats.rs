@@ -236,8 +236,12 @@ pub struct KernelTimes {
 pub struct Settings {
     /// `cpu` or `gpu`.
     pub backend: String,
-    /// The acceleration structure actually used (`brute`, `bvh`, `cube`).
+    /// The acceleration structure actually used (`brute`, `bvh`, `cube`, `rayquery`).
     pub accel: String,
+    /// With `cube` on the GPU, what the rays leaving surfaces took: `bvh` or `rayquery`
+    /// (`null` where no ray left a surface, with other accelerators, and on the CPU).
+    #[serde(default)]
+    pub surface_walk: Option<String>,
     /// `[width, height]` of the image.
     pub size: [u32; 2],
     /// Samples per pixel (`corners`: 1, each pixel averaging its four corner rays).

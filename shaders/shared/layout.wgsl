@@ -55,8 +55,9 @@ struct Params {
     // The wavefront's queues: jobs each ray queue and each shadow queue holds.
     ray_queue: u32,
     shadow_queue: u32,
-    // --accel cube: 1 when rays leaving surfaces walk the BVH (the render traces some).
-    surface_bvh: u32,
+    // --accel cube: 1 when rays leaving surfaces take the surface walk (the BVH or ray
+    // queries; the render traces some).
+    surface_walk: u32,
     // The BVH's inline shadow walks: a budget of loop iterations (nodes and primitives).
     bvh_inline: u32,
     // The environment map's frame (ENVIRONMENT, environment.wgsl): a direction's local

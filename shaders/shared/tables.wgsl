@@ -39,8 +39,9 @@ struct GpuEntry {
 @group(0) @binding(15) var<storage, read> light_origin: array<u32>;
 
 const NO_ORIGIN: u32 = 0xffffffffu;
-// `Walk::iend` of a walk of the BVH (walk.wgsl; coherence::walk::BVH_WALK, keep in sync).
-const BVH_WALK: u32 = 0xffffffffu;
+// `Walk::iend` of the walk of a ray leaving a surface, the BVH's or a ray query's (walk.wgsl;
+// coherence::walk::SURFACE_WALK, keep in sync).
+const SURFACE_WALK: u32 = 0xffffffffu;
 
 
 // The table of light `light`'s shadow rays (OriginKey::Light), or NO_ORIGIN.

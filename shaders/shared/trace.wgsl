@@ -1,9 +1,10 @@
 // The ray queries of a kernel that traces (query.wgsl: `closest` and its stepped form,
 // `occluded_short`, `occluded_step`), over the walk of the one accelerator the variant
 // holds: the candidate-table walk (`TABLES`: walk.wgsl over tables.wgsl, which brings the
-// BVH walk for rays leaving surfaces), the BVH walk (`BVH`) or brute force (`BRUTE`), over
-// the scene's layout and intersection code. The kernels include this file, not the
-// accelerators', so that which walk a kernel gets is decided in one place.
+// BVH walk or the ray queries for rays leaving surfaces), the BVH walk (`BVH`), brute force
+// (`BRUTE`) or the platform's ray queries (`RAYQUERY`), over the scene's layout and
+// intersection code. The kernels include this file, not the accelerators', so that which
+// walk a kernel gets is decided in one place.
 #include "shared/layout.wgsl"
 #include "shared/wavefront.wgsl"
 #include "shared/counters.wgsl"
@@ -24,5 +25,8 @@
 #endif
 #if BRUTE
 #include "shared/brute.wgsl"
+#endif
+#if RAYQUERY
+#include "shared/rayquery.wgsl"
 #endif
 #include "shared/query.wgsl"

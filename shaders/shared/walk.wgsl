@@ -4,16 +4,22 @@
 // rings_s7 +17 %.) A ray finds its list (the cell of its direction in the direction cube of
 // the eye or the light it is traced from) and walks it merged with the origin's always-test
 // list by increasing d_min, stopping once d_min passes the nearest hit so far; a long walk
-// is spread over several passes. Rays leaving surfaces walk the BVH (bvh.wgsl). It supplies
-// query.wgsl's protocol.
+// is spread over several passes. Rays leaving surfaces walk the BVH (bvh.wgsl) or, with
+// SURFACE_RQ, take the platform's ray queries (rayquery.wgsl). It supplies query.wgsl's
+// protocol.
 
 #if SURFACE_RAYS
+#if SURFACE_RQ
+#include "shared/rayquery.wgsl"
+#else
 #include "shared/bvh.wgsl"
+#endif
 #endif
 
 // A position in the merged walk of a cell's list (i..iend) and the always list (j..jend);
-// with `iend` BVH_WALK, a walk of the BVH (bvh.wgsl: the node `i` whose children it takes,
-// those children and its primitives left in `j`).
+// with `iend` SURFACE_WALK, the walk of a ray leaving a surface: of the BVH (bvh.wgsl: the
+// node `i` whose children it takes, those children and its primitives left in `j`), or a ray
+// query (`i` unused).
 struct Walk {
     i: u32,
     iend: u32,
@@ -30,7 +36,7 @@ fn cell_walk(origin: u32, d: vec3<f32>) -> Walk {
 }
 
 // The walk of a ray leaving primitive `from_prim` (NO_ID: the eye) along `d` (not zero): the
-// eye's cell; for a ray leaving a surface, the BVH (`params.surface_bvh`); else the fallback
+// eye's cell; for a ray leaving a surface, the surface walk (`params.surface_walk`); else the fallback
 // origin (twin of FlatTables::walk_from, where `reference::tables` hands the BVH's rays to
 // the reference's own BVH).
 fn walk_from(from_prim: u32, d: vec3<f32>) -> Walk {
@@ -39,8 +45,12 @@ fn walk_from(from_prim: u32, d: vec3<f32>) -> Walk {
         return cell_walk(select(o, params.fallback_origin, o == NO_ORIGIN), d);
     }
 #if SURFACE_RAYS
-    if params.surface_bvh != 0u {
-        return Walk(BVH_FRESH, BVH_WALK, 0u, 0u);
+    if params.surface_walk != 0u {
+#if SURFACE_RQ
+        return Walk(0u, SURFACE_WALK, 0u, 0u);
+#else
+        return Walk(BVH_FRESH, SURFACE_WALK, 0u, 0u);
+#endif
     }
 #endif
     return cell_walk(params.fallback_origin, d);
@@ -74,7 +84,7 @@ fn walk_done(w: Walk) -> bool {
 // so that either kind of chunk counts as at most one (layout::budget::check_loop_budget); a
 // BVH walk whose chunk runs out takes up to 2·WIDE_NODE_PRIMS more to finish its primitives.
 fn walk_chunk(w: Walk) -> u32 {
-    return select(WALK_CHUNK, WALK_CHUNK / 2u, w.iend == BVH_WALK);
+    return select(WALK_CHUNK, WALK_CHUNK / 2u, w.iend == SURFACE_WALK);
 }
 
 // Continues the nearest-hit walk `w` for at most `*left` more loop iterations (an entry
@@ -83,8 +93,13 @@ fn walk_chunk(w: Walk) -> u32 {
 fn walk_nearest(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, t_max: f32, skip: u32, ray_kind: u32,
     left: ptr<function, u32>) -> bool {
 #if SURFACE_RAYS
-    if (*w).iend == BVH_WALK {
+    if (*w).iend == SURFACE_WALK {
+#if SURFACE_RQ
+        rq_nearest(best, ray, t_max, skip, ray_kind);
+        return true;
+#else
         return bvh_nearest(w, best, ray, t_max, skip, ray_kind, left);
+#endif
     }
 #endif
     var limit = closest_limit(*best, t_max);
@@ -116,8 +131,12 @@ fn walk_nearest(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, 
 // scenes with such a light).
 fn walk_any(w: ptr<function, Walk>, ray: Ray, t_max: f32, skip: u32, budget: u32) -> AnyHit {
 #if BVH_SHADOWS
-    if (*w).iend == BVH_WALK {
+    if (*w).iend == SURFACE_WALK {
+#if SURFACE_RQ
+        return rq_any(ray, t_max, skip);
+#else
         return bvh_any(w, ray, t_max, skip, budget);
+#endif
     }
 #endif
     var left = budget;
@@ -157,11 +176,15 @@ fn walk_of_shadow(sr: ShadowRay, light: u32, from_prim: u32) -> Walk {
 }
 
 // A shadow walk is traced at its hit when its lists hold at most `params.shadow_inline`
-// entries, or, for a walk of the BVH, within `params.bvh_inline` loop
-// iterations; a longer list is not walked there (0): the shadow ray becomes a job.
+// entries, or, for a walk of the BVH, within `params.bvh_inline` loop iterations (a ray
+// query, whole); a longer list is not walked there (0): the shadow ray becomes a job.
 fn walk_inline(w: Walk) -> u32 {
-    if w.iend == BVH_WALK {
+    if w.iend == SURFACE_WALK {
+#if SURFACE_RQ
+        return UNBOUNDED;
+#else
         return params.bvh_inline;
+#endif
     }
     return select(UNBOUNDED, 0u, (w.iend - w.i) + (w.jend - w.j) > params.shadow_inline);
 }

@@ -8,7 +8,7 @@ use clap::{Args, ValueEnum};
 use glam::DVec3;
 
 use cuberay::accuracy::Parameter;
-use cuberay::job::{AccelKind, Precision};
+use cuberay::job::{AccelKind, Precision, SurfaceWalk};
 use cuberay::load::{EnvChoice, Setup};
 use cuberay::output::Aov;
 use cuberay::sampling::Sampling;
@@ -25,8 +25,11 @@ pub enum AccelArg {
     /// Bounding volume hierarchy.
     Bvh,
     /// The direction-cube candidate tables of the coherence method (Ohta and Maekawa) for eye
-    /// and light rays; the BVH for rays leaving surfaces.
+    /// and light rays; for rays leaving surfaces the BVH or ray queries (--surface-walk).
     Cube,
+    /// GPU only: the platform's ray tracing (ray queries) for every ray. Needs a GPU with
+    /// ray tracing, or Mesa >= 24.1's lavapipe.
+    Rayquery,
 }
 
 impl From<AccelArg> for AccelKind {
@@ -36,6 +39,30 @@ impl From<AccelArg> for AccelKind {
             AccelArg::Brute => AccelKind::Brute,
             AccelArg::Bvh => AccelKind::Bvh,
             AccelArg::Cube => AccelKind::Cube,
+            AccelArg::Rayquery => AccelKind::RayQuery,
+        }
+    }
+}
+
+/// `--surface-walk`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum SurfaceWalkArg {
+    /// Ray queries where the adapter has them, except lavapipe (whose software ones
+    /// measured slower than the BVH), else the BVH.
+    Auto,
+    /// The BVH, walked in the kernels' own code.
+    Bvh,
+    /// The platform's ray tracing (ray queries): a GPU with ray tracing, or Mesa >= 24.1's
+    /// lavapipe.
+    Rayquery,
+}
+
+impl From<SurfaceWalkArg> for SurfaceWalk {
+    fn from(a: SurfaceWalkArg) -> SurfaceWalk {
+        match a {
+            SurfaceWalkArg::Auto => SurfaceWalk::Auto,
+            SurfaceWalkArg::Bvh => SurfaceWalk::Bvh,
+            SurfaceWalkArg::Rayquery => SurfaceWalk::RayQuery,
         }
     }
 }
@@ -278,7 +305,8 @@ mod tests {
             }
             assert_eq!(mapped.len(), all);
         }
-        distinct(|a: &AccelArg| AccelKind::from(*a), 4);
+        distinct(|a: &AccelArg| AccelKind::from(*a), 5);
+        distinct(|a: &SurfaceWalkArg| SurfaceWalk::from(*a), 3);
         distinct(|a: &PrecisionArg| Precision::from(*a), 3);
         distinct(|a: &SamplingArg| Sampling::from(*a), 2);
         distinct(|a: &AovArg| Aov::from(*a), 3);

@@ -2,9 +2,10 @@
 //! counted run and a warm-up of each, and then `--runs` uncounted rounds in which every
 //! accelerator renders once, in turn, and prints what each costs (medians over the rounds):
 //! preprocessing, bytes of the acceleration structure, kernel time, rays per second, tests
-//! and bound tests per ray by kind, the kernel time's ratio to the BVH's (taken within each
-//! round, so that a drift of the machine's speed between rounds cancels out; with the
-//! rounds' range), and the longest single dispatch. Speed targets are checked with this
+//! and bound tests per ray by kind, the kernel time's ratio to the BVH's and to the ray
+//! queries' (taken within each round, so that a drift of the machine's speed between rounds
+//! cancels out; with the rounds' range), and the longest single dispatch. Speed targets are
+//! checked with this
 //! command, never with timed tests.
 
 use std::path::PathBuf;
@@ -19,7 +20,7 @@ use cuberay::layout::MAX_DEPTH;
 use cuberay::reference;
 use cuberay::stats::{Stats, TestsPerRay};
 
-use super::args::{AccelArg, PrecisionArg, SamplingArg, SceneArgs};
+use super::args::{AccelArg, PrecisionArg, SamplingArg, SceneArgs, SurfaceWalkArg};
 use super::render::progress_bar;
 
 /// The SPD canonical scenes (Haines' sizes of 1987), the default set.
@@ -39,9 +40,14 @@ pub struct BenchArgs {
     /// Where the SPD databases are (`NAME.nff`), for the default set.
     #[arg(long, default_value = "../shared/scenes/spd/nff")]
     pub spd_dir: PathBuf,
-    /// Accelerators to compare, comma-separated; the ratio column needs `bvh` among them.
+    /// Accelerators to compare, comma-separated; the ratio columns need `bvh` and `rayquery`
+    /// (GPU, an adapter with ray queries) among them.
     #[arg(long, value_enum, value_delimiter = ',', default_value = "cube,bvh")]
     pub accel: Vec<AccelArg>,
+    /// What rays leaving surfaces take under `cube` (auto: ray queries where the adapter has
+    /// them, except lavapipe, else the BVH).
+    #[arg(long, value_enum, default_value_t = SurfaceWalkArg::Auto)]
+    pub surface_walk: SurfaceWalkArg,
     /// Backends, comma-separated.
     #[arg(long, value_enum, value_delimiter = ',', default_value = "gpu")]
     pub backend: Vec<BenchBackend>,
@@ -96,6 +102,13 @@ struct Row {
     ratio_to_bvh: Option<f64>,
     /// The smallest and largest of those ratios: how far one round's ratio may be trusted.
     ratio_range: Option<(f64, f64)>,
+    /// The same over `--accel rayquery`'s kernel time (the platform's ray tracing for every
+    /// ray); `null` without a `rayquery` row.
+    ratio_to_rayquery: Option<f64>,
+    rayquery_range: Option<(f64, f64)>,
+    /// With `cube` on the GPU, what the rays leaving surfaces took (`bvh` or `rayquery`);
+    /// `null` where none left a surface, and for the other accelerators.
+    surface_walk: Option<String>,
     /// GPU: the longest single dispatch over the timed runs (`null` on the CPU).
     longest_dispatch_s: Option<f64>,
     /// GPU: the kernel time by depth (index depth − 1; nearest, shade and shadow passes of
@@ -159,13 +172,20 @@ impl Timed {
     }
 }
 
-/// Accelerator `k`'s kernel time over the BVH's (`kernels[bvh]`), round by round
-/// (`kernels[a][i]`: accelerator `a` in round `i`); empty without a BVH.
-fn round_ratios(kernels: &[Vec<f64>], k: usize, bvh: Option<usize>) -> Vec<f64> {
-    match bvh {
+/// Accelerator `k`'s kernel time over a baseline's (`kernels[base]`: the BVH's, or the ray
+/// queries'), round by round (`kernels[a][i]`: accelerator `a` in round `i`); empty without
+/// the baseline.
+fn round_ratios(kernels: &[Vec<f64>], k: usize, base: Option<usize>) -> Vec<f64> {
+    match base {
         Some(b) => kernels[k].iter().zip(&kernels[b]).map(|(t, b)| t / b).collect(),
         None => Vec::new(),
     }
+}
+
+/// The median of `ratios` and their range (`None` for none).
+fn median_and_range(ratios: &[f64]) -> (Option<f64>, Option<(f64, f64)>) {
+    let range = ratios.iter().copied().reduce(f64::min).zip(ratios.iter().copied().reduce(f64::max));
+    ((!ratios.is_empty()).then(|| median(ratios.to_vec())), range)
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -213,6 +233,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
                     sampling: args.sampling.into(),
                     max_depth: args.max_depth,
                     accel,
+                    surface: args.surface_walk.into(),
                     count,
                     precision: args.precision.into(),
                     ..RenderOptions::new(args.width, args.height)
@@ -248,12 +269,15 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             }
             // The BVH's row by what the render ran (`auto` may resolve to it on the CPU).
             let bvh = stats.iter().position(|s| s.settings.accel == "bvh");
+            let rayquery = stats.iter().position(|s| s.settings.accel == "rayquery");
             let kernels: Vec<Vec<f64>> =
                 runs.iter().map(|r| r.iter().map(|t| t.kernel_s).collect()).collect();
             for (k, s) in stats.into_iter().enumerate() {
                 let timed = &runs[k];
                 let kernel_s = median(kernels[k].clone());
-                let ratios = round_ratios(&kernels, k, bvh);
+                let (ratio_to_bvh, ratio_range) = median_and_range(&round_ratios(&kernels, k, bvh));
+                let (ratio_to_rayquery, rayquery_range) =
+                    median_and_range(&round_ratios(&kernels, k, rayquery));
                 let gpu = backend == BenchBackend::Gpu && s.time.gpu_s.is_some();
                 let by_depth = |f: &dyn Fn(&Timed) -> f64| median(timed.iter().map(f).collect());
                 let ran = s.time.gpu_depth_s.as_ref().map_or(0, |d| d.len());
@@ -280,12 +304,11 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
                     mrays_per_s: s.rays.total as f64 / kernel_s.max(1e-9) / 1e6,
                     tests_per_ray: s.tests_per_ray,
                     bound_tests_per_ray: s.bound_tests_per_ray,
-                    ratio_to_bvh: (!ratios.is_empty()).then(|| median(ratios.clone())),
-                    ratio_range: ratios
-                        .iter()
-                        .copied()
-                        .reduce(f64::min)
-                        .zip(ratios.iter().copied().reduce(f64::max)),
+                    ratio_to_bvh,
+                    ratio_range,
+                    ratio_to_rayquery,
+                    rayquery_range,
+                    surface_walk: s.settings.surface_walk.clone(),
                     longest_dispatch_s: timed.iter().filter_map(|t| t.longest_dispatch_s).reduce(f64::max),
                     depth_kernel_s,
                     surface_depths_s,
@@ -328,14 +351,19 @@ fn table(rows: &[Row], args: &BenchArgs, adapter: Option<&str>) -> String {
         args.runs,
         adapter.map(|a| format!(", GPU: {a}")).unwrap_or_default()
     );
-    out += "| scene | accel | backend | preprocess s | MiB | kernel s | depths 2+ s | µs/eye ray | µs/surface ray | M rays/s | tests/ray eye | shadow | reflect | refract | all | bound/ray all | × BVH (rounds' range) | longest dispatch ms |\n";
-    out += "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+    out += "| scene | accel | backend | preprocess s | MiB | kernel s | depths 2+ s | µs/eye ray | µs/surface ray | M rays/s | tests/ray eye | shadow | reflect | refract | all | bound/ray all | × BVH (rounds' range) | × rayquery | longest dispatch ms |\n";
+    out += "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for r in rows {
         let t = &r.tests_per_ray;
+        // `cube`'s rays leaving surfaces go to the BVH or to ray queries: say which.
+        let accel = match &r.surface_walk {
+            Some(w) => format!("{} ({w})", r.accel),
+            None => r.accel.clone(),
+        };
         out += &format!(
-            "| {} | {} | {} | {:.3} | {:.1} | {:.3} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {} |\n",
+            "| {} | {} | {} | {:.3} | {:.1} | {:.3} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {} | {} |\n",
             r.scene,
-            r.accel,
+            accel,
             if r.backend == "gpu" && r.precision == "f64" { "gpu f64" } else { r.backend },
             r.preprocess_s,
             r.accel_bytes as f64 / (1u64 << 20) as f64,
@@ -350,16 +378,18 @@ fn table(rows: &[Row], args: &BenchArgs, adapter: Option<&str>) -> String {
             t.refract,
             t.all,
             r.bound_tests_per_ray.all,
-            ratio_cell(r),
+            ratio_cell(r.ratio_to_bvh, r.ratio_range),
+            ratio_cell(r.ratio_to_rayquery, r.rayquery_range),
             r.longest_dispatch_s.map_or("–".into(), |x| format!("{:.1}", x * 1e3)),
         );
     }
     out
 }
 
-/// The `× BVH` cell: the median ratio, and the range over the rounds when they differ.
-fn ratio_cell(r: &Row) -> String {
-    match (r.ratio_to_bvh, r.ratio_range) {
+/// A `× BVH` or `× rayquery` cell: the median ratio, and the range over the rounds when they
+/// differ.
+fn ratio_cell(ratio: Option<f64>, range: Option<(f64, f64)>) -> String {
+    match (ratio, range) {
         (Some(x), Some((lo, hi))) if format!("{lo:.2}") != format!("{hi:.2}") => {
             format!("{x:.2} ({lo:.2}–{hi:.2})")
         }
@@ -370,8 +400,7 @@ fn ratio_cell(r: &Row) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::{median, ratio_cell, round_ratios, Row};
-    use cuberay::stats::TestsPerRay;
+    use super::{median, ratio_cell, round_ratios};
 
     /// Rounds in which the machine's speed drifts: the ratio is taken within each round, so
     /// it stays what it is while a ratio of medians would not.
@@ -386,38 +415,12 @@ mod tests {
         assert!(round_ratios(&kernels, 0, None).is_empty());
     }
 
-    fn row(ratio: Option<f64>, range: Option<(f64, f64)>) -> Row {
-        Row {
-            scene: "s".into(),
-            accel: "cube".into(),
-            backend: "gpu",
-            precision: "f32".into(),
-            load_s: 0.0,
-            preprocess_s: 0.0,
-            accel_bytes: 0,
-            kernel_s: 1.0,
-            rays: 1,
-            mrays_per_s: 1.0,
-            tests_per_ray: TestsPerRay::default(),
-            bound_tests_per_ray: TestsPerRay::default(),
-            ratio_to_bvh: ratio,
-            ratio_range: range,
-            longest_dispatch_s: None,
-            depth_kernel_s: Vec::new(),
-            surface_depths_s: None,
-            surface_shade_share: None,
-            eye_ray_us: None,
-            surface_ray_us: None,
-            lanes: None,
-        }
-    }
-
     #[test]
     fn the_ratio_cell_shows_the_range_when_the_rounds_disagree() {
-        assert_eq!(ratio_cell(&row(Some(0.52), Some((0.48, 0.77)))), "0.52 (0.48–0.77)");
-        assert_eq!(ratio_cell(&row(Some(1.0), Some((1.0, 1.0)))), "1.00");
-        assert_eq!(ratio_cell(&row(Some(0.5), Some((0.501, 0.504)))), "0.50");
-        assert_eq!(ratio_cell(&row(None, None)), "–");
+        assert_eq!(ratio_cell(Some(0.52), Some((0.48, 0.77))), "0.52 (0.48–0.77)");
+        assert_eq!(ratio_cell(Some(1.0), Some((1.0, 1.0))), "1.00");
+        assert_eq!(ratio_cell(Some(0.5), Some((0.501, 0.504))), "0.50");
+        assert_eq!(ratio_cell(None, None), "–");
     }
 
     #[test]

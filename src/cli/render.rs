@@ -16,7 +16,7 @@ use cuberay::part::{self, PartInfo, SceneId};
 use cuberay::reference;
 use cuberay::scene::{Tonemap, Transfer};
 
-use super::args::{AccelArg, AovArg, DisplayArgs, PrecisionArg, SamplingArg, SceneArgs};
+use super::args::{AccelArg, AovArg, DisplayArgs, PrecisionArg, SamplingArg, SceneArgs, SurfaceWalkArg};
 use cuberay::tablefile;
 
 /// Which renderer to run.
@@ -133,10 +133,16 @@ pub struct TraceArgs {
     pub max_depth: u32,
     /// Acceleration structure. auto: the candidate tables (cube) on the GPU; on the CPU brute
     /// force for tiny scenes, else a BVH. cube: the direction-cube candidate tables for eye and
-    /// light rays, the BVH for rays leaving surfaces; bvh: a bounding volume hierarchy (the
-    /// baseline); brute: every primitive for every ray.
+    /// light rays, for rays leaving surfaces the BVH or ray queries (--surface-walk); bvh: a
+    /// bounding volume hierarchy (the baseline); brute: every primitive for every ray;
+    /// rayquery (GPU): the platform's ray tracing for every ray.
     #[arg(long, value_enum, default_value_t = AccelArg::Auto)]
     pub accel: AccelArg,
+    /// GPU, --accel cube or auto: what rays leaving surfaces take. auto: the platform's ray
+    /// queries where the adapter has them, except lavapipe (whose software ones measured
+    /// slower than the BVH), else the BVH; `--stats` says which it took.
+    #[arg(long, value_enum, default_value_t = SurfaceWalkArg::Auto)]
+    pub surface_walk: SurfaceWalkArg,
     /// The GPU kernels' intersection arithmetic. auto: f64 where f32 cannot resolve the
     /// scene at this image size (`cuberay info` says which, and why), else f32; f32; f64,
     /// where the adapter has 64-bit floats in shaders (lavapipe has; slower). The CPU
@@ -197,6 +203,7 @@ impl TraceArgs {
             sampling: self.sampling.into(),
             max_depth: self.max_depth,
             accel: self.accel.into(),
+            surface: self.surface_walk.into(),
             precision: self.precision.into(),
             eye_cells: self.eye_cells,
             transfer: self.display.transfer.map(Transfer::from),

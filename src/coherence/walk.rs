@@ -30,11 +30,11 @@ pub const WALK_CHUNK: u32 = 8192;
 /// The budget of a walk that runs to its end in one go (WGSL `UNBOUNDED`).
 pub const UNBOUNDED: u32 = u32::MAX;
 
-/// The kernels mark a walk of the BVH (a ray leaving a surface) with this `Walk::iend`, the
-/// node whose children it takes in `i` and those children and its primitives left in `j`
-/// (WGSL `BVH_WALK`; `shaders/shared/bvh.wgsl`); the CPU reference walks its own BVH
-/// instead.
-pub const BVH_WALK: u32 = u32::MAX;
+/// The kernels mark the walk of a ray leaving a surface with this `Walk::iend` (WGSL
+/// `SURFACE_WALK`): a walk of the BVH (`shaders/shared/bvh.wgsl`: the node whose children it
+/// takes in `i`, those children and its primitives left in `j`) or a ray query
+/// (`shaders/shared/rayquery.wgsl`); the CPU reference walks its own BVH instead.
+pub const SURFACE_WALK: u32 = u32::MAX;
 
 /// A ray's origin entity: what its table is keyed by.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -1,12 +1,15 @@
 //! The scene's buffers on the GPU: the packed scene and, with `--accel cube`, the
-//! flattened tables (with `cube` and rays leaving surfaces, the flattened BVH too), or with
-//! `--accel bvh` the flattened BVH (uploaded once), and the kernels' outputs
-//! and the wavefront's queues (sized for a tile), with their one bind group.
+//! flattened tables (with `cube` and rays leaving surfaces, the flattened BVH or the ray
+//! queries' structure too), with `--accel bvh` the flattened BVH, or with `--accel rayquery`
+//! the ray queries' structure (built by the driver, [`RqStructure`]), all uploaded once, and
+//! the kernels' outputs and the wavefront's queues (sized for a tile), with their one bind
+//! group.
 
 use super::GpuContext;
 use crate::coherence::FlatTables;
 use crate::error::{Error, Result};
 use crate::layout::counters::COUNTER_BYTES;
+use crate::layout::rayquery::RqBox;
 use crate::layout::{Packed, Params, PassDesc, QUEUE_SHADOW, QUEUE_WORDS, WORKGROUP};
 
 /// A packed scene's buffers on the GPU with their bind group (the bindings of
@@ -37,6 +40,8 @@ pub struct SceneBuffers {
     pub bvh_parents: wgpu::Buffer,
     /// The candidate tables' buffers ([`FlatTables`]; placeholders without tables).
     pub tables: [wgpu::Buffer; 5],
+    /// The ray queries' acceleration structure, where the kernels use ray queries.
+    pub rq: Option<RqStructure>,
     pub bind: wgpu::BindGroup,
     pub tile: u64,
     /// Jobs each ray queue and each shadow queue holds (`Params::ray_queue`,
@@ -57,7 +62,10 @@ impl SceneBuffers {
     /// a camera move then allocates nothing (new buffers of a tile's queues cost their
     /// zeroing). Returns whether it did.
     pub fn rewrite_moved(&self, ctx: &GpuContext, packed: &Packed) -> bool {
-        let Some(bvh) = &packed.bvh else { return false };
+        // The driver's structure is built over eye-relative boxes: a new eye builds anew.
+        let Some(bvh) = packed.bvh.as_ref().filter(|_| self.rq.is_none() && packed.rq.is_none()) else {
+            return false;
+        };
         let (nodes, prims, parents): (&[u8], &[u8], &[u8]) = (
             bytemuck::cast_slice(&bvh.nodes),
             bytemuck::cast_slice(&bvh.prims),
@@ -103,6 +111,97 @@ impl SceneBuffers {
         }
         true
     }
+}
+
+/// The platform's ray-tracing structure over the scene's boxes ([`RqBox`], one per
+/// primitive): one bottom-level structure of procedural boxes, one instance of it (identity
+/// transform) in the top-level one the kernels bind. The driver builds both; wgpu 30 does not
+/// say how many bytes they take, so [`RqStructure::input_bytes`] counts the boxes only.
+pub struct RqStructure {
+    /// The boxes the bottom level was built from (`BLAS_INPUT`).
+    pub boxes: wgpu::Buffer,
+    /// `None` without primitives: the top level then holds no instance.
+    pub blas: Option<wgpu::Blas>,
+    pub tlas: wgpu::Tlas,
+    /// The build's time, submission to completion (host clock).
+    pub build_s: f64,
+    pub input_bytes: u64,
+}
+
+/// Builds the ray queries' structure over `boxes` and waits for it (timed).
+fn build_rq(ctx: &GpuContext, boxes: &[RqBox]) -> Result<RqStructure> {
+    let device = &ctx.device;
+    let max = device.limits().max_blas_primitive_count;
+    if boxes.len() as u64 > max as u64 {
+        return Err(Error::Options(format!(
+            "{} primitives are more than {}'s ray queries take in one structure ({max}); use --accel cube \
+             --surface-walk bvh",
+            boxes.len(),
+            ctx.info.name
+        )));
+    }
+    let start = std::time::Instant::now();
+    let bytes: &[u8] = bytemuck::cast_slice(boxes);
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("ray query boxes"),
+        size: (bytes.len() as u64).max(std::mem::size_of::<RqBox>() as u64),
+        usage: wgpu::BufferUsages::BLAS_INPUT | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    if !bytes.is_empty() {
+        ctx.queue.write_buffer(&buffer, 0, bytes);
+    }
+    let fast_trace = wgpu::AccelerationStructureFlags::PREFER_FAST_TRACE;
+    let build = wgpu::AccelerationStructureUpdateMode::Build;
+    let mut tlas = device.create_tlas(&wgpu::CreateTlasDescriptor {
+        label: Some("ray query instances"),
+        max_instances: 1,
+        flags: fast_trace,
+        update_mode: build,
+    });
+    let size = wgpu::BlasAABBGeometrySizeDescriptor {
+        primitive_count: boxes.len() as u32,
+        flags: wgpu::AccelerationStructureGeometryFlags::OPAQUE
+            | wgpu::AccelerationStructureGeometryFlags::NO_DUPLICATE_ANY_HIT_INVOCATION,
+    };
+    let blas = (!boxes.is_empty()).then(|| {
+        device.create_blas(
+            &wgpu::CreateBlasDescriptor {
+                label: Some("ray query boxes"),
+                flags: fast_trace,
+                update_mode: build,
+            },
+            wgpu::BlasGeometrySizeDescriptors::AABBs { descriptors: vec![size.clone()] },
+        )
+    });
+    let mut enc =
+        device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("ray query build") });
+    match &blas {
+        Some(b) => {
+            const IDENTITY: [f32; 12] = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+            tlas[0] = Some(wgpu::TlasInstance::new(b, IDENTITY, 0, 0xff));
+            let entry = wgpu::BlasBuildEntry {
+                blas: b,
+                geometry: wgpu::BlasGeometries::AabbGeometries(vec![wgpu::BlasAabbGeometry {
+                    size: &size,
+                    stride: std::mem::size_of::<RqBox>() as u64,
+                    aabb_buffer: &buffer,
+                    primitive_offset: 0,
+                }]),
+            };
+            enc.build_acceleration_structures([&entry], [&tlas]);
+        }
+        None => enc.build_acceleration_structures(std::iter::empty::<&wgpu::BlasBuildEntry>(), [&tlas]),
+    }
+    ctx.queue.submit([enc.finish()]);
+    ctx.wait()?;
+    Ok(RqStructure {
+        boxes: buffer,
+        blas,
+        tlas,
+        build_s: start.elapsed().as_secs_f64(),
+        input_bytes: bytes.len() as u64,
+    })
 }
 
 /// How large the wavefront's queues are for one point of a tile: rays of one depth per eye
@@ -195,6 +294,8 @@ pub fn upload(
     // A device that is gone (its loss reported on the next poll) creates nothing.
     let _ = device.poll(wgpu::PollType::Poll);
     ctx.fault()?;
+    // Built and waited for before the error scopes: a fault in the build is the device's.
+    let rq = packed.rq.as_deref().map(|boxes| build_rq(ctx, boxes)).transpose()?;
     let out_of_memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
     let invalid = device.push_error_scope(wgpu::ErrorFilter::Validation);
     let storage = |label: &str, bytes: &[u8], extra: wgpu::BufferUsages| {
@@ -279,33 +380,40 @@ pub fn upload(
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
+    let buffers = [
+        (0, &params),
+        (1, &prims),
+        (2, &materials),
+        (3, &lights),
+        (4, &attrs),
+        (5, &infos),
+        (6, &texels),
+        (7, &out),
+        (8, &counters),
+        (9, &jobs),
+        (10, &queues_buffer),
+        (11, &origins),
+        (12, &faces),
+        (13, &cell_start),
+        (14, &entries),
+        (15, &light_origin),
+        (20, &bvh_nodes),
+        (21, &bvh_prims),
+        (22, &pass_desc),
+        (23, &accum),
+        (24, &bvh_parents),
+    ];
+    let mut bind_entries: Vec<wgpu::BindGroupEntry> = buffers
+        .into_iter()
+        .map(|(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() })
+        .collect();
+    if let Some(rq) = &rq {
+        bind_entries.push(wgpu::BindGroupEntry { binding: 25, resource: rq.tlas.as_binding() });
+    }
     let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("scene"),
         layout,
-        entries: &[
-            (0, &params),
-            (1, &prims),
-            (2, &materials),
-            (3, &lights),
-            (4, &attrs),
-            (5, &infos),
-            (6, &texels),
-            (7, &out),
-            (8, &counters),
-            (9, &jobs),
-            (10, &queues_buffer),
-            (11, &origins),
-            (12, &faces),
-            (13, &cell_start),
-            (14, &entries),
-            (15, &light_origin),
-            (20, &bvh_nodes),
-            (21, &bvh_prims),
-            (22, &pass_desc),
-            (23, &accum),
-            (24, &bvh_parents),
-        ]
-        .map(|(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }),
+        entries: &bind_entries,
     });
     let failed = [pollster::block_on(invalid.pop()), pollster::block_on(out_of_memory.pop())];
     if let Some(e) = failed.into_iter().flatten().next() {
@@ -327,6 +435,7 @@ pub fn upload(
         bvh_prims,
         bvh_parents,
         tables: [origins, faces, cell_start, entries, light_origin],
+        rq,
         bind,
         tile,
         ray_queue,

@@ -19,6 +19,9 @@ pub struct GpuContext {
     pub timestamps: bool,
     /// Whether kernels may compute in f64 (`SHADER_F64`: `--precision f64`).
     pub f64: bool,
+    /// Whether kernels may use the platform's ray queries (`EXPERIMENTAL_RAY_QUERY`:
+    /// `--accel rayquery`, and the rays leaving surfaces under `cube`).
+    pub ray_queries: bool,
     /// The first fault the device reported on its own (a lost device, or an error no
     /// operation of ours captured): every later wait returns it as an error.
     fault: Arc<Mutex<Option<String>>>,
@@ -46,21 +49,38 @@ impl GpuContext {
     pub async fn open(instance: &Instance, surface: Option<&wgpu::Surface<'_>>) -> Result<GpuContext> {
         let adapter = pick_adapter(instance, desc_backends(), surface).await?;
         let info = adapter.get_info();
-        let wanted = Features::TIMESTAMP_QUERY | Features::SHADER_F64;
+        let wanted = Features::TIMESTAMP_QUERY | Features::SHADER_F64 | Features::EXPERIMENTAL_RAY_QUERY;
         let features = adapter.features() & wanted;
+        let ray_queries = features.contains(Features::EXPERIMENTAL_RAY_QUERY);
         // Ask for the adapter's own storage limits: the tables are large.
         let adapter_limits = adapter.limits();
-        let limits = Limits {
+        let mut limits = Limits {
             max_storage_buffer_binding_size: adapter_limits.max_storage_buffer_binding_size,
             max_buffer_size: adapter_limits.max_buffer_size,
             max_storage_buffers_per_shader_stage: adapter_limits.max_storage_buffers_per_shader_stage,
             ..Limits::downlevel_defaults().using_resolution(adapter_limits.clone())
+        };
+        if ray_queries {
+            // The acceleration-structure limits are 0 by default; the adapter's own, not
+            // wgpu's "minimum supported" ones, which lavapipe's primitive count is below.
+            limits = limits.using_acceleration_structure_values(adapter_limits.clone());
+        }
+        // wgpu marks ray queries experimental and wants them asked for knowingly. The
+        // kernels keep the rules its checks would (src/gpu/kernels.rs, rayquery.wgsl).
+        let experimental = if ray_queries {
+            // SAFETY: only the ray-query kernels use the experimental feature, and they keep
+            // to what wgpu 30's ray queries support (procedural boxes, one instance, queries
+            // declared outside loops, generated hits within the query's limits).
+            unsafe { wgpu::ExperimentalFeatures::enabled() }
+        } else {
+            wgpu::ExperimentalFeatures::disabled()
         };
         let (device, queue) = adapter
             .request_device(&wgpu::DeviceDescriptor {
                 label: Some("cuberay"),
                 required_features: features,
                 required_limits: limits,
+                experimental_features: experimental,
                 ..Default::default()
             })
             .await
@@ -87,6 +107,7 @@ impl GpuContext {
             queue,
             timestamps: features.contains(Features::TIMESTAMP_QUERY),
             f64: features.contains(Features::SHADER_F64),
+            ray_queries,
             info,
             fault,
         })

@@ -1,6 +1,8 @@
 //! Compiled kernels: one pipeline per kernel and [`Variant`], compiled on first use and
-//! cached, over the one bind group layout of the scene buffers (`shaders/shared/layout.wgsl`,
-//! `wavefront.wgsl`, `counters.wgsl`, `tables.wgsl` and `bvh.wgsl`: bindings 0 to 23).
+//! cached, over the bind group layout of the scene buffers (`shaders/shared/layout.wgsl`,
+//! `wavefront.wgsl`, `counters.wgsl`, `tables.wgsl` and `bvh.wgsl`: bindings 0 to 24), and
+//! for the kernels that use ray queries the same with the acceleration structure
+//! (`rayquery.wgsl`, binding 25).
 //!
 //! Lavapipe compiles a kernel at its first dispatch, not at pipeline creation (seconds over
 //! the wavefront kernels; docs/drivers-and-faults.md has the figures); Mesa's disk cache
@@ -21,10 +23,11 @@ use crate::error::Result;
 
 /// The scene buffers' bindings: 0 `params`, 1–6 the read-only scene, 7–10 the kernels'
 /// outputs and queues, 11–15 the candidate tables, 20–21 and 24 the BVH (a kernel binds only
-/// the buffers of its own queries), 22 the current pass, 23 the radiance sums.
+/// the buffers of its own queries), 22 the current pass, 23 the radiance sums, and with
+/// `rq` 25 the ray queries' acceleration structure.
 /// `params` is a read-only storage buffer, not a uniform: lavapipe would compile a variant
 /// of the kernel for every tile's values (see `shaders/shared/layout.wgsl`).
-fn bind_layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
+fn bind_layout_entries(rq: bool) -> Vec<wgpu::BindGroupLayoutEntry> {
     let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::COMPUTE,
@@ -39,14 +42,45 @@ fn bind_layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
     entries.extend([11, 12, 13, 14, 15, 20, 21, 24].map(|b| entry(b, storage(true))));
     entries.push(entry(22, storage(true)));
     entries.push(entry(23, storage(false)));
+    if rq {
+        entries.push(wgpu::BindGroupLayoutEntry {
+            binding: 25,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::AccelerationStructure { vertex_return: false },
+            count: None,
+        });
+    }
     entries
+}
+
+/// A bind group layout of the scene buffers and its pipeline layout.
+struct Layouts {
+    bind: wgpu::BindGroupLayout,
+    pipeline: wgpu::PipelineLayout,
+}
+
+impl Layouts {
+    fn new(ctx: &GpuContext, rq: bool) -> Layouts {
+        let label = Some(if rq { "scene with ray queries" } else { "scene" });
+        let bind = ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label,
+            entries: &bind_layout_entries(rq),
+        });
+        let pipeline = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label,
+            bind_group_layouts: &[Some(&bind)],
+            immediate_size: 0,
+        });
+        Layouts { bind, pipeline }
+    }
 }
 
 /// The compute pipelines of the trace kernels (the wavefront's, `aov`) by variant.
 pub struct Kernels {
-    bind_layout: wgpu::BindGroupLayout,
-    pipeline_layout: wgpu::PipelineLayout,
-    cache: Mutex<HashMap<(Kernel, Variant), Arc<wgpu::ComputePipeline>>>,
+    plain: Layouts,
+    /// With the acceleration structure, where the adapter has ray queries.
+    rq: Option<Layouts>,
+    cache: Mutex<HashMap<(Kernel, Variant, bool), Arc<wgpu::ComputePipeline>>>,
     compiles: AtomicUsize,
     /// The pipelines already dispatched once (warmed up) in this process.
     warmed: Mutex<HashSet<(Kernel, Variant)>>,
@@ -54,27 +88,27 @@ pub struct Kernels {
 
 impl Kernels {
     pub fn new(ctx: &GpuContext) -> Kernels {
-        let bind_layout = ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("scene"),
-            entries: &bind_layout_entries(),
-        });
-        let pipeline_layout = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("scene"),
-            bind_group_layouts: &[Some(&bind_layout)],
-            immediate_size: 0,
-        });
         Kernels {
-            bind_layout,
-            pipeline_layout,
+            plain: Layouts::new(ctx, false),
+            rq: ctx.ray_queries.then(|| Layouts::new(ctx, true)),
             cache: Mutex::new(HashMap::new()),
             compiles: AtomicUsize::new(0),
             warmed: Mutex::new(HashSet::new()),
         }
     }
 
-    /// The layout of the scene buffers' bind group.
-    pub fn bind_layout(&self) -> &wgpu::BindGroupLayout {
-        &self.bind_layout
+    /// The layout of the scene buffers' bind group, with the acceleration structure (`rq`)
+    /// or without; `None` where ray queries are asked of an adapter without them.
+    pub fn bind_layout(&self, rq: bool) -> Option<&wgpu::BindGroupLayout> {
+        self.layouts(rq).map(|l| &l.bind)
+    }
+
+    fn layouts(&self, rq: bool) -> Option<&Layouts> {
+        if rq {
+            self.rq.as_ref()
+        } else {
+            Some(&self.plain)
+        }
     }
 
     /// How many pipelines have been compiled so far (each kernel and variant once).
@@ -83,21 +117,31 @@ impl Kernels {
     }
 
     /// The pipeline of `kernel` (a wavefront kernel or `aov`) for `variant`, compiled on
-    /// first use.
+    /// first use, over the layout with the ray queries' structure (`rq`: the render's
+    /// kernels use ray queries, if not this one) or without.
     pub fn get(
         &self,
         ctx: &GpuContext,
         kernel: Kernel,
         variant: Variant,
+        rq: bool,
     ) -> Result<Arc<wgpu::ComputePipeline>> {
         let variant = kernel.variant_of(variant);
+        let rq = rq || variant.ray_queries();
         let mut cache = self.cache.lock().expect("kernel cache lock");
-        if let Some(k) = cache.get(&(kernel, variant)) {
+        if let Some(k) = cache.get(&(kernel, variant, rq)) {
             return Ok(k.clone());
         }
-        let pipeline = Arc::new(compute_pipeline(ctx, kernel, variant, Some(&self.pipeline_layout))?);
+        let layouts = self.layouts(rq).ok_or_else(|| {
+            crate::error::Error::Options(format!(
+                "{} has no ray queries for the {} kernel",
+                ctx.info.name,
+                kernel.name()
+            ))
+        })?;
+        let pipeline = Arc::new(compute_pipeline(ctx, kernel, variant, Some(&layouts.pipeline))?);
         self.compiles.fetch_add(1, Ordering::Relaxed);
-        cache.insert((kernel, variant), pipeline.clone());
+        cache.insert((kernel, variant, rq), pipeline.clone());
         Ok(pipeline)
     }
 
@@ -162,6 +206,9 @@ pub fn compute_pipeline(
 /// The shader module of `kernel` for `variant`, labelled with the kernel's name.
 pub fn shader_module(ctx: &GpuContext, kernel: Kernel, variant: Variant) -> Result<wgpu::ShaderModule> {
     let source = shaders::compose(kernel, variant)?;
+    // Ray-query kernels keep naga's checks around each query: without them (a trusted
+    // module) the kernels took 1.05–1.08× the time on Mesa 25.0, no faster
+    // (docs/performance.md, "Ray queries").
     Ok(ctx.device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some(kernel.name()),
         source: wgpu::ShaderSource::Wgsl(source.into()),

@@ -13,10 +13,11 @@ mod render;
 pub mod schedule;
 mod setup;
 pub mod shaders;
+mod variant;
 
 pub use buffers::SceneBuffers;
 pub use context::GpuContext;
 pub use render::GpuRenderer;
 pub use setup::{
-    add_surface_bvh, check, check_f64, point_at, queue_sizes, uses_tables, walk_bounds, F32_REACH,
+    add_surface_walk, check, check_f64, point_at, queue_sizes, uses_tables, walk_bounds, F32_REACH,
 };

@@ -15,7 +15,7 @@ use indicatif::ProgressBar;
 use super::buffers::{upload, QueueSizes, SceneBuffers};
 use super::kernels::{first_compile_marker, mark_compiled, Kernels};
 use super::schedule::{self, Pacing, Pipelines, Progress, Schedule, WavePlan};
-use super::setup::{add_surface_bvh, check, check_f64, point_at, queue_sizes, walk_bounds};
+use super::setup::{add_surface_walk, check, check_f64, point_at, queue_sizes, resolve_surface, walk_bounds};
 use super::shaders::{Depths, Kernel, Queries, Stage, Variant};
 use super::GpuContext;
 use crate::coherence::reach::WalkBounds;
@@ -50,6 +50,8 @@ struct RunOutput {
     /// Lane coherence, when the kernels counted.
     lanes: Option<stats::LaneStats>,
     compile_s: f64,
+    /// The driver's build of the ray queries' structure (0 without one).
+    accel_build_s: f64,
     longest_submit_s: f64,
     longest_dispatch_s: Option<f64>,
     tiles_run_again: u32,
@@ -151,18 +153,18 @@ impl GpuRenderer {
     }
 
     /// The pipelines of `stages` for a render of `variant`, each compiled in its own
-    /// variant ([`Stage::variant`]) on first use.
+    /// variant ([`Stage::variant`]) on first use, all over the bind group layout of the
+    /// render's buffers (with the ray queries' structure where `variant` uses them).
     pub fn pipelines(
         &self,
         stages: &[Stage],
         variant: Variant,
     ) -> Result<Vec<(Stage, std::sync::Arc<wgpu::ComputePipeline>)>> {
-        stages.iter().map(|&s| Ok((s, self.kernel(s.kernel, s.variant(variant))?))).collect()
-    }
-
-    /// The pipeline of `kernel` for `variant`, compiled on first use.
-    pub fn kernel(&self, kernel: Kernel, variant: Variant) -> Result<std::sync::Arc<wgpu::ComputePipeline>> {
-        self.kernels.get(&self.ctx, kernel, variant)
+        let rq = variant.ray_queries();
+        stages
+            .iter()
+            .map(|&s| Ok((s, self.kernels.get(&self.ctx, s.kernel, s.variant(variant), rq)?)))
+            .collect()
     }
 
     /// What both renders do first: check the options, pick and compile the kernels, then
@@ -193,8 +195,10 @@ impl GpuRenderer {
         if variant.f64 {
             packed.use_f64(scene, opts.spawn);
         }
-        if variant.queries == Queries::Bvh {
-            packed = packed.with_bvh(scene);
+        match variant.queries {
+            Queries::Bvh => packed.add_bvh(scene),
+            Queries::RayQuery => packed.add_rq(scene),
+            Queries::Tables | Queries::Brute => {}
         }
         let tables = match stored {
             None => self.tables(scene, opts, variant, &mut packed)?.map(TableSet::Built),
@@ -210,8 +214,13 @@ impl GpuRenderer {
             }
         };
         debug_assert!(
-            variant.surface_rays || packed.params.surface_bvh == 0,
+            variant.surface_rays || packed.params.surface_walk == 0,
             "the tables send rays leaving surfaces to kernels without their walk"
+        );
+        debug_assert_eq!(
+            variant.ray_queries(),
+            packed.rq.is_some(),
+            "ray-query kernels without their structure"
         );
         Ok(Prepared { variant, pipelines, packed, tables, start })
     }
@@ -230,7 +239,7 @@ impl GpuRenderer {
         let params = Self::variant_build_params(scene, opts, variant);
         let walks = WalkBounds::of(scene, &t.flat);
         point_at(&mut packed.params, &t.flat);
-        add_surface_bvh(packed, scene, &params);
+        add_surface_walk(packed, scene, &params, variant.surface_rq);
         Ok(walks)
     }
 
@@ -266,7 +275,7 @@ impl GpuRenderer {
             t.walks.fallback_reachable
         );
         point_at(&mut packed.params, &t.flat);
-        add_surface_bvh(packed, scene, &params);
+        add_surface_walk(packed, scene, &params, variant.surface_rq);
         Ok(Some(t))
     }
 
@@ -327,18 +336,24 @@ impl GpuRenderer {
         tile: u64,
         queues: Option<QueueSizes>,
     ) -> Result<SceneBuffers> {
-        upload(&self.ctx, self.kernels.bind_layout(), packed, tables, tile, queues)
+        let layout = self.kernels.bind_layout(packed.rq.is_some()).ok_or_else(|| {
+            Error::Options(format!("{} has no ray queries for the ray-query structure", self.ctx.info.name))
+        })?;
+        upload(&self.ctx, layout, packed, tables, tile, queues)
     }
 
     /// Checks that no step of a render with these tables can pass lavapipe's loop limit
-    /// (see [`budget::check_loop_budget`]); other adapters have no such limit.
+    /// (see [`budget::check_loop_budget`]); other adapters have no such limit, and neither
+    /// has a lavapipe with ray queries (Mesa 24.1 and later: `ray_queries`), on which Mesa
+    /// 25.0 ran loops of 200,000 iterations whole (docs/drivers-and-faults.md).
     pub fn check_loop_budget(
         &self,
         scene: &Scene,
         walks: Option<&WalkBounds>,
         max_depth: Option<u32>,
+        ray_queries: bool,
     ) -> Result<()> {
-        if !self.ctx.is_lavapipe() {
+        if !self.ctx.is_lavapipe() || ray_queries {
             return Ok(());
         }
         check_loop_budget(scene, walks, max_depth)
@@ -358,7 +373,7 @@ impl GpuRenderer {
         stored: Option<StoredTables>,
         progress: &ProgressBar,
     ) -> Result<Rendered> {
-        let opts = &opts.resolved(scene);
+        let opts = &resolve_surface(&self.ctx, &opts.resolved(scene))?;
         let Prepared { variant, pipelines, mut packed, tables, start } =
             self.prepare(scene, opts, false, stored)?;
         packed.params = job_params(opts, packed.params);
@@ -374,7 +389,9 @@ impl GpuRenderer {
             opts.grid_region().size,
             progress,
         )?;
-        let trace_s = start.elapsed().as_secs_f64();
+        // The driver's build of the ray queries' structure is preprocessing, as the BVH's is.
+        let trace_s = start.elapsed().as_secs_f64() - run.accel_build_s;
+        let preprocess_s = preprocess_s + run.accel_build_s;
 
         let image = grid_image(opts, scene, &run.values, opts.spp);
         let mut stats = Stats::new(
@@ -383,6 +400,7 @@ impl GpuRenderer {
             &run.counters,
             run.times(preprocess_s, trace_s, false, variant.shadows),
         );
+        stats.settings.surface_walk = surface_walk_name(variant);
         stats.accel_bytes = accel_bytes(&packed, tables.as_ref());
         stats.texture_bytes = std::mem::size_of_val(packed.texels.as_slice()) as u64;
         stats.counted = variant.counters;
@@ -411,7 +429,7 @@ impl GpuRenderer {
         stored: Option<StoredTables>,
         progress: &ProgressBar,
     ) -> Result<Rendered> {
-        let opts = &opts.resolved(scene);
+        let opts = &resolve_surface(&self.ctx, &opts.resolved(scene))?;
         let (w, h) = (opts.region().width(), opts.region().height());
         let Prepared { variant, pipelines, mut packed, tables, start } =
             self.prepare(scene, opts, true, stored)?;
@@ -425,8 +443,8 @@ impl GpuRenderer {
         let preprocess_s = start.elapsed().as_secs_f64();
         let start = Instant::now();
         let run = self.run(variant, &pipelines, None, scene, &packed, tables.as_ref(), (w, h), progress)?;
-        let trace_s = start.elapsed().as_secs_f64();
-        let times = run.times(preprocess_s, trace_s, true, false);
+        let trace_s = start.elapsed().as_secs_f64() - run.accel_build_s;
+        let times = run.times(preprocess_s + run.accel_build_s, trace_s, true, false);
         let mut image = Image::new(w, h, true);
         image.pixels = run.values;
         let mut stats = Stats::new(
@@ -457,7 +475,7 @@ impl GpuRenderer {
         progress: &ProgressBar,
     ) -> Result<RunOutput> {
         let walks = walk_bounds(tables.map(TableSet::walks), packed);
-        self.check_loop_budget(scene, walks.as_ref(), max_depth)?;
+        self.check_loop_budget(scene, walks.as_ref(), max_depth, variant.ray_queries())?;
         let total = grid.0 as u64 * grid.1 as u64;
         let tile = budget::tile_points(scene, walks.as_ref(), TESTS_PER_DISPATCH);
         let sizes = max_depth.map(|_| queue_sizes(scene, variant));
@@ -503,6 +521,7 @@ impl GpuRenderer {
             depth_s: schedule.depth_s(),
             lanes: (variant.counters && max_depth.is_some()).then_some(lanes),
             compile_s,
+            accel_build_s: buffers.rq.as_ref().map_or(0.0, |r| r.build_s),
             longest_submit_s: schedule.longest_submit().as_secs_f64(),
             longest_dispatch_s: schedule.longest_pass(),
             tiles_run_again: schedule.tiles_run_again(),
@@ -520,8 +539,17 @@ impl GpuRenderer {
     }
 }
 
-/// Bytes of the tables or the BVH a render traced.
+/// Bytes of the tables, the BVH or the ray queries' boxes a render traced (the driver's own
+/// structure over the boxes is not counted: wgpu 30 does not say its size).
 fn accel_bytes(packed: &Packed, tables: Option<&TableSet>) -> u64 {
     let bvh = packed.bvh.as_ref().map_or(0, |b| b.bytes());
-    bvh + tables.map_or(0, |t| t.flat().bytes() as u64)
+    let rq = packed.rq.as_ref().map_or(0, |b| std::mem::size_of_val(b.as_slice()) as u64);
+    bvh + rq + tables.map_or(0, |t| t.flat().bytes() as u64)
+}
+
+/// What the rays leaving surfaces took under the tables (`None`: no such ray, or another
+/// accelerator, which takes them as it takes every ray).
+fn surface_walk_name(variant: Variant) -> Option<String> {
+    (variant.tables() && variant.surface_rays)
+        .then(|| if variant.surface_rq { "rayquery" } else { "bvh" }.into())
 }

@@ -10,7 +10,7 @@ use super::GpuRenderer;
 use crate::coherence::reach::WalkBounds;
 use crate::coherence::{self, BuildParams, FlatTables};
 use crate::error::{Error, Result};
-use crate::job::{AccelKind, Precision, RenderOptions};
+use crate::job::{AccelKind, Precision, RenderOptions, SurfaceWalk};
 use crate::layout::budget::{table_params, MAX_DEPTH};
 use crate::layout::Packed;
 use crate::scene::{Effects, LightKind, Scene};
@@ -26,8 +26,9 @@ impl GpuRenderer {
     pub fn job_variant(scene: &Scene, opts: &RenderOptions, aov: bool) -> Variant {
         let effects = if aov { Effects::default() } else { scene.effects() };
         let depth = if aov { 1 } else { opts.max_depth };
-        let v =
-            Self::variant(effects, depth, opts.accel).with_f64(opts.precision_for(scene) == Precision::F64);
+        let v = Self::variant(effects, depth, opts.accel)
+            .with_f64(opts.precision_for(scene) == Precision::F64)
+            .with_surface_rq(opts.surface == SurfaceWalk::RayQuery);
         Self::for_scene(scene, opts, v)
     }
 
@@ -74,19 +75,29 @@ pub fn queue_sizes(scene: &Scene, variant: Variant) -> QueueSizes {
     }
 }
 
-/// Adds the BVH that the rays leaving surfaces walk, if the render the tables were built for
-/// (with `params`) traces such rays; else leaves `packed` alone.
-pub fn add_surface_bvh(packed: &mut Packed, scene: &Scene, params: &BuildParams) {
+/// Adds what the rays leaving surfaces take, if the render the tables were built for (with
+/// `params`) traces such rays: the BVH, or with `rq` the ray queries' boxes; else leaves
+/// `packed` alone.
+pub fn add_surface_walk(packed: &mut Packed, scene: &Scene, params: &BuildParams, rq: bool) {
     if coherence::traces_surface_rays(scene, params) {
-        packed.add_bvh(scene);
-        packed.params.surface_bvh = 1;
+        if rq {
+            packed.add_rq(scene);
+        } else {
+            packed.add_bvh(scene);
+        }
+        packed.params.surface_walk = 1;
     }
 }
 
-/// How long the walks of a render with `tables` (`None`: none) and `packed`'s BVH (if any)
-/// may be: with both, rays leaving surfaces walk the BVH.
+/// How long the walks of a render with `tables` (`None`: none) and `packed`'s BVH or ray
+/// queries' boxes (if any) may be: with both, rays leaving surfaces take the latter.
 pub fn walk_bounds(tables: Option<&WalkBounds>, packed: &Packed) -> Option<WalkBounds> {
-    match (tables, packed.bvh.as_ref().map(|b| b.walk_bounds())) {
+    let surface = match (&packed.bvh, &packed.rq) {
+        (Some(b), _) => Some(b.walk_bounds()),
+        (None, Some(r)) => Some(crate::layout::rayquery::walk_bounds(r)),
+        (None, None) => None,
+    };
+    match (tables, surface) {
         (Some(t), Some(b)) => Some(t.or(&b)),
         (t, b) => t.copied().or(b),
     }
@@ -104,7 +115,43 @@ pub fn queries(accel: AccelKind) -> Queries {
         AccelKind::Auto | AccelKind::Cube => Queries::Tables,
         AccelKind::Bvh => Queries::Bvh,
         AccelKind::Brute => Queries::Brute,
+        AccelKind::RayQuery => Queries::RayQuery,
     }
+}
+
+/// Whether rays leaving surfaces go to ray queries by default on the adapter of `ctx`
+/// (which has them): everywhere but on lavapipe, whose software walk of its structure took
+/// 0.98–3.5× the wide BVH's time for those rays on Mesa 25.0 (docs/performance.md, "ray
+/// queries"). A GPU walks it in hardware, which is what ray queries are for.
+fn ray_queries_measured_faster(ctx: &super::GpuContext) -> bool {
+    !ctx.is_lavapipe()
+}
+
+/// `opts` with [`SurfaceWalk::Auto`] resolved for the adapter of `ctx`, or the refusal of
+/// ray queries asked of an adapter without them (`--accel rayquery`, `--surface-walk
+/// rayquery`), naming the adapter and what would provide them.
+pub fn resolve_surface(ctx: &super::GpuContext, opts: &RenderOptions) -> Result<RenderOptions> {
+    let asked = if opts.accel == AccelKind::RayQuery {
+        Some("--accel rayquery")
+    } else if uses_tables(opts.accel) && opts.surface == SurfaceWalk::RayQuery {
+        Some("--surface-walk rayquery")
+    } else {
+        None
+    };
+    if let (Some(flag), false) = (asked, ctx.ray_queries) {
+        return Err(Error::Options(format!(
+            "{flag} needs the GPU's ray queries (Vulkan's VK_KHR_ray_query), which {} ({}) does not offer: a GPU \
+             with ray tracing has them, and so has Mesa's lavapipe from 24.1 on (Debian 12: mesa-vulkan-drivers \
+             from bookworm-backports; docs/drivers-and-faults.md says how to use it beside the system's)",
+            ctx.info.name, ctx.info.driver_info
+        )));
+    }
+    let surface = match opts.surface {
+        SurfaceWalk::Auto if ctx.ray_queries && ray_queries_measured_faster(ctx) => SurfaceWalk::RayQuery,
+        SurfaceWalk::Auto => SurfaceWalk::Bvh,
+        given => given,
+    };
+    Ok(RenderOptions { surface, ..opts.clone() })
 }
 
 /// Whether the GPU traces the candidate tables for `accel`.

@@ -7,6 +7,7 @@ use glam::{DVec2, DVec3, DVec4};
 
 use super::budget::shadow_inline;
 use super::bvh::{pack_bvh, GpuBvh};
+use super::rayquery::{rq_boxes, RqBox};
 use super::structs::*;
 use crate::arith::spawn::SpawnPolicy;
 use crate::job::RenderOptions;
@@ -41,9 +42,12 @@ pub struct Packed {
     pub fixed: bool,
     /// The camera part of [`Params`], with background, ambient and counts.
     pub params: Params,
-    /// `--accel bvh`, or `cube` when rays leave surfaces: the BVH over these primitives
-    /// ([`Packed::with_bvh`]).
+    /// `--accel bvh`, or `cube` when rays leave surfaces and walk it: the BVH over these
+    /// primitives ([`Packed::with_bvh`]).
     pub bvh: Option<GpuBvh>,
+    /// `--accel rayquery`, or `cube` when rays leave surfaces and take ray queries: the
+    /// boxes the driver's structure is built over ([`Packed::add_rq`]).
+    pub rq: Option<Vec<RqBox>>,
 }
 
 impl Packed {
@@ -119,6 +123,12 @@ impl Packed {
         self.params.bvh_node_count = bvh.nodes.len() as u32;
         self.params.bvh_inline = super::budget::bvh_shadow_inline(scene);
         self.bvh = Some(bvh);
+    }
+
+    /// Adds the boxes of the platform's ray queries (`--accel rayquery`, or the rays leaving
+    /// surfaces under `cube`; [`super::rayquery`]).
+    pub fn add_rq(&mut self, scene: &Scene) {
+        self.rq = Some(rq_boxes(scene));
     }
 }
 
@@ -237,6 +247,7 @@ pub fn pack_moved(scene: &Scene, width: u32, height: u32, spawn: SpawnPolicy) ->
         fixed: false,
         params,
         bvh: None,
+        rq: None,
     }
 }
 

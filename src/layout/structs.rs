@@ -62,9 +62,9 @@ pub struct Params {
     /// ([`crate::gpu::schedule`]).
     pub ray_queue: u32,
     pub shadow_queue: u32,
-    /// `--accel cube`: 1 when rays leaving surfaces walk the BVH (the render traces some;
-    /// `shaders/shared/walk.wgsl`).
-    pub surface_bvh: u32,
+    /// `--accel cube`: 1 when rays leaving surfaces take the surface walk, the BVH's or ray
+    /// queries' (the render traces some; `shaders/shared/walk.wgsl`).
+    pub surface_walk: u32,
     /// The BVH's shadow walks traced inline at a hit: a budget of loop iterations (nodes and
     /// primitives, [`super::budget::bvh_shadow_inline`]).
     pub bvh_inline: u32,

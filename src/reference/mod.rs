@@ -56,6 +56,13 @@ pub fn build_accel<'a>(
         AccelKind::Brute => Box::new(Brute::new(scene)),
         AccelKind::Auto | AccelKind::Bvh => Box::new(BvhAccel::new(scene)),
         AccelKind::Cube => Box::new(TableAccel::new(scene, width, height)?),
+        AccelKind::RayQuery => {
+            return Err(crate::error::Error::Options(
+                "--accel rayquery is the GPU's ray tracing; the CPU reference has none (use --accel bvh, or \
+                 --backend gpu)"
+                    .into(),
+            ))
+        }
     })
 }
 

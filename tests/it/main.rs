@@ -18,6 +18,7 @@ mod nff;
 mod parts;
 mod precision;
 mod preview;
+mod rayquery;
 mod reference;
 mod shaders;
 mod slurm;

@@ -60,7 +60,9 @@ fn every_kernel_and_variant_validates() {
         let stages = wavefront.into_iter().map(|s| (s.kernel, s.variant(v)));
         for (k, v) in stages.chain([(Kernel::Aov, v)]) {
             let m = module_of(k, v);
-            let caps = if v.f64 { Capabilities::FLOAT64 } else { Capabilities::default() };
+            let mut caps = Capabilities::default();
+            caps.set(Capabilities::FLOAT64, v.f64);
+            caps.set(Capabilities::RAY_QUERY, v.ray_queries());
             Validator::new(ValidationFlags::all(), caps)
                 .validate(&m)
                 .unwrap_or_else(|e| panic!("{k:?} {v:?}: {e:?}"));
@@ -136,9 +138,9 @@ fn binds(m: &Wavefront, binding: u32) -> bool {
 }
 
 /// Each kernel contains its own queries only: `--accel cube` kernels walk the tables (and,
-/// where rays leave surfaces, the BVH for them), `--accel bvh` kernels the BVH, `--accel
-/// brute` kernels loop over every primitive, and none contains or binds other code or
-/// buffers.
+/// where rays leave surfaces, the BVH or ray queries for them), `--accel bvh` kernels the
+/// BVH, `--accel brute` kernels loop over every primitive, `--accel rayquery` kernels take
+/// ray queries, and none contains or binds other code or buffers.
 #[test]
 fn each_kernel_contains_only_its_own_queries() {
     for v in Variant::all() {
@@ -159,7 +161,12 @@ fn each_kernel_contains_only_its_own_queries() {
         }
 
         assert_eq!(has_function(&m, "walk_any"), v.shadows, "{v:?}");
-        let walks_bvh = bvh || (cube && v.surface_rays);
+        let walks_bvh = bvh || (cube && v.surface_rays && !v.surface_rq);
+        let queries_rays = v.queries == Queries::RayQuery || (cube && v.surface_rays && v.surface_rq);
+        assert_eq!(v.ray_queries(), queries_rays, "{v:?}");
+        assert_eq!(has_function(&m, "rq_nearest"), queries_rays, "{v:?}");
+        assert_eq!(has_function(&m, "rq_any"), queries_rays && v.shadows, "{v:?}");
+        assert_eq!(binds(&m, 25), queries_rays, "{v:?}: binding 25");
         assert_eq!(has_function(&m, "bvh_nearest"), walks_bvh, "{v:?}");
         assert_eq!(has_function(&m, "node_hits"), walks_bvh, "{v:?}");
         assert_eq!(has_function(&m, "bvh_any"), walks_bvh && v.shadows, "{v:?}");
@@ -279,7 +286,8 @@ fn only_directional_lights_walk_shadows_in_the_bvh() {
             Kernel::wavefront(v).into_iter().filter(|s| matches!(s.kernel, Kernel::Shade | Kernel::Shadow))
         {
             let m = Wavefront(vec![module_of(s.kernel, s.variant(v))]);
-            assert_eq!(has_function(&m, "bvh_any"), v.bvh_shadows, "{v:?} {:?}", s.kernel);
+            let walk = if v.surface_rq { "rq_any" } else { "bvh_any" };
+            assert_eq!(has_function(&m, walk), v.bvh_shadows, "{v:?} {:?}", s.kernel);
             seen[v.bvh_shadows as usize] += 1;
         }
     }
@@ -303,8 +311,12 @@ fn each_depth_runs_a_nearest_with_its_own_walk_only() {
             Wavefront(vec![module_of(s.kernel, s.variant(v))])
         };
         let (eye, later) = (of(1), of(2));
-        assert!(has_function(&eye, "cell_walk") && !has_function(&eye, "bvh_nearest"), "{v:?}");
-        assert!(has_function(&later, "bvh_nearest") && !has_function(&later, "cell_walk"), "{v:?}");
-        assert!(!binds(&later, 14) && binds(&later, 20) && binds(&eye, 14) && !binds(&eye, 20), "{v:?}");
+        let (walk, binding) = if v.surface_rq { ("rq_nearest", 25) } else { ("bvh_nearest", 20) };
+        assert!(has_function(&eye, "cell_walk") && !has_function(&eye, walk), "{v:?}");
+        assert!(has_function(&later, walk) && !has_function(&later, "cell_walk"), "{v:?}");
+        assert!(
+            !binds(&later, 14) && binds(&later, binding) && binds(&eye, 14) && !binds(&eye, binding),
+            "{v:?}"
+        );
     }
 }

@@ -12,12 +12,13 @@ use cuberay::arith::geometry::TIE_CAP;
 use cuberay::arith::{FAR, NO_ID, SHADOW_END_REL};
 use cuberay::bvh::WIDE_NODE_PRIMS;
 use cuberay::coherence::flat::{GpuEntry, GpuFace, GpuOrigin, NO_ORIGIN};
-use cuberay::coherence::walk::{AnyHit, BVH_WALK, UNBOUNDED, WALK_CHUNK};
+use cuberay::coherence::walk::{AnyHit, SURFACE_WALK, UNBOUNDED, WALK_CHUNK};
 use cuberay::gpu::shaders::{compose, Kernel, Queries, Variant};
 use cuberay::layout::bvh::{
     WideNode, BVH_CHUNK, BVH_DECODE_REL, BVH_FRESH, BVH_NO_PARENT, BVH_SLACK, BVH_STACK,
 };
 use cuberay::layout::counters::*;
+use cuberay::layout::rayquery::{RQ_COMMIT_REL, RQ_T_MAX};
 use cuberay::layout::*;
 use cuberay::preview::display::{
     View, ENCODE_LINEARIZE, ENCODE_NONE, ENCODE_SRGB, TONEMAP_ACES, TONEMAP_NONE, TONEMAP_PBR_NEUTRAL,
@@ -115,7 +116,7 @@ fn rust_structs() -> BTreeMap<&'static str, Layout> {
             bvh_node_count,
             ray_queue,
             shadow_queue,
-            surface_bvh,
+            surface_walk,
             bvh_inline,
             env_x,
             env_texture,
@@ -218,7 +219,7 @@ fn rust_constants() -> BTreeMap<&'static str, Value> {
         ("WALK_RESUME_LOST", U32(WALK_RESUME_LOST)),
         ("TIE_CAP", F32(TIE_CAP)),
         ("UNBOUNDED", U32(UNBOUNDED)),
-        ("BVH_WALK", U32(BVH_WALK)),
+        ("SURFACE_WALK", U32(SURFACE_WALK)),
         ("ANY_CLEAR", U32(AnyHit::Clear as u32)),
         ("ANY_BLOCKED", U32(AnyHit::Blocked as u32)),
         ("ANY_UNFINISHED", U32(AnyHit::Unfinished as u32)),
@@ -280,6 +281,8 @@ fn rust_constants() -> BTreeMap<&'static str, Value> {
         ("WIDE_NODE_PRIMS", U32(WIDE_NODE_PRIMS)),
         ("BVH_SLACK", F32(BVH_SLACK)),
         ("BVH_DECODE_REL", F32(BVH_DECODE_REL)),
+        ("RQ_COMMIT_REL", F32(RQ_COMMIT_REL)),
+        ("RQ_T_MAX", F32(RQ_T_MAX)),
         ("ACCUMULATE_WORKGROUP", U32(ACCUMULATE_WORKGROUP)),
         ("ENCODE_NONE", U32(ENCODE_NONE)),
         ("ENCODE_SRGB", U32(ENCODE_SRGB)),
@@ -397,6 +400,9 @@ const WGSL_ONLY_STRUCTS: &[&str] = &[
     "NodeHits",
     "BvhWalk",
     "VertexOut",
+    // naga's own, for ray queries (what the driver reads, not a buffer of ours).
+    "RayDesc",
+    "RayIntersection",
 ];
 
 #[test]

@@ -135,7 +135,14 @@ impl Session {
             let mut tables = self.eye_ready.take().expect("checked");
             let mut packed = self.pack_moved();
             gpu::point_at(&mut packed.params, &tables.flat);
-            gpu::add_surface_bvh(&mut packed, &self.scene, &eye_build_params(&self.scene, &self.opts));
+            // The preview's rays leaving surfaces walk the BVH: its boxes move with the
+            // camera in place, where the driver's structure would be built anew.
+            gpu::add_surface_walk(
+                &mut packed,
+                &self.scene,
+                &eye_build_params(&self.scene, &self.opts),
+                false,
+            );
             make_room_for_moves(&mut packed, &self.scene);
             if let Err(e) = self.install(Queries::Tables, packed, Some(&mut tables)) {
                 log::warn!("cannot trace the rebuilt tables ({e}): tracing with the BVH");

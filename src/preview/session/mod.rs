@@ -145,7 +145,7 @@ fn variant(
 /// no ray leaves a surface).
 fn traced_walks(tables: Option<&WalkBounds>, packed: &Packed) -> Option<WalkBounds> {
     match tables {
-        Some(t) if packed.params.surface_bvh == 0 => Some(*t),
+        Some(t) if packed.params.surface_walk == 0 => Some(*t),
         t => gpu::walk_bounds(t, packed),
     }
 }
@@ -198,7 +198,7 @@ impl Session {
         }
         let mut tables = gpu.tables(&scene, &opts, all, &mut packed)?;
         let walks = gpu::walk_bounds(tables.as_ref().map(|t| &t.walks), &packed);
-        gpu.check_loop_budget(&scene, walks.as_ref(), Some(MAX_DEPTH))?;
+        gpu.check_loop_budget(&scene, walks.as_ref(), Some(MAX_DEPTH), false)?;
         let first = variant(&scene, &opts, toggles, opts.max_depth, all.queries);
         let tile = tile_points(&scene, walks.as_ref(), TESTS_PER_DISPATCH);
         let sizes = gpu::queue_sizes(&scene, all);
@@ -403,7 +403,7 @@ impl Session {
         mut tables: Option<&mut Tables>,
     ) -> Result<()> {
         let walks = traced_walks(tables.as_ref().map(|t| &t.walks), &packed);
-        self.gpu.check_loop_budget(&self.scene, walks.as_ref(), Some(MAX_DEPTH))?;
+        self.gpu.check_loop_budget(&self.scene, walks.as_ref(), Some(MAX_DEPTH), false)?;
         let v = variant(&self.scene, &self.opts, self.toggles, self.opts.max_depth, queries);
         let pipelines = compile(&self.gpu, v, &self.buffers, &self.base)?;
         let ctx = &self.gpu.ctx;
@@ -443,7 +443,7 @@ impl Session {
             fallback_origin: p.fallback_origin,
             bvh_node_count: p.bvh_node_count,
             bvh_inline: p.bvh_inline,
-            surface_bvh: p.surface_bvh,
+            surface_walk: p.surface_walk,
             ray_queue: self.buffers.ray_queue,
             shadow_queue: self.buffers.shadow_queue,
             ..self.base
