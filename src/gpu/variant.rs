@@ -58,7 +58,7 @@ pub struct Variant {
     pub blend: bool,
     /// Rays that leave the scene look up the environment map (`ENVIRONMENT`).
     pub environment: bool,
-    /// The ray queries: the candidate tables, the BVH or brute force.
+    /// How the kernels find candidates: the tables, the BVH, brute force or ray queries.
     pub queries: Queries,
     /// Intersection tests and hit points in f64 (`--precision f64`; `SHADER_F64`).
     pub f64: bool,
@@ -82,7 +82,7 @@ pub struct Variant {
     pub bvh_shadows: bool,
     /// With the tables, whether the rays leaving surfaces take the platform's ray queries
     /// (`SURFACE_RQ`) instead of the BVH walk: the default where the adapter offers them and
-    /// its measurements favour them (`gpu::setup::surface_walk`).
+    /// its measurements favour them (`gpu::setup::resolve_surface`).
     pub surface_rq: bool,
     /// Whether the kernels count rays and tests into the statistics counters (`COUNTERS`).
     /// On lavapipe counting costs a kernel 5–22 % of its time (a private array indexed per

@@ -100,7 +100,9 @@ fn front_for(up: DVec3) -> DVec3 {
 pub fn apply(loaded: &mut Loaded, path: &Path, setup: &Setup) -> Result<(), Error> {
     setup.validate()?;
     let scene = &mut loaded.scene;
-    scene.camera = scene.camera.overridden(&setup.view, scene.up)?;
+    let camera = scene.camera.overridden(&setup.view, scene.up)?;
+    let moved = camera.eye != scene.camera.eye;
+    scene.camera = camera;
     let headlight = scene.lights.iter().any(|l| l.source == LightSource::Default);
     let choice = match &setup.env {
         EnvChoice::Auto if loaded.format == SceneFormat::Gltf && headlight => EnvChoice::Studio,
@@ -112,16 +114,20 @@ pub fn apply(loaded: &mut Loaded, path: &Path, setup: &Setup) -> Result<(), Erro
         EnvChoice::Studio => Some(environment::studio(scene.up, front_for(scene.up))),
         EnvChoice::File(p) => Some(read_environment(p, scene.up, front_for(scene.up))?),
     };
-    let Some(mut env) = env else {
-        return Ok(());
-    };
-    env = env.rotated(setup.env_rotate);
-    env.intensity = setup.env_intensity;
-    scene.set_environment(Some(env), setup.env_lights);
-    if headlight {
+    let env = env.map(|e| Environment { intensity: setup.env_intensity, ..e.rotated(setup.env_rotate) });
+    let lit_by_env = env.is_some();
+    // The lights that are not the file's follow what the scene is now: the environment's,
+    // or the default headlight at the camera's eye, wherever the camera moved.
+    scene.set_environment(env, setup.env_lights);
+    if headlight && (lit_by_env || moved) {
         // The loader's warning about the headlight no longer holds.
         loaded.warnings.retain(|w| !w.contains("headlight"));
-        if setup.env == EnvChoice::Auto {
+        if !lit_by_env {
+            loaded.warnings.push(format!(
+                "the file has no light: added a white headlight at the eye {} (intensity 1)",
+                scene.camera.eye
+            ));
+        } else if setup.env == EnvChoice::Auto {
             loaded.warnings.push(
                 "the scene has no light: lit by the built-in studio environment (--env none gives the default \
                  headlight instead)"

@@ -289,6 +289,26 @@ fn env_files_and_defaults_set_the_scene_up() {
     assert_eq!(lit.scene.environment.as_ref().unwrap().up, DVec3::Z, "an NFF scene's up is its viewpoint's");
 }
 
+/// A file without lights gets its default headlight at the eye the render looks from: with
+/// `--look-from`, the new eye (and the warning names it), not the file's.
+#[test]
+fn the_default_headlight_follows_look_from() {
+    let dir = tempfile::tempdir().unwrap();
+    let nff = dir.path().join("unlit.nff");
+    std::fs::write(&nff, "v\nfrom 0 0 5\nat 0 0 0\nup 0 1 0\nangle 40\nhither 1\nresolution 8 8\nf 1 1 1 1 0 0 0 0\ns 0 0 0 1\n")
+        .unwrap();
+    let from = DVec3::new(3.0, 4.0, 5.0);
+    let setup =
+        Setup { view: ViewOverride { from: Some(from), ..ViewOverride::default() }, ..Setup::default() };
+    let mut l = load::load(&nff, &Default::default()).unwrap();
+    assert_eq!(l.scene.lights[0].position, DVec3::new(0.0, 0.0, 5.0));
+    load::apply_setup(&mut l, &nff, &setup).unwrap();
+    assert_eq!(l.scene.lights.len(), 1);
+    assert_eq!((l.scene.lights[0].position, l.scene.lights[0].intensity), (from, 1.0));
+    let said: Vec<_> = l.warnings.iter().filter(|w| w.contains("headlight")).collect();
+    assert!(said.len() == 1 && said[0].contains(&from.to_string()), "{said:?}");
+}
+
 /// The repository's `scenes/sky.hdr` (written by `scenes/make_sky.py`) loads as the 512×256
 /// map the script describes, and median cut finds the sun where the script puts it (u = 0.68,
 /// 35° above the horizon, in the documented convention): several of the 16 lights lie
