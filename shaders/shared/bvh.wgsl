@@ -126,10 +126,10 @@ fn node_hits(n: WideNode, r: BoxRay, t_far: f32) -> NodeHits {
     let m1 = unpack4xU8(n.child_meta[1]);
     let none = vec4<u32>(0u);
     let slot_bits = vec4<u32>(1u, 2u, 4u, 8u);
-    let u = select(none, slot_bits, m0 != none) | (select(none, slot_bits, m1 != none) << vec4<u32>(4u));
-    let used = u.x | u.y | u.z | u.w;
-    let hit = (half_hits(nx.x, ny.x, nz.x, fx.x, fy.x, fz.x, a, bn, bf, t_far) |
-        (half_hits(nx.y, ny.y, nz.y, fx.y, fy.y, fz.y, a, bn, bf, t_far) << 4u)) & used;
+    // An empty slot (meta 0) may pass the box test: it is no inner child (no imask bit)
+    // and names no primitive (a count of 0), so it adds nothing.
+    let hit = half_hits(nx.x, ny.x, nz.x, fx.x, fy.x, fz.x, a, bn, bf, t_far) |
+        (half_hits(nx.y, ny.y, nz.y, fx.y, fy.y, fz.y, a, bn, bf, t_far) << 4u);
     let imask = e >> 24u;
     // Slot bits to rank bits: rank = slot ^ octant swaps bits, pairs and nibbles.
     var inner = hit & imask;

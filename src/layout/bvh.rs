@@ -178,7 +178,8 @@ impl WideNode {
             };
             let t0 = side(0, true).max(side(1, true)).max(side(2, true).max(0.0));
             let t1 = side(0, false).min(side(1, false)).min(side(2, false)) * (1.0 + BVH_SLACK);
-            if meta == 0 || t0 > t1.min(t_far) {
+            // An empty slot (meta 0) adds nothing: no imask bit, no primitive.
+            if t0 > t1.min(t_far) {
                 continue;
             }
             if self.imask() & (1 << slot) != 0 {
