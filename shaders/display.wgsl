@@ -79,8 +79,7 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
         let b = max(view.block, 1u);
         c = image[(j / b) * view.grid_w + i / b].xyz / f32(view.samples);
     }
-    // NaN fails every comparison: max(NaN, 0) is 0 or NaN by platform, so map it first.
-    c = select(c, vec3<f32>(0.0), c != c);
+    // tonemap() maps NaN (which fails every comparison) and negative values to 0 first.
     c = tonemap(c * view.exposure, view.tonemap);
     if view.encode == ENCODE_SRGB {
         c = vec3<f32>(srgb(c.x), srgb(c.y), srgb(c.z));

@@ -253,7 +253,7 @@ impl RenderOptions {
     pub fn show(&self, scene: &Scene, image: &mut Image) {
         image.transfer = self.transfer_for(scene);
         image.tonemap = self.tonemap_for(scene);
-        image.exposure = self.exposure.exp2() as f32;
+        image.exposure = crate::output::exposure_scale(self.exposure);
     }
 
     /// These options with [`Precision::Auto`] replaced by the precision `scene` calls for at

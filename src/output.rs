@@ -39,7 +39,8 @@ pub struct Image {
     pub has_alpha: bool,
     /// How a PNG (or the preview's window) encodes the values.
     pub transfer: Transfer,
-    /// What a PNG (or the window) multiplies the values by first: 2^`--exposure`.
+    /// What a PNG (or the window) multiplies the values by first: 2^`--exposure`
+    /// ([`exposure_scale`]).
     pub exposure: f32,
     /// How a PNG (or the window) brings values beyond 1 into range, before the transfer.
     pub tonemap: Tonemap,
@@ -102,6 +103,11 @@ impl OutputFormat {
             _ => Err(Error::UnknownImageFormat { path: path.to_owned() }),
         }
     }
+}
+
+/// What `--exposure EV` multiplies the values by: 2^EV.
+pub fn exposure_scale(ev: f64) -> f32 {
+    ev.exp2() as f32
 }
 
 /// The sRGB transfer function (linear [0, 1] to encoded [0, 1]).

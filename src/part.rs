@@ -271,7 +271,7 @@ pub fn read_part(path: &Path) -> Result<Part, Error> {
     let mut image = Image::new(win.width(), win.height(), info.aov.is_some());
     image.transfer = info.settings.transfer;
     image.tonemap = info.settings.tonemap;
-    image.exposure = info.settings.exposure.exp2() as f32;
+    image.exposure = output::exposure_scale(info.settings.exposure);
     image.pixels = layer.channel_data.pixels.1.clone();
     if !image.is_finite() {
         return Err(bad("it holds a non-finite value".into()));

@@ -105,7 +105,7 @@ impl Display {
                 Tonemap::PbrNeutral => TONEMAP_PBR_NEUTRAL,
                 Tonemap::Aces => TONEMAP_ACES,
             },
-            exposure: o.exposure.exp2() as f32,
+            exposure: crate::output::exposure_scale(o.exposure),
             ..View::default()
         };
         ctx.queue.write_buffer(&self.view_buffer, 0, bytemuck::bytes_of(&view));
