@@ -8,7 +8,7 @@
 use glam::{DVec2, DVec3, DVec4};
 
 use super::geometry::{SurfacePoint, TangentFrame};
-use crate::scene::{srgb_to_linear, Material, Pbr, Scene, Shading, Texture, TextureRef, Wrap};
+use crate::scene::{bilinear, srgb_to_linear, Material, Pbr, Scene, Shading, Texture, TextureRef, Wrap};
 
 fn wrap(i: i64, n: u32, mode: Wrap) -> usize {
     let n = n as i64;
@@ -53,13 +53,7 @@ pub fn sample4(t: &Texture, uv: DVec2) -> DVec4 {
     if !t.linear {
         return texel(t, x.floor() as i64, y.floor() as i64);
     }
-    let (x, y) = (x - 0.5, y - 0.5);
-    let (x0, y0) = (x.floor(), y.floor());
-    let (fx, fy) = (x - x0, y - y0);
-    let (i, j) = (x0 as i64, y0 as i64);
-    let top = texel(t, i, j) * (1.0 - fx) + texel(t, i + 1, j) * fx;
-    let bottom = texel(t, i, j + 1) * (1.0 - fx) + texel(t, i + 1, j + 1) * fx;
-    top * (1.0 - fy) + bottom * fy
+    bilinear(x, y, |i, j| texel(t, i, j))
 }
 
 /// Texture `r` of `scene` at a point with UV sets `uv`; `None` where its set is absent.

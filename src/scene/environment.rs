@@ -175,16 +175,8 @@ impl Environment {
     pub fn radiance(&self, d: DVec3) -> DVec3 {
         let (u, v) = self.uv(d);
         let (w, h) = (self.width as i64, self.height as i64);
-        let px = u * w as f64 - 0.5;
-        let py = v * h as f64 - 0.5;
-        let (x0, y0) = (px.floor(), py.floor());
-        let (fx, fy) = (px - x0, py - y0);
-        let xs = [(x0 as i64).rem_euclid(w), (x0 as i64 + 1).rem_euclid(w)];
-        let ys = [(y0 as i64).clamp(0, h - 1), (y0 as i64 + 1).clamp(0, h - 1)];
-        let t = |i: usize, j: usize| self.texel(xs[i] as u32, ys[j] as u32);
-        let top = t(0, 0) * (1.0 - fx) + t(1, 0) * fx;
-        let bottom = t(0, 1) * (1.0 - fx) + t(1, 1) * fx;
-        (top * (1.0 - fy) + bottom * fy) * self.intensity
+        let texel = |x: i64, y: i64| self.texel(x.rem_euclid(w) as u32, y.clamp(0, h - 1) as u32);
+        super::bilinear(u * w as f64, v * h as f64, texel) * self.intensity
     }
 
     /// The solid angle of a texel of row `y`: `(2π / width)·(cos θ₀ − cos θ₁)` between the

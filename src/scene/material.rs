@@ -400,6 +400,23 @@ pub fn srgb_to_linear(v: u8) -> f64 {
     }
 }
 
+/// Bilinear interpolation between texel centres at texel-space position (`x`, `y`) (texel
+/// `i`'s centre at `i + 0.5`) of `texel(i, j)`, which wraps or clamps the indices as its
+/// image does: how textures and environment maps are sampled (the kernels' twins:
+/// `sample_texture` and `environment` in `shaders/shared/`).
+pub fn bilinear<T>(x: f64, y: f64, texel: impl Fn(i64, i64) -> T) -> T
+where
+    T: Copy + std::ops::Mul<f64, Output = T> + std::ops::Add<Output = T>,
+{
+    let (x, y) = (x - 0.5, y - 0.5);
+    let (x0, y0) = (x.floor(), y.floor());
+    let (fx, fy) = (x - x0, y - y0);
+    let (i, j) = (x0 as i64, y0 as i64);
+    let top = texel(i, j) * (1.0 - fx) + texel(i + 1, j) * fx;
+    let bottom = texel(i, j + 1) * (1.0 - fx) + texel(i + 1, j + 1) * fx;
+    top * (1.0 - fy) + bottom * fy
+}
+
 /// An RGBA8 image. Colour channels are sRGB-encoded, alpha linear (as glTF stores them).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Texture {

@@ -84,8 +84,8 @@ pub use display::{Tonemap, Transfer};
 pub use environment::Environment;
 pub use light::{Light, LightKind, LightSource};
 pub use material::{
-    srgb_to_linear, Alpha, MapRanges, Material, NormalMap, Pbr, PbrMaps, Shading, Texture, TextureRef, Wrap,
-    TEXCOORD_SETS,
+    bilinear, srgb_to_linear, Alpha, MapRanges, Material, NormalMap, Pbr, PbrMaps, Shading, Texture,
+    TextureRef, Wrap, TEXCOORD_SETS,
 };
 
 /// A sphere. `inside_only` means only the inside surface is visible (NFF negative radius).
