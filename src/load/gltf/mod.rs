@@ -33,7 +33,7 @@ use gltf::Document;
 
 use super::{LoadOptions, Loaded};
 use crate::error::Error;
-use crate::scene::{Light, Scene, Transfer};
+use crate::scene::{Camera, Light, Scene, Transfer};
 
 mod animation;
 mod data;
@@ -217,9 +217,20 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, Error> {
         )));
     }
 
-    let mut camera = match options.camera {
+    let bounds = primitives.iter().fold(crate::scene::Aabb::EMPTY, |b, p| b.union(&p.bounds()));
+    // A camera node gives no look-at point: the one along its view nearest the scene's
+    // centre (one unit ahead where that lies behind it), for `--look-from` and `info`.
+    let aimed = |mut camera: Camera| {
+        let centre = bounds.center();
+        let ahead = (centre - camera.eye).dot(camera.forward);
+        if centre.is_finite() {
+            camera.target = camera.eye + camera.forward * if ahead > 0.0 { ahead } else { 1.0 };
+        }
+        camera
+    };
+    let camera = match options.camera {
         Some(n) => match hierarchy.cameras.get(n) {
-            Some(placed) => view::camera(&ctx, &doc, placed)?,
+            Some(placed) => aimed(view::camera(&ctx, &doc, placed)?),
             None => {
                 return Err(ctx.invalid(format!(
                     "camera {n} was asked for, but the scene has {} camera nodes{}",
@@ -232,9 +243,8 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, Error> {
             }
         },
         None => match hierarchy.cameras.first() {
-            Some(placed) => view::camera(&ctx, &doc, placed)?,
+            Some(placed) => aimed(view::camera(&ctx, &doc, placed)?),
             None => {
-                let bounds = primitives.iter().fold(crate::scene::Aabb::EMPTY, |b, p| b.union(&p.bounds()));
                 let cam = view::framing_camera(&bounds).map_err(|e| ctx.invalid(e.into_message()))?;
                 let d = view::AUTO_CAMERA_DIRECTION;
                 warnings.push(format!(
@@ -248,14 +258,6 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, Error> {
             }
         },
     };
-
-    // A camera node gives no look-at point: the one along its view nearest the scene's
-    // centre (one unit ahead where that lies behind it), for `--look-from` and `info`.
-    let centre = primitives.iter().fold(crate::scene::Aabb::EMPTY, |b, p| b.union(&p.bounds())).center();
-    let ahead = (centre - camera.eye).dot(camera.forward);
-    if centre.is_finite() && camera.target == camera.eye + camera.forward {
-        camera.target = camera.eye + camera.forward * if ahead > 0.0 { ahead } else { 1.0 };
-    }
 
     let mut lights = hierarchy
         .lights
