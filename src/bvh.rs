@@ -87,16 +87,18 @@ pub fn outward_box(b: &Aabb, pad: f64) -> ([f32; 3], [f32; 3]) {
     ([f32_down(lo.x), f32_down(lo.y), f32_down(lo.z)], [f32_up(hi.x), f32_up(hi.y), f32_up(hi.z)])
 }
 
+/// obvhs's boxes of boxes (`min`, `max`).
+fn prim_boxes(boxes: &[([f32; 3], [f32; 3])]) -> Vec<PrimBox> {
+    boxes.iter().map(|(lo, hi)| PrimBox(ObvhsAabb { min: Vec3A::from(*lo), max: Vec3A::from(*hi) })).collect()
+}
+
 /// Builds the BVH of boxes (`min`, `max`), one per primitive, already in f32 (see
 /// [`outward_box`]).
 pub fn build(boxes: &[([f32; 3], [f32; 3])]) -> BvhTree {
     if boxes.is_empty() {
         return BvhTree::default();
     }
-    let prims: Vec<PrimBox> = boxes
-        .iter()
-        .map(|(lo, hi)| PrimBox(ObvhsAabb { min: Vec3A::from(*lo), max: Vec3A::from(*hi) }))
-        .collect();
+    let prims = prim_boxes(boxes);
     let params = BvhBuildParams { max_prims_per_leaf: MAX_LEAF, ..BvhBuildParams::medium_build() };
     let bvh: Bvh2 = obvhs::bvh2::builder::build_bvh2(&prims, params, &mut Default::default());
     let nodes = bvh
@@ -115,7 +117,7 @@ pub fn build(boxes: &[([f32; 3], [f32; 3])]) -> BvhTree {
 /// The most primitives one leaf of the wide BVH holds (obvhs's CWBVH: 3), and one node of it
 /// in all (its eight children's leaves: 24).
 pub const WIDE_LEAF: u32 = 3;
-pub const WIDE_NODE_PRIMS: u32 = 24;
+pub const WIDE_NODE_PRIMS: u32 = 8 * WIDE_LEAF;
 
 /// Builds the compressed 8-wide BVH of boxes (`min`, `max`), one per primitive, already in
 /// f32 (see [`outward_box`]): obvhs's CWBVH (a binary PLOC tree with reinsertion, collapsed
@@ -126,10 +128,7 @@ pub fn build_wide(boxes: &[([f32; 3], [f32; 3])]) -> obvhs::cwbvh::CwBvh {
     if boxes.is_empty() {
         return Default::default();
     }
-    let prims: Vec<PrimBox> = boxes
-        .iter()
-        .map(|(lo, hi)| PrimBox(ObvhsAabb { min: Vec3A::from(*lo), max: Vec3A::from(*hi) }))
-        .collect();
+    let prims = prim_boxes(boxes);
     let params = BvhBuildParams { max_prims_per_leaf: WIDE_LEAF, ..BvhBuildParams::medium_build() };
     obvhs::cwbvh::builder::build_cwbvh(&prims, params, &mut Default::default())
 }
