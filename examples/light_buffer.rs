@@ -18,7 +18,7 @@
 //! grids 16 64 256).
 
 use anyhow::{bail, Context};
-use cuberay::job::AccelKind;
+use cuberay::job::Accel;
 use cuberay::load::{self, LoadOptions, Setup};
 use cuberay::reference::accel::{OriginKey, ShadowQuery};
 use cuberay::reference::build_accel;
@@ -138,7 +138,7 @@ fn main() -> anyhow::Result<()> {
     if lights.is_empty() {
         bail!("{path}: no directional light");
     }
-    let bvh = build_accel(scene, AccelKind::Bvh, size, size)?;
+    let bvh = build_accel(scene, Accel::Bvh, size, size)?;
 
     // The shadow rays of the eye rays' first hits, towards every directional light above
     // the surface (as the reference shades, without its texture normals).

@@ -215,8 +215,9 @@ fn tables_key() -> &'static str {
     static KEY: std::sync::OnceLock<String> = std::sync::OnceLock::new();
     KEY.get_or_init(|| {
         let (scene, opts) = tables_scene();
-        let params =
-            cuberay::gpu::GpuRenderer::build_params(&scene, &opts, false).expect("the scene has tables");
+        let params = cuberay::gpu::prepare::build_params(&scene, &opts, cuberay::gpu::Purpose::Render)
+            .expect("the scene resolves")
+            .expect("the scene has tables");
         cuberay::tablefile::key(&scene, &params)
     })
 }
@@ -249,5 +250,5 @@ fn rekeyed(bytes: &[u8]) -> Vec<u8> {
 fn tables(path: &Path) -> Result<(), String> {
     let (scene, opts) = tables_scene();
     let stored = cuberay::tablefile::read(path, tables_key()).map_err(|e| e.to_string())?;
-    cuberay::gpu::GpuRenderer::check_stored(&scene, &opts, &stored).map_err(|e| e.to_string())
+    cuberay::gpu::prepare::check_stored(&scene, &opts, &stored).map_err(|e| e.to_string())
 }

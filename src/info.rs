@@ -1,10 +1,11 @@
-//! What `cuberay info` reports about a scene: primitive counts, lights, materials, bounds
-//! the effects the scene calls for and the precision it calls for, as text or as one JSON
-//! object.
+//! What `cuberay info` reports about a scene: primitive counts, lights, materials, bounds,
+//! the effects the scene calls for, and what a render of it resolves (the precision, the
+//! accelerator, what rays leaving surfaces take: the same choices a render makes, handed in
+//! resolved), as text or as one JSON object.
 
 use serde::Serialize;
 
-use crate::arith::precision::f32_need;
+use crate::job::RenderOptions;
 use crate::scene::{Camera, LightSource, Projection, Scene};
 
 /// The scene summary. Serialised as-is by `cuberay info --json`.
@@ -32,17 +33,24 @@ pub struct SceneInfo {
     pub camera: CameraInfo,
     /// The resolution the file asks for, if any.
     pub resolution: Option<[u32; 2]>,
-    /// The GPU kernels' arithmetic under `--precision auto` at the default image size:
-    /// `f32` or `f64` ([`crate::arith::precision`]).
+    /// The GPU kernels' arithmetic a render at the default image size resolves (`--precision
+    /// auto`): `f32` or `f64` ([`crate::arith::precision`]).
     pub precision: &'static str,
-    /// Why: the comparison that decided it.
-    pub precision_auto: PrecisionInfo,
+    /// Why, where `auto` chose: the comparison that decided it.
+    pub precision_auto: Option<PrecisionInfo>,
+    /// The accelerator a render resolves (`--accel auto`).
+    pub accel: &'static str,
     /// Whether the scene sends rays from surfaces (mirrors, glass, blended surfaces, shadow
-    /// rays towards directional lights): under `--accel cube` they take the BVH, or the
-    /// platform's ray queries on an adapter that has them (`--surface-walk`; `--stats` says
-    /// which a render took), while eye rays and shadow rays towards point lights take the
-    /// tables.
+    /// rays towards directional lights): under `--accel cube` they take the BVH or the
+    /// platform's ray queries (`surface_walk`), while eye rays and shadow rays towards point
+    /// lights take the tables.
     pub surface_rays: bool,
+    /// What those rays take on this adapter: `bvh` or `rayquery` (`auto` without an adapter).
+    pub surface_walk: &'static str,
+    /// The GPU adapter the choices were made for (`null`: none found).
+    pub adapter: Option<String>,
+    /// Why a GPU render of the scene would be refused (`null`: it would not be).
+    pub gpu_refuses: Option<String>,
 }
 
 /// The comparison `--precision auto` makes ([`crate::arith::precision::F32Need`]).
@@ -93,10 +101,11 @@ pub struct CameraInfo {
 }
 
 impl SceneInfo {
-    pub fn of(scene: &Scene) -> SceneInfo {
+    /// The summary of `scene`, with what a render of it with `resolved` options (resolved by
+    /// `gpu::prepare::resolve` on `adapter`, or without one) does.
+    pub fn of(scene: &Scene, resolved: &RenderOptions, adapter: Option<String>) -> SceneInfo {
         let counts = scene.counts();
-        let height = scene.resolution.unwrap_or_else(|| scene.camera.default_resolution()).1;
-        let need = f32_need(scene, height);
+        let height = resolved.height;
         let b = scene.bounds();
         let cam = &scene.camera;
         let (projection, fov, half) = match cam.projection {
@@ -132,16 +141,20 @@ impl SceneInfo {
                 flags: camera_flags(scene, height),
             },
             resolution: scene.resolution.map(|(w, h)| [w, h]),
-            precision: if need.needs_f64() { "f64" } else { "f32" },
-            precision_auto: PrecisionInfo {
+            precision: resolved.precision.name(),
+            precision_auto: resolved.auto_precision.as_ref().map(|need| PrecisionInfo {
                 height,
                 ratio: need.ratio,
                 limit: need.limit,
                 margin: Some(need.margin).filter(|m| m.is_finite()),
                 exact: need.exact,
                 reason: need.reason(),
-            },
+            }),
+            accel: resolved.accel.name(),
             surface_rays: crate::coherence::traces_surface_rays(scene, &Default::default()),
+            surface_walk: resolved.surface.name(),
+            adapter,
+            gpu_refuses: None,
         }
     }
 
@@ -188,17 +201,47 @@ impl SceneInfo {
         if let Some([w, h]) = self.resolution {
             s += &format!("resolution: {w}x{h}\n");
         }
-        let p = &self.precision_auto;
-        s += &format!("precision:  {} (auto, {} pixels high: {})\n", self.precision, p.height, p.reason);
-        s += "rays:       eye rays and shadow rays towards point lights take the candidate tables";
-        if self.surface_rays {
-            s += "; rays leaving surfaces take ray queries on a GPU with them (lavapipe's are slower than its BVH), \
-                  else the BVH (--surface-walk)";
-        } else {
-            s += "; no ray leaves a surface";
+        match &self.precision_auto {
+            Some(p) => {
+                s += &format!(
+                    "precision:  {} (auto, {} pixels high: {})\n",
+                    self.precision, p.height, p.reason
+                )
+            }
+            None => s += &format!("precision:  {} (given)\n", self.precision),
+        }
+        s += &format!(
+            "adapter:    {}\n",
+            self.adapter.as_deref().unwrap_or("none found (a GPU render would fail)")
+        );
+        s += &format!("accel:      {}", self.accel);
+        if self.accel == "cube" {
+            s += ": eye rays and shadow rays towards point lights take the candidate tables";
         }
         s += "\n";
+        s += &format!("rays:       {}\n", self.surface_text());
+        if let Some(why) = &self.gpu_refuses {
+            s += &format!("GPU:        refuses this scene: {why}\n");
+        }
         s
+    }
+}
+
+impl SceneInfo {
+    /// What the rays leaving surfaces take, in words.
+    fn surface_text(&self) -> String {
+        if !self.surface_rays {
+            return "no ray leaves a surface".into();
+        }
+        let takes = match self.surface_walk {
+            "rayquery" => "the platform's ray queries",
+            "bvh" => "the BVH",
+            _ => "ray queries on a GPU with them (lavapipe's are slower than its BVH), else the BVH",
+        };
+        match self.accel {
+            "cube" => format!("rays leaving surfaces take {takes} (--surface-walk)"),
+            a => format!("every ray takes --accel {a}"),
+        }
     }
 }
 

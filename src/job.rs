@@ -7,7 +7,7 @@
 
 use glam::DVec3;
 
-use crate::arith::precision::{f32_need, F32Need};
+use crate::arith::precision::F32Need;
 use crate::arith::spawn::SpawnPolicy;
 use crate::error::{Error, Result};
 use crate::output::Image;
@@ -16,10 +16,12 @@ use crate::sampling::Sampling;
 use crate::scene::{Scene, Tonemap, Transfer};
 use crate::stats::{self, Stats};
 
-/// Which acceleration structure to use.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum AccelKind {
-    /// GPU: the candidate tables; CPU: brute force for tiny scenes, a BVH above.
+/// Which acceleration structure finds a ray's candidates (`--accel`): on the GPU the
+/// kernels' variant holds one ([`crate::gpu::shaders::Variant::accel`]), on the CPU the
+/// reference walks one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Accel {
+    /// GPU: the direction-cube tables; CPU: brute force for tiny scenes, a BVH above.
     Auto,
     /// Test every primitive for every ray.
     Brute,
@@ -34,12 +36,28 @@ pub enum AccelKind {
     RayQuery,
 }
 
+impl Accel {
+    /// The accelerators a GPU kernel traces with (every one but `auto`).
+    pub const GPU: [Accel; 4] = [Accel::Cube, Accel::Bvh, Accel::Brute, Accel::RayQuery];
+
+    /// The `--accel` name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Accel::Auto => "auto",
+            Accel::Cube => "cube",
+            Accel::Bvh => "bvh",
+            Accel::Brute => "brute",
+            Accel::RayQuery => "rayquery",
+        }
+    }
+}
+
 /// What the GPU's rays leaving surfaces take under `--accel cube` and `auto`
 /// (`--surface-walk`): they have no single origin, so no table serves them.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum SurfaceWalk {
     /// The platform's ray queries where the adapter has them, except lavapipe, whose
-    /// software ones measured slower than the BVH (`gpu::setup::resolve_surface`); else the
+    /// software ones measured slower than the BVH (`gpu::prepare::resolve`); else the
     /// BVH.
     #[default]
     Auto,
@@ -67,7 +85,7 @@ impl SurfaceWalk {
 #[serde(rename_all = "lowercase")]
 pub enum Precision {
     /// f64 where f32 cannot resolve the scene as the image shows it, else f32
-    /// ([`RenderOptions::resolved`]).
+    /// (`gpu::prepare::resolve`).
     #[default]
     Auto,
     F32,
@@ -96,7 +114,7 @@ pub struct RenderOptions {
     pub sampling: Sampling,
     /// Maximum ray-tree depth, the eye ray being depth 1 (SPD: 5).
     pub max_depth: u32,
-    pub accel: AccelKind,
+    pub accel: Accel,
     /// What rays leaving surfaces take on the GPU under `cube` and `auto` ([`SurfaceWalk`]):
     /// the GPU renderer resolves [`SurfaceWalk::Auto`] for its adapter; unresolved, it is the
     /// BVH.
@@ -107,7 +125,7 @@ pub struct RenderOptions {
     /// The GPU kernels' intersection arithmetic ([`Precision`]).
     pub precision: Precision,
     /// Why [`Precision::Auto`] chose what `precision` now says: set by
-    /// [`RenderOptions::resolved`], `None` where the precision was given.
+    /// `gpu::prepare::resolve`, `None` where the precision was given.
     pub auto_precision: Option<F32Need>,
     /// Cells per face edge of the eye's direction cube; `None`: about two pixels a cell.
     /// Changes the tables' time and memory, never the image.
@@ -162,7 +180,7 @@ impl RenderOptions {
             seed: 0,
             sampling: Sampling::Pixels,
             max_depth: 5,
-            accel: AccelKind::Auto,
+            accel: Accel::Auto,
             surface: SurfaceWalk::Auto,
             spawn: SpawnPolicy::Scaled,
             precision: Precision::Auto,
@@ -256,24 +274,6 @@ impl RenderOptions {
         image.exposure = crate::output::exposure_scale(self.exposure);
     }
 
-    /// These options with [`Precision::Auto`] replaced by the precision `scene` calls for at
-    /// this image height ([`crate::arith::precision::f32_need`]), and why in
-    /// `auto_precision`; options whose precision is given come back as they are.
-    pub fn resolved(&self, scene: &Scene) -> RenderOptions {
-        if self.precision != Precision::Auto {
-            return self.clone();
-        }
-        let need = f32_need(scene, self.height);
-        let precision = if need.needs_f64() { Precision::F64 } else { Precision::F32 };
-        log::info!("precision {}: {}", precision.name(), need.reason());
-        RenderOptions { precision, auto_precision: Some(need), ..self.clone() }
-    }
-
-    /// The kernels' precision for `scene`: f32 or f64, never [`Precision::Auto`].
-    pub fn precision_for(&self, scene: &Scene) -> Precision {
-        self.resolved(scene).precision
-    }
-
     /// The settings block of the statistics of a render of `scene`.
     pub fn settings(&self, scene: &Scene, backend: &str, accel: &str) -> stats::Settings {
         stats::Settings {
@@ -289,7 +289,7 @@ impl RenderOptions {
             },
             seed: self.seed,
             max_depth: self.max_depth,
-            precision: if backend == "cpu" { "f64".into() } else { self.precision_for(scene).name().into() },
+            precision: if backend == "cpu" { "f64".into() } else { self.precision.name().into() },
             precision_auto: (backend != "cpu")
                 .then(|| self.auto_precision.as_ref().map(|n| n.reason()))
                 .flatten(),

@@ -1,6 +1,6 @@
 // The ray queries of a kernel that traces (query.wgsl: `closest` and its stepped form,
 // `occluded_short`, `occluded_step`), over the walk of the one accelerator the variant
-// holds: the candidate-table walk (`TABLES`: walk.wgsl over tables.wgsl, which brings the
+// holds: the candidate-table walk (`CUBE`: walk.wgsl over tables.wgsl, which brings the
 // BVH walk or the ray queries for rays leaving surfaces), the BVH walk (`BVH`), brute force
 // (`BRUTE`) or the platform's ray queries (`RAYQUERY`), over the scene's layout and
 // intersection code. The kernels include this file, not the accelerators', so that which
@@ -16,7 +16,7 @@
 #include "shared/texture.wgsl"
 #endif
 #endif
-#if TABLES
+#if CUBE
 #include "shared/tables.wgsl"
 #include "shared/walk.wgsl"
 #endif

@@ -28,8 +28,9 @@ use crate::arith::spawn::SpawnPolicy;
 use crate::coherence::defs::default_eye_cells;
 use crate::coherence::BuildParams;
 use crate::error::{Error, Result};
+use crate::gpu::prepare::{build_params, Purpose};
 use crate::gpu::GpuRenderer;
-use crate::job::{AccelKind, Precision, RenderOptions};
+use crate::job::{Accel, Precision, RenderOptions};
 use crate::output::{Aov, Image};
 use crate::sampling::Sampling;
 use crate::scene::Scene;
@@ -131,7 +132,7 @@ impl Settings {
             seed: self.seed,
             sampling: Sampling::Pixels,
             max_depth: self.max_depth,
-            accel: AccelKind::Cube,
+            accel: Accel::Cube,
             precision: self.precision,
             ..RenderOptions::new(self.width, self.height)
         }
@@ -147,7 +148,7 @@ impl Settings {
     /// (twice the deepest row's).
     pub fn reference_options(&self) -> RenderOptions {
         let spp = 4 * self.spp_values().last().copied().unwrap_or(self.spp).max(self.spp);
-        RenderOptions { spp, max_depth: 16, accel: AccelKind::Auto, ..self.base() }
+        RenderOptions { spp, max_depth: 16, accel: Accel::Auto, ..self.base() }
     }
 
     /// The rows of `parameter` for `scene` on `gpu`: their value's label and options.
@@ -200,11 +201,10 @@ impl Settings {
                     })
                     .collect()
             }
-            Parameter::Accel => [AccelKind::Cube, AccelKind::Bvh, AccelKind::Brute]
+            Parameter::Accel => Accel::GPU
                 .into_iter()
-                .map(|accel| {
-                    with(format!("{accel:?}").to_lowercase(), RenderOptions { accel, ..base.clone() })
-                })
+                .filter(|&a| a != Accel::RayQuery || gpu.caps.ray_queries)
+                .map(|accel| with(accel.name().into(), RenderOptions { accel, ..base.clone() }))
                 .collect(),
         }
     }
@@ -275,7 +275,7 @@ fn measure(
     let hidden = ProgressBar::hidden();
     // The tables are built once for the row and handed to each run: a large offset's tables
     // take many seconds to build, and they are the same every run.
-    let (stored, build_s) = match GpuRenderer::build_params(scene, opts, false) {
+    let (stored, build_s) = match build_params(scene, opts, Purpose::Render)? {
         Some(params) => {
             let start = std::time::Instant::now();
             let tables = crate::coherence::build(scene, &params)?;

@@ -8,7 +8,7 @@ use clap::{Args, ValueEnum};
 use glam::DVec3;
 
 use cuberay::accuracy::Parameter;
-use cuberay::job::{AccelKind, Precision, SurfaceWalk};
+use cuberay::job::{Accel, Precision, SurfaceWalk};
 use cuberay::load::{EnvChoice, Setup};
 use cuberay::output::Aov;
 use cuberay::sampling::Sampling;
@@ -32,14 +32,14 @@ pub enum AccelArg {
     Rayquery,
 }
 
-impl From<AccelArg> for AccelKind {
-    fn from(a: AccelArg) -> AccelKind {
+impl From<AccelArg> for Accel {
+    fn from(a: AccelArg) -> Accel {
         match a {
-            AccelArg::Auto => AccelKind::Auto,
-            AccelArg::Brute => AccelKind::Brute,
-            AccelArg::Bvh => AccelKind::Bvh,
-            AccelArg::Cube => AccelKind::Cube,
-            AccelArg::Rayquery => AccelKind::RayQuery,
+            AccelArg::Auto => Accel::Auto,
+            AccelArg::Brute => Accel::Brute,
+            AccelArg::Bvh => Accel::Bvh,
+            AccelArg::Cube => Accel::Cube,
+            AccelArg::Rayquery => Accel::RayQuery,
         }
     }
 }
@@ -305,7 +305,7 @@ mod tests {
             }
             assert_eq!(mapped.len(), all);
         }
-        distinct(|a: &AccelArg| AccelKind::from(*a), 5);
+        distinct(|a: &AccelArg| Accel::from(*a), 5);
         distinct(|a: &SurfaceWalkArg| SurfaceWalk::from(*a), 3);
         distinct(|a: &PrecisionArg| Precision::from(*a), 3);
         distinct(|a: &SamplingArg| Sampling::from(*a), 2);

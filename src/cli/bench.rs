@@ -15,7 +15,7 @@ use clap::Args;
 use serde::Serialize;
 
 use cuberay::gpu::GpuRenderer;
-use cuberay::job::{AccelKind, RenderOptions, Rendered};
+use cuberay::job::{Accel, RenderOptions, Rendered};
 use cuberay::layout::MAX_DEPTH;
 use cuberay::reference;
 use cuberay::stats::{Stats, TestsPerRay};
@@ -228,7 +228,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         let name =
             path.file_stem().map_or_else(|| path.display().to_string(), |s| s.to_string_lossy().into());
         for &backend in &args.backend {
-            let render = |accel: AccelKind, count: bool| -> anyhow::Result<Rendered> {
+            let render = |accel: Accel, count: bool| -> anyhow::Result<Rendered> {
                 let opts = RenderOptions {
                     sampling: args.sampling.into(),
                     max_depth: args.max_depth,
@@ -254,7 +254,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             // (on an adapter without timestamps the time is the trace time, compilation
             // included).
             let mut stats: Vec<Stats> = Vec::new();
-            for accel in args.accel.iter().map(|&a| AccelKind::from(a)) {
+            for accel in args.accel.iter().map(|&a| Accel::from(a)) {
                 stats.push(render(accel, true)?.stats);
                 render(accel, false)?;
             }

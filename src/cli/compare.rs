@@ -8,7 +8,7 @@ use clap::Args;
 
 use cuberay::compare::compare;
 use cuberay::gpu::GpuRenderer;
-use cuberay::job::{AccelKind, RenderOptions};
+use cuberay::job::{Accel, RenderOptions};
 use cuberay::output;
 use cuberay::reference;
 
@@ -67,10 +67,14 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
         .with_context(|| format!("cannot render {} on the GPU", scene_name.display()))?;
     progress.finish_and_clear();
     let progress = progress_bar("CPU");
-    // The yardstick stays independent of the tables: `--accel cube` compares the
-    // GPU's tables against the reference's automatic choice (brute force or its BVH).
-    let tables = opts.accel == AccelKind::Cube;
-    let cpu_opts = RenderOptions { accel: if tables { AccelKind::Auto } else { opts.accel }, ..opts.clone() };
+    // The yardstick stays independent: the GPU's tables and ray queries are compared against
+    // the reference's own choice (brute force or its BVH), which every accelerator's image
+    // equals; `bvh` and `brute` name accelerators the reference has too.
+    let own = match opts.accel {
+        Accel::Bvh | Accel::Brute => opts.accel,
+        Accel::Auto | Accel::Cube | Accel::RayQuery => Accel::Auto,
+    };
+    let cpu_opts = RenderOptions { accel: own, ..opts.clone() };
     let c = reference::render(scene, &cpu_opts, &progress)
         .with_context(|| format!("cannot render {}", scene_name.display()))?;
     progress.finish_and_clear();

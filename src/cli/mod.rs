@@ -146,7 +146,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Info { scene, json, camera, tables, scene_args } => {
             let loaded = load_scene(&scene, camera, None, &scene_args.setup())?;
-            let info = SceneInfo::of(&loaded.scene);
+            let info = scene_info(&loaded.scene)?;
             let stats = match tables {
                 true => Some(cuberay::coherence::TableStats::of(&cuberay::coherence::build(
                     &loaded.scene,
@@ -176,6 +176,31 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Bench(args) => bench::run(args),
         Command::Accuracy(args) => accuracy::run(args),
     }
+}
+
+/// What `info` says of `scene`: what it holds, and what a render of it at its default size
+/// resolves on the adapter a render would open (without one, the choices that depend on it
+/// stay `auto`, and the summary says that no adapter was found).
+fn scene_info(scene: &cuberay::scene::Scene) -> anyhow::Result<SceneInfo> {
+    let (w, h) = scene.resolution.unwrap_or_else(|| scene.camera.default_resolution());
+    let opts = cuberay::job::RenderOptions::new(w, h);
+    let ctx = cuberay::gpu::GpuContext::new().map_err(|e| log::info!("info without an adapter: {e}")).ok();
+    let caps = ctx.as_ref().map(|c| c.capabilities());
+    // Where the adapter refuses what the scene asks for (f64 on an adapter without it), the
+    // choices are shown as made without it, and the refusal is said.
+    let resolved = cuberay::gpu::choose(scene, &opts, caps.as_ref());
+    let refusal = match (cuberay::gpu::check(scene, &opts), &resolved) {
+        (Err(e), _) => Some(e.to_string()),
+        (Ok(()), Err(e)) => Some(e.to_string()),
+        (Ok(()), Ok(_)) => None,
+    };
+    let resolved = match resolved {
+        Ok(r) => r,
+        Err(_) => cuberay::gpu::choose(scene, &opts, None)?,
+    };
+    let mut info = SceneInfo::of(scene, &resolved, caps.map(|c| c.adapter));
+    info.gpu_refuses = refusal;
+    Ok(info)
 }
 
 /// Loads a scene, sets it up as the command line says (camera, environment), and reports the

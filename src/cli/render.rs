@@ -8,6 +8,7 @@ use anyhow::{bail, Context};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 
+use cuberay::gpu::prepare::{build_params, Purpose};
 use cuberay::gpu::GpuRenderer;
 use cuberay::job::{Region, RenderOptions};
 use cuberay::load::{self, Loaded};
@@ -371,8 +372,10 @@ fn render_one(
             bail!("--tables holds tables for the GPU backend; the CPU reference builds its own")
         }
         (Some(path), Some(_)) => {
-            let params = GpuRenderer::build_params(scene, &opts, args.aov.is_some())
-                .context("--tables: this render traces no tables (--accel brute)")?;
+            let purpose = args.aov.map_or(Purpose::Render, |a| Purpose::Aov(a.into()));
+            let params = build_params(scene, &opts, purpose)?.with_context(|| {
+                format!("--tables: this render traces no tables (--accel {})", opts.accel.name())
+            })?;
             Some(tablefile::read(path, &tablefile::key(scene, &params))?)
         }
     };

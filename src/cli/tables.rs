@@ -9,7 +9,7 @@ use clap::Args;
 
 use super::args::AovArg;
 use cuberay::coherence::{self, TableStats};
-use cuberay::gpu::GpuRenderer;
+use cuberay::gpu::prepare::{build_params, Purpose};
 use cuberay::tablefile;
 
 use super::render::TraceArgs;
@@ -44,8 +44,10 @@ pub fn run(args: TablesArgs) -> anyhow::Result<()> {
     let time = args.frame.map(|f| f as f64 / args.fps);
     let (scene_name, loaded, opts) = args.trace.load_at(&args.scene, time)?;
     let scene = &loaded.scene;
-    let params = GpuRenderer::build_params(scene, &opts, args.aov.is_some())
-        .context("--accel brute traces no tables: there is nothing to build")?;
+    let purpose = args.aov.map_or(Purpose::Render, |a| Purpose::Aov(a.into()));
+    let params = build_params(scene, &opts, purpose)?.with_context(|| {
+        format!("--accel {} traces no tables: there is nothing to build", opts.accel.name())
+    })?;
     let t = coherence::build(scene, &params)
         .with_context(|| format!("cannot build the tables of {}", scene_name.display()))?;
     let key = tablefile::key(scene, &params);

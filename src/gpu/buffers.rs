@@ -51,12 +51,6 @@ pub struct SceneBuffers {
 }
 
 impl SceneBuffers {
-    /// Sets the queues' sizes in `params` (the kernels read them from there).
-    pub fn size_queues(&self, params: &mut Params) {
-        params.ray_queue = self.ray_queue;
-        params.shadow_queue = self.shadow_queue;
-    }
-
     /// Writes the eye-dependent parts of `packed` (the same scene re-centred on another eye,
     /// with its BVH) into these buffers, when they were made for a BVH at least as large:
     /// a camera move then allocates nothing (new buffers of a tile's queues cost their
@@ -246,35 +240,53 @@ pub fn check_limits(buffers: &[(&str, u64)], limits: &wgpu::Limits) -> Result<()
 }
 
 /// The largest tile of at most `tile` points (a multiple of the workgroup) whose per-point
-/// buffers (`per_point` bytes a point) stay within the adapter's limits: a large image is
-/// split into more tiles rather than refused. At least one workgroup (which
+/// buffers (`per_point` bytes a point) stay within one binding of `max_binding` bytes: a
+/// large image is split into more tiles rather than refused. At least one workgroup (which
 /// [`check_limits`] then refuses on an adapter too small even for that).
-pub fn fit_tile(tile: u64, per_point: u64, limits: &wgpu::Limits) -> u64 {
+pub fn fit_tile(tile: u64, per_point: u64, max_binding: u64) -> u64 {
     let group = WORKGROUP as u64;
-    let max = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
-    tile.min((max / per_point / group * group).max(group))
+    tile.min((max_binding / per_point / group * group).max(group))
+}
+
+/// The sizes of a render's per-tile buffers: the grid points a tile holds, the jobs each ray
+/// queue and each shadow queue holds, and the bytes of all the queues.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BufferSizes {
+    pub tile: u64,
+    pub ray_queue: u32,
+    pub shadow_queue: u32,
+    pub jobs_bytes: u64,
+    /// Whether the buffers hold the wavefront's queues (else the `aov` kernel's buffers).
+    pub wavefront: bool,
+}
+
+impl BufferSizes {
+    /// The sizes for tiles of up to `tile` points, with the wavefront's queues of `queues`
+    /// per point (`None`: the `aov` kernel's buffers) of jobs of `job_bytes`, on an adapter
+    /// whose bindings hold `max_binding` bytes (fewer points where it calls for it).
+    pub fn fit(tile: u64, queues: Option<QueueSizes>, job_bytes: u64, max_binding: u64) -> BufferSizes {
+        let per_point = queues.map_or(16, |q| (q.jobs_per_point() * job_bytes).max(24));
+        let tile = fit_tile(tile, per_point, max_binding);
+        let ray_queue = queues.map_or(0, |q| tile * q.rays_per_point as u64) as u32;
+        let shadow_queue = queues.map_or(0, |q| ray_queue as u64 * q.shadows_per_ray as u64) as u32;
+        let jobs_bytes = (QUEUE_SHADOW as u64 * ray_queue as u64 + 3 * shadow_queue as u64) * job_bytes;
+        BufferSizes { tile, ray_queue, shadow_queue, jobs_bytes, wavefront: queues.is_some() }
+    }
 }
 
 /// Uploads `packed` (with its BVH, if any, and the candidate tables, when traced) and creates the kernels'
-/// buffers for tiles of up to `tile` grid points (`queues`: with the wavefront's queues,
-/// for a render; fewer points when the adapter's limits call for it: the buffers' `tile` says
-/// how many). A buffer over the adapter's limits is refused before anything is
-/// created, and a failed allocation is an error, not a lost device.
+/// buffers of `sizes` ([`BufferSizes::fit`]). A buffer over the adapter's limits is refused
+/// before anything is created, and a failed allocation is an error, not a lost device.
 pub fn upload(
     ctx: &GpuContext,
     layout: &wgpu::BindGroupLayout,
     packed: &Packed,
     tables: Option<&FlatTables>,
-    tile: u64,
-    queues: Option<QueueSizes>,
+    sizes: BufferSizes,
 ) -> Result<SceneBuffers> {
     let device = &ctx.device;
     let job_bytes = packed.job_bytes();
-    let per_point = queues.map_or(16, |q| (q.jobs_per_point() * job_bytes).max(24));
-    let tile = fit_tile(tile, per_point, &device.limits());
-    let ray_queue = queues.map_or(0, |q| tile * q.rays_per_point as u64) as u32;
-    let shadow_queue = queues.map_or(0, |q| ray_queue as u64 * q.shadows_per_ray as u64) as u32;
-    let jobs_bytes = (QUEUE_SHADOW as u64 * ray_queue as u64 + 3 * shadow_queue as u64) * job_bytes;
+    let BufferSizes { tile, ray_queue, shadow_queue, jobs_bytes, wavefront } = sizes;
     let size = |bytes: usize| bytes as u64;
     let mut sizes = vec![
         ("prims", size(packed.prim_bytes().len())),
@@ -376,7 +388,7 @@ pub fn upload(
     });
     let accum = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("radiance sums"),
-        size: if queues.is_some() { tile * 24 } else { 24 },
+        size: if wavefront { tile * 24 } else { 24 },
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
@@ -464,10 +476,11 @@ mod tests {
     fn tiles_shrink_to_the_limits_in_whole_workgroups() {
         let limits =
             wgpu::Limits { max_storage_buffer_binding_size: 1000 * 64 + 5, ..wgpu::Limits::default() };
-        assert_eq!(fit_tile(4096, 1000, &limits), 64);
-        assert_eq!(fit_tile(32, 1000, &limits), 32);
+        let max = limits.max_storage_buffer_binding_size;
+        assert_eq!(fit_tile(4096, 1000, max), 64);
+        assert_eq!(fit_tile(32, 1000, max), 32);
         let small = wgpu::Limits { max_storage_buffer_binding_size: 10, ..limits };
-        assert_eq!(fit_tile(4096, 1000, &small), WORKGROUP as u64);
+        assert_eq!(fit_tile(4096, 1000, 10), WORKGROUP as u64);
         assert!(check_limits(&[("ray queues", WORKGROUP as u64 * 1000)], &small).is_err());
     }
 }

@@ -120,6 +120,18 @@ fn gpu_call(what: &'static str, e: impl std::error::Error + Send + Sync + 'stati
 }
 
 impl GpuContext {
+    /// What this adapter offers that a render's choices depend on.
+    pub fn capabilities(&self) -> super::Capabilities {
+        let limits = self.device.limits();
+        super::Capabilities {
+            adapter: format!("{} ({})", self.info.name, self.info.driver_info),
+            lavapipe: self.is_lavapipe(),
+            ray_queries: self.ray_queries,
+            f64: self.f64,
+            max_binding: limits.max_storage_buffer_binding_size.min(limits.max_buffer_size),
+        }
+    }
+
     /// Whether the adapter is Mesa's lavapipe (llvmpipe), whose loop limit the kernels keep to.
     pub fn is_lavapipe(&self) -> bool {
         self.info.name.to_lowercase().contains("llvmpipe")

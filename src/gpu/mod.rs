@@ -1,5 +1,6 @@
 //! The GPU side, the only part of cuberay that uses wgpu (with the preview's window): device
-//! setup ([`GpuContext`]), the WGSL kernels composed per effect set ([`shaders`]) and compiled
+//! setup ([`GpuContext`]), the one preparation of a render without a device ([`prepare`]),
+//! the WGSL kernels composed per effect set ([`shaders`]) and compiled
 //! ([`kernels`]), the scene's buffers ([`buffers`]), the passes of a wave ([`plan`], plain
 //! data), the one dispatch schedule that `render` and the preview share ([`schedule`]), and
 //! the renderer ([`GpuRenderer`]). The structs and
@@ -9,15 +10,13 @@ pub mod buffers;
 mod context;
 pub mod kernels;
 pub mod plan;
+pub mod prepare;
 mod render;
 pub mod schedule;
-mod setup;
 pub mod shaders;
 mod variant;
 
 pub use buffers::SceneBuffers;
 pub use context::GpuContext;
+pub use prepare::{check, choose, prepare, resolve, Capabilities, Prepared, Purpose, F32_REACH};
 pub use render::GpuRenderer;
-pub use setup::{
-    add_surface_walk, check, check_f64, point_at, queue_sizes, uses_tables, walk_bounds, F32_REACH,
-};

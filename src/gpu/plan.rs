@@ -44,10 +44,10 @@ impl WavePlan {
     /// surfaces) traces past the eye's depth: the passes of an empty depth still cost
     /// lavapipe about 50 µs each, and at depth 5 they took 13–15 % of tetra_s6's kernel time.
     pub fn new(variant: Variant, max_depth: u32, retries: u32) -> WavePlan {
-        let spawns = variant.reflection || variant.refraction || variant.blend;
+        let spawns = variant.effects.reflection || variant.effects.refraction || variant.effects.blend;
         WavePlan {
             max_depth: if spawns { max_depth } else { max_depth.min(1) },
-            shadows: variant.shadows,
+            shadows: variant.effects.shadows,
             retries,
         }
     }
@@ -118,6 +118,7 @@ impl WavePlan {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::Effects;
 
     /// Each queue a pass reads was emptied before the pass that fills it and is read only
     /// after: following the passes, every read finds a queue some earlier pass wrote into
@@ -177,11 +178,14 @@ mod tests {
     /// Only hits that spawn rays (mirrors, glass) need the depths past the eye's.
     #[test]
     fn a_plan_traces_past_the_eye_only_where_hits_spawn_rays() {
-        let matte = Variant { shadows: true, ..Variant::default() };
+        let lit = Effects { shadows: true, ..Effects::default() };
+        let matte = Variant { effects: lit, ..Variant::default() };
         let plan = WavePlan::new(matte, 5, 2);
         assert_eq!(plan, WavePlan { max_depth: 1, shadows: true, retries: 2 });
         assert!(plan.passes(0).iter().all(|p| p.desc.next == NO_QUEUE || p.kernel == Kernel::Shade));
-        for v in [Variant { reflection: true, ..matte }, Variant { refraction: true, ..matte }] {
+        let mirror = Effects { reflection: true, ..lit };
+        let glass = Effects { refraction: true, ..lit };
+        for v in [Variant { effects: mirror, ..matte }, Variant { effects: glass, ..matte }] {
             assert_eq!(WavePlan::new(v, 5, 2).max_depth, 5, "{v:?}");
         }
         assert_eq!(WavePlan::new(matte, 0, 0).max_depth, 0);

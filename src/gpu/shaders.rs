@@ -15,7 +15,7 @@
 //! (rays leave surfaces: reflection, refraction and pass-through rays, shadow rays towards a
 //! directional light; the BVH or ray queries take them), `BVH_SHADOWS` (shadow rays take
 //! that walk too), `SURFACE_RQ` (with the tables, ray queries take them),
-//! `COUNTERS` (the statistics counters), and `TABLES`, `BVH`, `BRUTE` and `RAYQUERY`,
+//! `COUNTERS` (the statistics counters), and `CUBE`, `BVH`, `BRUTE` and `RAYQUERY`,
 //! of which exactly one is set: the walk `shared/query.wgsl`'s queries go over, the
 //! candidate tables' of `shared/walk.wgsl`, the BVH's of `shared/bvh.wgsl`, brute force's
 //! of `shared/brute.wgsl` or the platform's ray queries of `shared/rayquery.wgsl`. The table
@@ -24,7 +24,7 @@
 //! A scene without mirrors thus gets a module with no reflection code at all, not a branch
 //! that is never taken.
 
-pub use super::variant::{Queries, Variant};
+pub use super::variant::{Accel, Variant};
 use crate::error::{Error, Result};
 
 /// The shader sources, by their path under `shaders/`.
@@ -93,14 +93,14 @@ impl Kernel {
     pub fn wavefront(variant: Variant) -> Vec<Stage> {
         let all = |kernel| Stage { kernel, depths: Depths::All };
         let mut k = Vec::new();
-        if variant.tables() && variant.surface_rays {
+        if variant.cube() && variant.surface_rays {
             k.push(Stage { kernel: Kernel::Nearest, depths: Depths::Eye });
             k.push(Stage { kernel: Kernel::Nearest, depths: Depths::Later });
         } else {
             k.push(all(Kernel::Nearest));
         }
         k.push(all(Kernel::Shade));
-        if variant.shadows {
+        if variant.effects.shadows {
             k.push(all(Kernel::Shadow));
         }
         k.push(all(Kernel::Resolve));
@@ -165,8 +165,8 @@ impl Stage {
             Depths::All => self.kernel.variant_of(variant),
             Depths::Eye => variant.with_surface_rays(false),
             Depths::Later => {
-                let queries = if variant.surface_rq { Queries::RayQuery } else { Queries::Bvh };
-                Variant { queries, surface_rays: true, ..variant }
+                let accel = if variant.surface_rq { Accel::RayQuery } else { Accel::Bvh };
+                Variant { accel, surface_rays: true, ..variant }
             }
         }
     }
@@ -264,7 +264,7 @@ mod tests {
 
     #[test]
     fn flags_select_lines() {
-        let all = compose(Kernel::Shade, Variant::full(Queries::Tables)).unwrap();
+        let all = compose(Kernel::Shade, Variant::full(Accel::Cube)).unwrap();
         let none = compose(Kernel::Shade, Variant::default()).unwrap();
         assert!(all.contains("fn reflect_dir") && all.contains("fn refract_dir"));
         assert!(!none.contains("fn reflect_dir") && !none.contains("fn refract_dir"));
@@ -277,7 +277,10 @@ mod tests {
             ("a", "top\n#if SHADOWS\ns\n#if TEXTURES\nst\n#else\ns-no-t\n#endif\n#else\nno-s\n#endif\n#include \"b\"\n#include \"b\""),
             ("b", "bee"),
         ];
-        let v = Variant { shadows: true, ..Variant::default() };
+        let v = Variant {
+            effects: crate::scene::Effects { shadows: true, ..Default::default() },
+            ..Variant::default()
+        };
         assert_eq!(compose_from(&src, "a", v).unwrap(), "top\ns\ns-no-t\nbee\n");
         assert_eq!(compose_from(&src, "a", Variant::default()).unwrap(), "top\nno-s\nbee\n");
     }

@@ -1,65 +1,22 @@
 //! What one compiled kernel module contains ([`Variant`]): the effects it simulates, the
-//! queries it traces rays with ([`Queries`]), its precision, the kinds of primitive it
+//! accelerator it traces rays with ([`Accel`]), its precision, the kinds of primitive it
 //! intersects, whether rays leave surfaces and which walk takes them, and whether it counts.
-//! Each field is a flag of `gpu::shaders`' preprocessor ([`Variant::flag`]); the render
-//! derives the variant from the scene and the options (`gpu::setup`), the tests compile
-//! [`Variant::all`].
+//! Each field is a flag of `gpu::shaders`' preprocessor ([`Variant::flag`]); a render
+//! derives its variant from the scene and the options in one place
+//! ([`super::prepare::variant`]), the tests compile [`Variant::all`].
 
+pub use crate::job::Accel;
 use crate::scene::{Effects, Shapes};
 
-/// Which queries a kernel traces rays with.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
-pub enum Queries {
-    /// The direction-cube candidate tables (`--accel cube`, the default).
-    #[default]
-    Tables,
-    /// Every primitive for every ray (`--accel brute`).
-    Brute,
-    /// The bounding volume hierarchy (`--accel bvh`), the baseline the tables are timed against.
-    Bvh,
-    /// The platform's ray queries over one structure of a box per primitive
-    /// (`--accel rayquery`; `shaders/shared/rayquery.wgsl`): the driver culls, the kernels
-    /// test the candidates it hands them.
-    RayQuery,
-}
-
-impl Queries {
-    pub const ALL: [Queries; 4] = [Queries::Tables, Queries::Bvh, Queries::Brute, Queries::RayQuery];
-
-    /// The `--accel` name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Queries::Tables => "cube",
-            Queries::Bvh => "bvh",
-            Queries::Brute => "brute",
-            Queries::RayQuery => "rayquery",
-        }
-    }
-}
-
 /// The code paths one compiled module contains.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Variant {
-    pub shadows: bool,
-    pub reflection: bool,
-    pub refraction: bool,
-    pub textures: bool,
-    pub emission: bool,
-    /// Triangles carry vertex colours that multiply the base colour (`VERTEX_COLORS`).
-    pub vertex_colors: bool,
-    /// Materials evaluate metallic-roughness, emissive and transmission maps per hit (`MAPS`).
-    pub maps: bool,
-    /// Materials bend shading normals with normal maps (`NORMAL_MAPS`).
-    pub normal_maps: bool,
-    /// Every walk tests alpha at hits of masked materials (`ALPHA`).
-    pub alpha: bool,
-    /// Hits of blended materials spawn pass-through rays, and shadow walks test alpha at
-    /// them (`BLEND`).
-    pub blend: bool,
-    /// Rays that leave the scene look up the environment map (`ENVIRONMENT`).
-    pub environment: bool,
-    /// How the kernels find candidates: the tables, the BVH, brute force or ray queries.
-    pub queries: Queries,
+    /// The effects the module simulates (`SHADOWS`, `REFLECTION`, ... `ENVIRONMENT`): what
+    /// its tables must serve.
+    pub effects: Effects,
+    /// How the kernels find candidates: the tables, the BVH, brute force or ray queries
+    /// (never [`Accel::Auto`]: a render resolves it first).
+    pub accel: Accel,
     /// Intersection tests and hit points in f64 (`--precision f64`; `SHADER_F64`).
     pub f64: bool,
     /// The kinds of primitive whose intersection and surface code the module holds (default:
@@ -82,13 +39,30 @@ pub struct Variant {
     pub bvh_shadows: bool,
     /// With the tables, whether the rays leaving surfaces take the platform's ray queries
     /// (`SURFACE_RQ`) instead of the BVH walk: the default where the adapter offers them and
-    /// its measurements favour them (`gpu::setup::resolve_surface`).
+    /// its measurements favour them (`gpu::prepare::resolve`).
     pub surface_rq: bool,
     /// Whether the kernels count rays and tests into the statistics counters (`COUNTERS`).
     /// On lavapipe counting costs a kernel 5–22 % of its time (a private array indexed per
     /// lane at every test, workgroup atomics at the end), so a render counts only when asked
     /// to (`RenderOptions::count`); uncounted, its counts are zero.
     pub counters: bool,
+}
+
+impl Default for Variant {
+    /// No effect, the tables, f32, every kind of primitive, uncounted: the variant of the
+    /// kernels that trace nothing.
+    fn default() -> Variant {
+        Variant {
+            effects: Effects::default(),
+            accel: Accel::Cube,
+            f64: false,
+            shapes: Shapes::ALL,
+            surface_rays: false,
+            bvh_shadows: false,
+            surface_rq: false,
+            counters: false,
+        }
+    }
 }
 
 impl Variant {
@@ -98,18 +72,8 @@ impl Variant {
         let secondary = max_depth >= 2;
         let reflection = e.reflection && secondary;
         Variant {
-            shadows: e.shadows,
-            reflection,
-            refraction: e.refraction && secondary,
-            textures: e.textures,
-            emission: e.emission,
-            vertex_colors: e.vertex_colors,
-            maps: e.maps,
-            normal_maps: e.normal_maps,
-            alpha: e.alpha,
-            blend: e.blend,
-            environment: e.environment,
-            queries: Queries::Tables,
+            effects: Effects { reflection, refraction: e.refraction && secondary, ..e },
+            accel: Accel::Cube,
             f64: false,
             shapes: Shapes::ALL,
             surface_rays: reflection || e.shadows || (e.blend && secondary),
@@ -128,7 +92,7 @@ impl Variant {
     /// structure and needs `EXPERIMENTAL_RAY_QUERY`): `--accel rayquery`, or the tables with
     /// rays leaving surfaces sent to ray queries.
     pub fn ray_queries(&self) -> bool {
-        self.queries == Queries::RayQuery || (self.tables() && self.surface_rays && self.surface_rq)
+        self.accel == Accel::RayQuery || (self.cube() && self.surface_rays && self.surface_rq)
     }
 
     /// The same effects for a scene of `shapes` only.
@@ -158,34 +122,17 @@ impl Variant {
         Variant { f64, ..self }
     }
 
-    /// The same effects traced with `queries`.
-    pub fn with_queries(self, queries: Queries) -> Variant {
-        Variant { queries, ..self }
+    /// The same effects traced with `accel`.
+    pub fn with_accel(self, accel: Accel) -> Variant {
+        Variant { accel, ..self }
     }
 
-    /// Whether the kernels walk the candidate tables.
-    pub fn tables(&self) -> bool {
-        self.queries == Queries::Tables
+    /// Whether the kernels walk the direction-cube tables.
+    pub fn cube(&self) -> bool {
+        self.accel == Accel::Cube
     }
 
-    /// The effects the kernels simulate (what their tables must serve).
-    pub fn effects(&self) -> Effects {
-        Effects {
-            shadows: self.shadows,
-            reflection: self.reflection,
-            refraction: self.refraction,
-            textures: self.textures,
-            emission: self.emission,
-            vertex_colors: self.vertex_colors,
-            maps: self.maps,
-            normal_maps: self.normal_maps,
-            alpha: self.alpha,
-            blend: self.blend,
-            environment: self.environment,
-        }
-    }
-
-    /// The variants the tests compile: the 32 effect sets for each of [`Queries::ALL`], in f32
+    /// The variants the tests compile: the 32 effect sets for each of [`Accel::GPU`], in f32
     /// and in f64, with every kind of primitive (192, the effect sets in the order of their
     /// bits, the last of each 32 with every effect), then every other set of kinds (none
     /// included: a scene may hold no primitive) with every effect (42), then shadows without
@@ -197,21 +144,19 @@ impl Variant {
     /// and on in the rest (each further effect is compiled on and off against a
     /// representative rest, not in the full product).
     pub fn all() -> Vec<Variant> {
-        let effects = [false, true].into_iter().flat_map(|f64| {
-            Queries::ALL.into_iter().flat_map(move |queries| {
+        let none = Effects::default();
+        let effects = [false, true].into_iter().flat_map(move |f64| {
+            Accel::GPU.into_iter().flat_map(move |accel| {
                 (0..32u32).map(move |b| Variant {
-                    shadows: b & 1 != 0,
-                    reflection: b & 2 != 0,
-                    refraction: b & 4 != 0,
-                    textures: b & 8 != 0,
-                    emission: b & 16 != 0,
-                    vertex_colors: false,
-                    maps: false,
-                    normal_maps: false,
-                    alpha: false,
-                    blend: false,
-                    environment: false,
-                    queries,
+                    effects: Effects {
+                        shadows: b & 1 != 0,
+                        reflection: b & 2 != 0,
+                        refraction: b & 4 != 0,
+                        textures: b & 8 != 0,
+                        emission: b & 16 != 0,
+                        ..none
+                    },
+                    accel,
                     f64,
                     shapes: Shapes::ALL,
                     surface_rays: b & 3 != 0,
@@ -222,86 +167,91 @@ impl Variant {
             })
         });
         let shapes = [false, true].into_iter().flat_map(|f64| {
-            Queries::ALL.into_iter().flat_map(move |queries| {
+            Accel::GPU.into_iter().flat_map(move |accel| {
                 (0..7u32).map(move |b| {
                     let shapes = Shapes { spheres: b & 1 != 0, triangles: b & 2 != 0, cylinders: b & 4 != 0 };
-                    Variant { f64, shapes, ..Variant::full(queries) }
+                    Variant { f64, shapes, ..Variant::full(accel) }
                 })
             })
         });
-        let point_lit = [false, true].into_iter().flat_map(|f64| {
-            Queries::ALL.into_iter().flat_map(move |queries| {
+        let point_lit = [false, true].into_iter().flat_map(move |f64| {
+            Accel::GPU.into_iter().flat_map(move |accel| {
                 [false, true].map(move |more| Variant {
-                    shadows: true,
-                    textures: more,
-                    emission: more,
-                    vertex_colors: more,
-                    maps: more,
-                    normal_maps: more,
-                    alpha: more,
-                    blend: more,
-                    queries,
+                    effects: Effects {
+                        shadows: true,
+                        textures: more,
+                        emission: more,
+                        vertex_colors: more,
+                        maps: more,
+                        normal_maps: more,
+                        alpha: more,
+                        blend: more,
+                        ..none
+                    },
+                    accel,
                     f64,
-                    shapes: Shapes::ALL,
                     counters: true,
                     ..Variant::default()
                 })
             })
         });
         let uncounted = [false, true].into_iter().flat_map(|f64| {
-            Queries::ALL
+            Accel::GPU
                 .into_iter()
-                .map(move |queries| Variant { f64, ..Variant::full(queries) }.with_counters(false))
+                .map(move |accel| Variant { f64, ..Variant::full(accel) }.with_counters(false))
         });
         // The map effects apart: maps, normal maps, a mask alone, a blend alone (which needs
         // no texture), so that none leans on another's code.
-        let apart = [false, true].into_iter().flat_map(|f64| {
-            Queries::ALL.into_iter().flat_map(move |queries| {
-                let base = Variant { shadows: true, reflection: true, queries, f64, ..Variant::default() };
+        let apart = [false, true].into_iter().flat_map(move |f64| {
+            Accel::GPU.into_iter().flat_map(move |accel| {
+                let lit = Effects { shadows: true, reflection: true, ..none };
+                let base = Variant { effects: lit, accel, f64, ..Variant::default() };
+                let with = |effects: Effects| Variant { effects, ..base };
                 [
-                    Variant { textures: true, maps: true, ..base },
-                    Variant { textures: true, normal_maps: true, ..base },
-                    Variant { textures: true, alpha: true, ..base },
-                    Variant { blend: true, surface_rays: true, ..base },
+                    with(Effects { textures: true, maps: true, ..lit }),
+                    with(Effects { textures: true, normal_maps: true, ..lit }),
+                    with(Effects { textures: true, alpha: true, ..lit }),
+                    Variant { surface_rays: true, ..with(Effects { blend: true, ..lit }) },
                     Variant { surface_rays: true, bvh_shadows: false, ..base },
-                    Variant { environment: true, ..base },
+                    with(Effects { environment: true, ..lit }),
                 ]
             })
         });
         // The tables with rays leaving surfaces sent to ray queries: every effect, without
         // directional lights' shadows, without mirrors or glass, uncounted.
         let surface_rq = [false, true].into_iter().flat_map(|f64| {
-            let full = Variant { f64, ..Variant::full(Queries::Tables) }.with_surface_rq(true);
+            let full = Variant { f64, ..Variant::full(Accel::Cube) }.with_surface_rq(true);
+            let dry = Effects { reflection: false, refraction: false, ..full.effects };
             [
                 full,
                 Variant { bvh_shadows: false, ..full },
-                Variant { reflection: false, refraction: false, ..full },
+                Variant { effects: dry, ..full },
                 full.with_counters(false),
             ]
         });
         effects.chain(shapes).chain(point_lit).chain(uncounted).chain(apart).chain(surface_rq).collect()
     }
 
-    /// Every effect with `queries`.
-    pub fn full(queries: Queries) -> Variant {
-        Variant { queries, ..Variant::for_effects(Effects::ALL, crate::layout::MAX_DEPTH) }
+    /// Every effect with `accel`.
+    pub fn full(accel: Accel) -> Variant {
+        Variant { accel, ..Variant::for_effects(Effects::ALL, crate::layout::MAX_DEPTH) }
     }
 
     pub(super) fn flag(&self, name: &str) -> Option<bool> {
         Some(match name {
-            "SHADOWS" => self.shadows,
-            "REFLECTION" => self.reflection,
-            "REFRACTION" => self.refraction,
-            "TEXTURES" => self.textures,
-            "EMISSION" => self.emission,
-            "VERTEX_COLORS" => self.vertex_colors,
-            "MAPS" => self.maps,
-            "NORMAL_MAPS" => self.normal_maps,
-            "ALPHA" => self.alpha,
-            "BLEND" => self.blend,
-            "ENVIRONMENT" => self.environment,
+            "SHADOWS" => self.effects.shadows,
+            "REFLECTION" => self.effects.reflection,
+            "REFRACTION" => self.effects.refraction,
+            "TEXTURES" => self.effects.textures,
+            "EMISSION" => self.effects.emission,
+            "VERTEX_COLORS" => self.effects.vertex_colors,
+            "MAPS" => self.effects.maps,
+            "NORMAL_MAPS" => self.effects.normal_maps,
+            "ALPHA" => self.effects.alpha,
+            "BLEND" => self.effects.blend,
+            "ENVIRONMENT" => self.effects.environment,
             // Shadow walks test alpha: masked or blended materials.
-            "CUTOUTS" => self.alpha || self.blend,
+            "CUTOUTS" => self.effects.alpha || self.effects.blend,
             "F64" => self.f64,
             "SPHERES" => self.shapes.spheres,
             "TRIANGLES" => self.shapes.triangles,
@@ -312,28 +262,28 @@ impl Variant {
             // Shadow rays take the walk of rays leaving surfaces: all of them with the BVH,
             // with the tables those towards directional lights (the BVH's walk or, with
             // SURFACE_RQ, ray queries).
-            "BVH_SHADOWS" => match self.queries {
-                Queries::Bvh => true,
-                Queries::Tables => self.surface_rays && self.bvh_shadows,
-                Queries::Brute | Queries::RayQuery => false,
+            "BVH_SHADOWS" => match self.accel {
+                Accel::Bvh => true,
+                Accel::Cube => self.surface_rays && self.bvh_shadows,
+                Accel::Auto | Accel::Brute | Accel::RayQuery => false,
             },
             "COUNTERS" => self.counters,
-            "TABLES" => self.queries == Queries::Tables,
-            "BVH" => self.queries == Queries::Bvh,
-            "BRUTE" => self.queries == Queries::Brute,
-            "RAYQUERY" => self.queries == Queries::RayQuery,
+            "CUBE" => self.accel == Accel::Cube,
+            "BVH" => self.accel == Accel::Bvh,
+            "BRUTE" => self.accel == Accel::Brute,
+            "RAYQUERY" => self.accel == Accel::RayQuery,
             // The tables send rays leaving surfaces to ray queries, not the BVH.
-            "SURFACE_RQ" => self.tables() && self.surface_rays && self.surface_rq,
+            "SURFACE_RQ" => self.cube() && self.surface_rays && self.surface_rq,
             // The module binds the acceleration structure (rayquery.wgsl).
             "RAY_QUERIES" => self.ray_queries(),
             // Shadow rays take ray queries: all of them with `--accel rayquery`, with the
             // tables those of directional lights where rays leaving surfaces take them.
             "RQ_SHADOWS" => {
-                self.shadows
-                    && match self.queries {
-                        Queries::RayQuery => true,
-                        Queries::Tables => self.surface_rays && self.surface_rq && self.bvh_shadows,
-                        Queries::Bvh | Queries::Brute => false,
+                self.effects.shadows
+                    && match self.accel {
+                        Accel::RayQuery => true,
+                        Accel::Cube => self.surface_rays && self.surface_rq && self.bvh_shadows,
+                        Accel::Auto | Accel::Bvh | Accel::Brute => false,
                     }
             }
             _ => return None,

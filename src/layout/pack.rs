@@ -5,16 +5,13 @@
 
 use glam::{DVec2, DVec3, DVec4};
 
-use super::budget::shadow_inline;
 use super::bvh::{pack_bvh, GpuBvh};
 use super::rayquery::{rq_boxes, RqBox};
 use super::structs::*;
 use crate::arith::spawn::SpawnPolicy;
-use crate::job::RenderOptions;
-use crate::sampling::{self, Sampling};
 use crate::scene::{
-    Alpha, Environment, LightKind, Material as SceneMaterial, Primitive, Projection, Scene, Texture,
-    TextureRef, Triangle, Wrap,
+    Alpha, Environment, LightKind, Material as SceneMaterial, Primitive, Scene, Texture, TextureRef,
+    Triangle, Wrap,
 };
 
 fn v3(v: DVec3) -> [f32; 3] {
@@ -96,7 +93,7 @@ impl Packed {
             .zip(&self.prims)
             .map(|(p, n)| wide_prim(p, eye, n.attr, n.flags))
             .collect();
-        (self.params.spawn_rel, self.params.spawn_abs) = spawn.rel_abs_f64();
+        self.params.set_f64_spawn(spawn);
     }
 
     /// The primitives as the kernels read them: f64 after [`Packed::use_f64`], else f32.
@@ -120,8 +117,7 @@ impl Packed {
     /// [`Packed::with_bvh`] in place.
     pub fn add_bvh(&mut self, scene: &Scene) {
         let bvh = pack_bvh(scene);
-        self.params.bvh_node_count = bvh.nodes.len() as u32;
-        self.params.bvh_inline = super::budget::bvh_shadow_inline(scene);
+        self.params.set_bvh(bvh.nodes.len() as u32, super::budget::bvh_shadow_inline(scene));
         self.bvh = Some(bvh);
     }
 
@@ -207,35 +203,7 @@ pub fn pack_moved(scene: &Scene, width: u32, height: u32, spawn: SpawnPolicy) ->
             }
         })
         .collect();
-    let cam = &scene.camera;
-    // screen_offsets is affine in (x, y): its scale is the difference of unit steps.
-    let (x0, _) = cam.screen_offsets(0.0, 0.0, width, height);
-    let (x1, _) = cam.screen_offsets(1.0, 0.0, width, height);
-    let mut params = Params {
-        cam_forward: v3(cam.forward),
-        cam_scale: (x1 - x0) as f32,
-        cam_right: v3(cam.right),
-        half_w: width as f32 * 0.5,
-        cam_up: v3(cam.up),
-        half_h: height as f32 * 0.5,
-        background: v3(scene.background),
-        ortho: matches!(cam.projection, Projection::Orthographic { .. }) as u32,
-        ambient: v3(scene.ambient),
-        prim_count: scene.primitives.len() as u32,
-        light_count: scene.lights.len() as u32,
-        shadow_inline: shadow_inline(scene),
-        spawn_rel: spawn.rel_abs().0,
-        spawn_abs: spawn.rel_abs().1,
-        ..Params::default()
-    };
-    if let Some(env) = &scene.environment {
-        // Its texels follow the materials' textures' (`pack_textures`).
-        params.env_texture = scene.textures.len() as u32 + 1;
-        params.env_intensity = env.intensity as f32;
-        params.env_x = v3(env.front);
-        params.env_y = v3(env.up);
-        params.env_z = v3(env.side());
-    }
+    let params = Params::of_scene(scene, width, height, spawn);
     Packed {
         prims,
         prims64: Vec::new(),
@@ -419,29 +387,5 @@ impl From<&Prim64> for Prim {
             flags: p.flags,
             attr: p.attr,
         }
-    }
-}
-
-/// `base` (the scene's part of the params, from [`pack`]) with what a render job sets: the
-/// grid of eye-ray points, the sample lattice and seed, the depth, and samples `0..spp`.
-pub fn job_params(opts: &RenderOptions, base: Params) -> Params {
-    let (grid_w, grid_h) = opts.grid();
-    let win = opts.grid_region();
-    Params {
-        grid_w,
-        grid_h,
-        win_x: win.origin.0,
-        win_y: win.origin.1,
-        win_w: win.size.0,
-        own_w: win.owned.0,
-        own_h: win.owned.1,
-        spp: opts.spp,
-        lattice_g: if opts.spp > 1 { sampling::lattice_generator(opts.spp) } else { 1 },
-        seed_hash: sampling::seed_hash(opts.seed),
-        corners: (opts.sampling == Sampling::Corners) as u32,
-        max_depth: opts.max_depth,
-        sample_first: 0,
-        sample_end: opts.spp,
-        ..base
     }
 }

@@ -1,4 +1,4 @@
-//! The queries every accelerator of the reference answers ([`Accel`]), and what they share:
+//! The queries every accelerator of the reference answers ([`Intersector`]), and what they share:
 //! the ray's origin entity, the hit record, the shadow query, and the nearest-hit rule for
 //! the reference's own f64 tests (the tie rule of [`crate::arith::closest`]: ties within
 //! the error bound go to the lower primitive id, so that every accelerator gives the same
@@ -45,11 +45,11 @@ pub struct ShadowQuery {
     pub light_position: Option<DVec3>,
 }
 
-/// The largest scene [`AccelKind::Auto`](crate::job::AccelKind::Auto) traces by brute force.
+/// The largest scene [`Accel::Auto`](crate::job::Accel::Auto) traces by brute force.
 pub const AUTO_BRUTE_MAX: usize = 16;
 
 /// Nearest-hit and any-hit queries over a scene's primitives.
-pub trait Accel: Sync {
+pub trait Intersector: Sync {
     /// `brute`, `bvh`...: the name `--stats` reports.
     fn name(&self) -> &'static str;
 

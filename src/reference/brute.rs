@@ -1,7 +1,7 @@
 //! Brute force: every primitive for every ray.
 
 use super::accel::{
-    count, nearest_by_rule, test_closest, Accel, Hittable, NearestHit, OriginKey, ShadowQuery,
+    count, nearest_by_rule, test_closest, Hittable, Intersector, NearestHit, OriginKey, ShadowQuery,
 };
 use super::geometry::Ray;
 use crate::scene::Scene;
@@ -18,7 +18,7 @@ impl<'a> Brute<'a> {
     }
 }
 
-impl Accel for Brute<'_> {
+impl Intersector for Brute<'_> {
     fn name(&self) -> &'static str {
         "brute"
     }

@@ -3,7 +3,7 @@
 use glam::DVec3;
 
 use super::accel::{
-    count, nearest_by_rule, test_closest, Accel, Hittable, NearestHit, OriginKey, ShadowQuery,
+    count, nearest_by_rule, test_closest, Hittable, Intersector, NearestHit, OriginKey, ShadowQuery,
 };
 use super::geometry::Ray;
 use crate::bvh::{build, outward_box};
@@ -148,7 +148,7 @@ impl<'a> BvhAccel<'a> {
     }
 }
 
-impl Accel for BvhAccel<'_> {
+impl Intersector for BvhAccel<'_> {
     fn name(&self) -> &'static str {
         "bvh"
     }

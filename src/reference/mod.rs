@@ -2,7 +2,7 @@
 //! the coherence tables. It is the yardstick the GPU renderer is judged against.
 //!
 //! - [`geometry`]: rays, exact-as-practical primitive intersection, robust spawn offsets;
-//! - [`accel`]: the queries every accelerator answers ([`accel::Accel`]), each told the
+//! - [`accel`]: the queries every accelerator answers ([`accel::Intersector`]), each told the
 //!   ray's origin entity, and the shared nearest-hit rule;
 //! - [`brute`] and [`bvh`]: brute force, and a BVH built by the `obvhs` crate;
 //! - [`tables`]: `--accel cube`, the reference's own intersection tests in the order and
@@ -22,7 +22,7 @@ use indicatif::ProgressBar;
 use rayon::prelude::*;
 
 use crate::error::Result;
-use crate::job::{simulated_effects, AccelKind, RenderOptions, Rendered};
+use crate::job::{simulated_effects, Accel, RenderOptions, Rendered};
 use crate::output::{Aov, Image};
 use crate::sampling::{self, Sampling};
 use crate::scene::Scene;
@@ -36,7 +36,7 @@ pub mod shade;
 pub mod tables;
 pub mod texture;
 
-use accel::{Accel, AUTO_BRUTE_MAX};
+use accel::{Intersector, AUTO_BRUTE_MAX};
 use brute::Brute;
 use bvh::BvhAccel;
 use geometry::Ray;
@@ -47,16 +47,16 @@ use tables::TableAccel;
 /// `width`×`height` image.
 pub fn build_accel<'a>(
     scene: &'a Scene,
-    kind: AccelKind,
+    kind: Accel,
     width: u32,
     height: u32,
-) -> Result<Box<dyn Accel + 'a>> {
+) -> Result<Box<dyn Intersector + 'a>> {
     Ok(match kind {
-        AccelKind::Auto if scene.primitives.len() <= AUTO_BRUTE_MAX => Box::new(Brute::new(scene)),
-        AccelKind::Brute => Box::new(Brute::new(scene)),
-        AccelKind::Auto | AccelKind::Bvh => Box::new(BvhAccel::new(scene)),
-        AccelKind::Cube => Box::new(TableAccel::new(scene, width, height)?),
-        AccelKind::RayQuery => {
+        Accel::Auto if scene.primitives.len() <= AUTO_BRUTE_MAX => Box::new(Brute::new(scene)),
+        Accel::Brute => Box::new(Brute::new(scene)),
+        Accel::Auto | Accel::Bvh => Box::new(BvhAccel::new(scene)),
+        Accel::Cube => Box::new(TableAccel::new(scene, width, height)?),
+        Accel::RayQuery => {
             return Err(crate::error::Error::Options(
                 "--accel rayquery is the GPU's ray tracing; the CPU reference has none (use --accel bvh, or \
                  --backend gpu)"

@@ -40,7 +40,7 @@
 
 use glam::DVec3;
 
-use super::accel::{Accel, NearestHit, OriginKey, ShadowQuery};
+use super::accel::{Intersector, NearestHit, OriginKey, ShadowQuery};
 use super::geometry::{spawn_offset, spawn_origin, surface, Ray, SurfacePoint};
 use super::texture;
 use crate::scene::{Alpha, Light, LightKind, Scene};
@@ -120,7 +120,7 @@ pub struct FirstHit {
 /// Traces ray trees against one scene and one acceleration structure.
 pub struct Tracer<'a> {
     pub scene: &'a Scene,
-    pub accel: &'a dyn Accel,
+    pub accel: &'a dyn Intersector,
     /// Maximum ray-tree depth, the eye ray being depth 1.
     pub max_depth: u32,
 }

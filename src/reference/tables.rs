@@ -16,7 +16,7 @@
 
 use glam::Vec3;
 
-use super::accel::{count, nearest_by_rule, Accel, Hittable, NearestHit, OriginKey, ShadowQuery};
+use super::accel::{count, nearest_by_rule, Hittable, Intersector, NearestHit, OriginKey, ShadowQuery};
 use super::bvh::BvhAccel;
 use super::geometry::Ray;
 use crate::arith::closest::TestHit;
@@ -88,7 +88,7 @@ impl<'a> TableAccel<'a> {
     }
 }
 
-impl Accel for TableAccel<'_> {
+impl Intersector for TableAccel<'_> {
     fn name(&self) -> &'static str {
         "cube"
     }

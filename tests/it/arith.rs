@@ -19,7 +19,7 @@
 //! precision) breaks far more cases than that.
 
 use cuberay::arith::geometry::{make_ray, Prim32, PrimHit};
-use cuberay::gpu::shaders::{compose_root, Queries, Variant};
+use cuberay::gpu::shaders::{compose_root, Accel, Variant};
 use cuberay::gpu::GpuContext;
 use cuberay::layout::bvh::{box_ray, quantise, WideNode};
 use cuberay::layout::{Prim, KIND_CYLINDER, KIND_SPHERE, KIND_TRIANGLE};
@@ -311,7 +311,7 @@ fn cases(n: usize) -> (Vec<Shape>, Vec<Case>) {
 /// and primitive masks).
 fn on_the_gpu(shapes: &[Shape], cases: &[Case]) -> Vec<[u32; 7]> {
     let ctx = GpuContext::new().unwrap_or_else(|e| panic!("{e}"));
-    let variant = Variant { counters: false, ..Variant::full(Queries::Bvh) };
+    let variant = Variant { counters: false, ..Variant::full(Accel::Bvh) };
     let source = compose_root(KERNEL, variant).expect("the test kernel composes");
     let device = &ctx.device;
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {

@@ -5,7 +5,7 @@
 use std::f64::consts::PI;
 use std::path::Path;
 
-use cuberay::job::{AccelKind, RenderOptions, Rendered};
+use cuberay::job::{Accel, RenderOptions, Rendered};
 use cuberay::load::{self, EnvChoice, Setup};
 use cuberay::output::{Aov, Image};
 use cuberay::reference;
@@ -235,7 +235,7 @@ fn the_camera_flags_put_the_look_at_point_at_the_centre() {
         let g = renderer().render_aov(&s, &opts, Aov::Id, &hidden()).unwrap();
         let c = reference::render_aov(
             &s,
-            &RenderOptions { accel: AccelKind::Bvh, ..opts.clone() },
+            &RenderOptions { accel: Accel::Bvh, ..opts.clone() },
             Aov::Id,
             &hidden(),
         )
@@ -403,10 +403,11 @@ fn bad_environment_maps_are_refused_clearly() {
 /// The studio and map lookups exist only in kernels whose scene has an environment.
 #[test]
 fn only_a_scene_with_an_environment_compiles_its_lookup() {
-    use cuberay::gpu::shaders::{compose, Kernel, Queries, Variant};
-    let with = compose(Kernel::Nearest, Variant::full(Queries::Tables)).unwrap();
-    let without =
-        compose(Kernel::Nearest, Variant { environment: false, ..Variant::full(Queries::Tables) }).unwrap();
+    use cuberay::gpu::shaders::{compose, Accel, Kernel, Variant};
+    let with = compose(Kernel::Nearest, Variant::full(Accel::Cube)).unwrap();
+    let full = Variant::full(Accel::Cube);
+    let dark = cuberay::scene::Effects { environment: false, ..full.effects };
+    let without = compose(Kernel::Nearest, Variant { effects: dark, ..full }).unwrap();
     assert!(with.contains("fn environment(") && !without.contains("fn environment("));
     assert!(!without.contains("env_texel("));
 }

@@ -9,7 +9,7 @@ use cuberay::arith::spawn::SpawnPolicy;
 use cuberay::coherence::walk::WALK_CHUNK;
 use cuberay::compare::compare;
 use cuberay::gpu::GpuRenderer;
-use cuberay::job::{AccelKind, RenderOptions, Rendered};
+use cuberay::job::{Accel, RenderOptions, Rendered};
 use cuberay::load;
 use cuberay::output::Aov;
 use cuberay::reference;
@@ -243,11 +243,11 @@ fn brute_force_passes_within_lavapipes_loop_limit() {
         return;
     }
     let scene = spd("gears_s4");
-    let opts = RenderOptions { accel: AccelKind::Brute, ..RenderOptions::new(8, 8) };
+    let opts = RenderOptions { accel: Accel::Brute, ..RenderOptions::new(8, 8) };
     let (g, _) = agree("gears_s4 brute", &scene, &opts, 0.01);
     assert_eq!(g.stats.settings.accel, "brute");
     assert!(g.stats.tests_per_ray.eye > 36_000.0, "every primitive per eye ray: {:?}", g.stats.tests_per_ray);
-    let deep = RenderOptions { accel: AccelKind::Brute, max_depth: 16, ..RenderOptions::new(4, 4) };
+    let deep = RenderOptions { accel: Accel::Brute, max_depth: 16, ..RenderOptions::new(4, 4) };
     let (g, _) = agree("gears_s4 brute depth 16", &scene, &deep, 0.01);
     assert!(g.stats.rays.reflect + g.stats.rays.refract > 16, "{:?}", g.stats.rays);
 }
@@ -629,12 +629,12 @@ fn cylinders_scene() -> Scene {
 fn accels_match_brute_force(name: &str, scene: &Scene, w: u32, h: u32) {
     let r = renderer();
     let opts = |accel| RenderOptions { accel, ..RenderOptions::new(w, h) };
-    let accels = [(AccelKind::Cube, "cube"), (AccelKind::Bvh, "bvh")];
+    let accels = [(Accel::Cube, "cube"), (Accel::Bvh, "bvh")];
     for aov in [Aov::Id, Aov::Depth] {
         let render = |accel| {
             r.render_aov(scene, &opts(accel), aov, &hidden()).unwrap_or_else(|e| panic!("{name}: {e}"))
         };
-        let brute = render(AccelKind::Brute);
+        let brute = render(Accel::Brute);
         assert_eq!(brute.stats.settings.accel, "brute");
         for (accel, label) in accels {
             let a = render(accel);
@@ -644,7 +644,7 @@ fn accels_match_brute_force(name: &str, scene: &Scene, w: u32, h: u32) {
         }
     }
     let render = |accel| r.render(scene, &opts(accel), &hidden()).unwrap_or_else(|e| panic!("{name}: {e}"));
-    let brute = render(AccelKind::Brute);
+    let brute = render(Accel::Brute);
     let rb = brute.stats.rays;
     for (accel, label) in accels {
         let a = render(accel);
@@ -721,7 +721,7 @@ fn a_mirror_floor_agrees_with_the_cpu() {
         }
     }
     let scene = nff(&s);
-    let opts = RenderOptions { accel: AccelKind::Cube, ..RenderOptions::new(64, 48) };
+    let opts = RenderOptions { accel: Accel::Cube, ..RenderOptions::new(64, 48) };
     let (g, _) = agree("mirror floor", &scene, &opts, 0.01);
     assert_eq!(g.stats.settings.accel, "cube");
     assert!(g.stats.rays.reflect > 1000);
@@ -755,8 +755,8 @@ fn bvh_walks_longer_than_a_step_resume() {
     assert!(scene.primitives.len() > WALK_CHUNK as usize + 500);
     let r = renderer();
     let opts = |accel| RenderOptions { accel, ..RenderOptions::new(16, 16) };
-    let brute = r.render(&scene, &opts(AccelKind::Brute), &hidden()).unwrap();
-    let b = r.render(&scene, &opts(AccelKind::Bvh), &hidden()).unwrap();
+    let brute = r.render(&scene, &opts(Accel::Brute), &hidden()).unwrap();
+    let b = r.render(&scene, &opts(Accel::Bvh), &hidden()).unwrap();
     // Brute force makes every shadow ray of this scene a job (it has more primitives than
     // an inline walk may test), the BVH traces the short ones at once: the same light terms
     // are added to a pixel in another order, which may change its last bit, no more.
@@ -782,8 +782,8 @@ fn bvh_walks_longer_than_a_step_resume() {
     // and a tile runs again with more passes, its counts restored (the ray counts above).
     assert!(b.stats.time.tiles_run_again.unwrap() > 0, "{:?}", b.stats.time);
     for aov in [Aov::Id, Aov::Depth] {
-        let a = r.render_aov(&scene, &opts(AccelKind::Bvh), aov, &hidden()).unwrap();
-        let b = r.render_aov(&scene, &opts(AccelKind::Brute), aov, &hidden()).unwrap();
+        let a = r.render_aov(&scene, &opts(Accel::Bvh), aov, &hidden()).unwrap();
+        let b = r.render_aov(&scene, &opts(Accel::Brute), aov, &hidden()).unwrap();
         assert_same_pixels(&format!("long bvh walks {aov:?}"), "bvh", &a.image, &b.image);
     }
 }

@@ -20,7 +20,7 @@ use crate::common::{hard, renderer};
 use cuberay::arith::geometry::{make_ray, Prim32};
 use cuberay::arith::FAR;
 use cuberay::compare::compare;
-use cuberay::job::{AccelKind, Precision, RenderOptions, Rendered};
+use cuberay::job::{Accel, Precision, RenderOptions, Rendered};
 use cuberay::load::{self, Loaded};
 use cuberay::output::{Aov, Image};
 use cuberay::reference;
@@ -106,23 +106,23 @@ fn run(name: &str, scene: Scene, opts: RenderOptions, max_flip: f64, max_ids: us
     let cpu =
         |accel| reference::render(&scene, &with(accel), &hidden()).unwrap_or_else(|e| panic!("{name}: {e}"));
 
-    let (g_cube, g_brute) = (gpu(AccelKind::Cube), gpu(AccelKind::Brute));
+    let (g_cube, g_brute) = (gpu(Accel::Cube), gpu(Accel::Brute));
     assert_eq!(g_cube.stats.settings.accel, "cube");
     assert_identical(name, "GPU tables vs GPU brute force", &g_cube, &g_brute);
-    let g_bvh = gpu(AccelKind::Bvh);
+    let g_bvh = gpu(Accel::Bvh);
     assert_eq!(g_bvh.stats.settings.accel, "bvh");
     assert_identical(name, "GPU BVH vs GPU brute force", &g_bvh, &g_brute);
-    let (gpu_id, gpu_depth) = (gpu_aov(AccelKind::Cube, Aov::Id), gpu_aov(AccelKind::Cube, Aov::Depth));
-    let (brute_id, brute_depth) = (gpu_aov(AccelKind::Brute, Aov::Id), gpu_aov(AccelKind::Brute, Aov::Depth));
+    let (gpu_id, gpu_depth) = (gpu_aov(Accel::Cube, Aov::Id), gpu_aov(Accel::Cube, Aov::Depth));
+    let (brute_id, brute_depth) = (gpu_aov(Accel::Brute, Aov::Id), gpu_aov(Accel::Brute, Aov::Depth));
     assert_identical(name, "GPU id AOV, tables vs brute", &gpu_id, &brute_id);
     assert_identical(name, "GPU depth AOV, tables vs brute", &gpu_depth, &brute_depth);
-    assert_identical(name, "GPU id AOV, BVH vs brute", &gpu_aov(AccelKind::Bvh, Aov::Id), &brute_id);
-    assert_identical(name, "GPU depth AOV, BVH vs brute", &gpu_aov(AccelKind::Bvh, Aov::Depth), &brute_depth);
+    assert_identical(name, "GPU id AOV, BVH vs brute", &gpu_aov(Accel::Bvh, Aov::Id), &brute_id);
+    assert_identical(name, "GPU depth AOV, BVH vs brute", &gpu_aov(Accel::Bvh, Aov::Depth), &brute_depth);
 
-    let c_bvh = cpu(AccelKind::Bvh);
-    assert_identical(name, "CPU BVH vs CPU brute force", &c_bvh, &cpu(AccelKind::Brute));
-    assert_identical(name, "CPU BVH vs CPU tables order", &c_bvh, &cpu(AccelKind::Cube));
-    let cpu_id = reference::render_aov(&scene, &with(AccelKind::Bvh), Aov::Id, &hidden()).unwrap();
+    let c_bvh = cpu(Accel::Bvh);
+    assert_identical(name, "CPU BVH vs CPU brute force", &c_bvh, &cpu(Accel::Brute));
+    assert_identical(name, "CPU BVH vs CPU tables order", &c_bvh, &cpu(Accel::Cube));
+    let cpu_id = reference::render_aov(&scene, &with(Accel::Bvh), Aov::Id, &hidden()).unwrap();
 
     for (backend, img) in [("GPU", &g_cube.image), ("CPU", &c_bvh.image)] {
         assert!(img.is_finite(), "{name}: a non-finite {backend} pixel");

@@ -115,7 +115,7 @@ fn the_hard_cases_that_f32_gets_wrong_switch_and_the_others_do_not() {
         let name = path.file_name().unwrap().to_string_lossy().to_string();
         let scene = load::load(&path, &LoadOptions::default()).unwrap().scene;
         let (_, h) = scene.resolution.expect("hard cases give their resolution");
-        let opts = RenderOptions::new(1, h).resolved(&scene);
+        let opts = cuberay::gpu::resolve(&scene, &RenderOptions::new(1, h), None).unwrap();
         let n = opts.auto_precision.clone().expect("auto resolves");
         eprintln!("{name}: {} ({})", opts.precision.name(), n.reason());
         let wanted = if want_f64.contains(&name.as_str()) { Precision::F64 } else { Precision::F32 };

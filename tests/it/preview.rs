@@ -9,7 +9,7 @@ use std::process::{Child, Command, Stdio};
 use std::sync::Arc;
 
 use cuberay::gpu::GpuRenderer;
-use cuberay::job::{AccelKind, Precision, RenderOptions};
+use cuberay::job::{Accel, Precision, RenderOptions};
 use cuberay::load;
 use cuberay::preview::controls::Controller;
 use cuberay::preview::session::{EyeTable, Session, Toggles};
@@ -113,7 +113,7 @@ fn moves_end_on_the_headless_render(scene: cuberay::scene::Scene) {
         Camera::from_basis(c.eye + c.right * (0.3 * k) - c.forward * 0.2, c.forward, c.up, c.projection)
             .unwrap()
     };
-    for accel in [AccelKind::Bvh, AccelKind::Brute, AccelKind::Cube] {
+    for accel in [Accel::Bvh, Accel::Brute, Accel::Cube] {
         let o = RenderOptions { accel, ..opts(32, 24, 2) };
         let mut s = Session::new(gpu.clone(), scene.clone(), o.clone(), Toggles::default(), o.spp).unwrap();
         s.set_camera(step(1.0));
@@ -122,7 +122,7 @@ fn moves_end_on_the_headless_render(scene: cuberay::scene::Scene) {
         s.finish().unwrap();
         s.set_camera(step(2.0));
         s.finish().unwrap();
-        if accel == AccelKind::Cube {
+        if accel == Accel::Cube {
             // A rebuilt table waiting for its pass boundary when the camera moves again.
             s.wait_for_eye_table().unwrap();
             s.set_camera(step(3.0));

@@ -15,7 +15,7 @@
 use std::path::{Path, PathBuf};
 
 use cuberay::gpu::GpuRenderer;
-use cuberay::job::{AccelKind, Precision, RenderOptions, SurfaceWalk};
+use cuberay::job::{Accel, Precision, RenderOptions, SurfaceWalk};
 use cuberay::load;
 use cuberay::scene::Scene;
 
@@ -87,18 +87,17 @@ fn differences(r: &GpuRenderer, name: &str, scene: &Scene, size: u32) -> Vec<Str
             r.render(scene, &opts(accel, surface), &indicatif::ProgressBar::hidden())
                 .unwrap_or_else(|e| panic!("{name}: {e}"))
         };
-        let brute = render(AccelKind::Brute, SurfaceWalk::Bvh);
-        let mut others = vec![("rayquery", AccelKind::RayQuery, SurfaceWalk::Bvh)];
+        let brute = render(Accel::Brute, SurfaceWalk::Bvh);
+        let mut others = vec![("rayquery", Accel::RayQuery, SurfaceWalk::Bvh)];
         if precision == Precision::F32 {
-            others.push(("cube with ray queries", AccelKind::Cube, SurfaceWalk::RayQuery));
+            others.push(("cube with ray queries", Accel::Cube, SurfaceWalk::RayQuery));
         }
         for (label, accel, surface) in others {
             let a = render(accel, surface);
             let what = format!("{name} {}, {label}", precision.name());
-            let expect_surface = (accel == AccelKind::Cube
-                && a.stats.rays.reflect + a.stats.rays.refract > 0)
+            let expect_surface = (accel == Accel::Cube && a.stats.rays.reflect + a.stats.rays.refract > 0)
                 .then(|| surface.name().to_string());
-            if accel == AccelKind::Cube
+            if accel == Accel::Cube
                 && expect_surface.is_some()
                 && a.stats.settings.surface_walk != expect_surface
             {
@@ -180,8 +179,8 @@ fn rayquery_is_refused_clearly_where_the_adapter_has_none() {
     let s = scene(&hard("parallel_mirrors.nff"));
     let opts = |accel, surface| RenderOptions { accel, surface, ..RenderOptions::new(16, 16) };
     for (accel, surface, flag) in [
-        (AccelKind::RayQuery, SurfaceWalk::Auto, "--accel rayquery"),
-        (AccelKind::Cube, SurfaceWalk::RayQuery, "--surface-walk rayquery"),
+        (Accel::RayQuery, SurfaceWalk::Auto, "--accel rayquery"),
+        (Accel::Cube, SurfaceWalk::RayQuery, "--surface-walk rayquery"),
     ] {
         let got = r.render(&s, &opts(accel, surface), &indicatif::ProgressBar::hidden());
         match (&got, r.ctx.ray_queries) {
@@ -194,7 +193,7 @@ fn rayquery_is_refused_clearly_where_the_adapter_has_none() {
         }
     }
     let cube =
-        r.render(&s, &opts(AccelKind::Cube, SurfaceWalk::Auto), &indicatif::ProgressBar::hidden()).unwrap();
+        r.render(&s, &opts(Accel::Cube, SurfaceWalk::Auto), &indicatif::ProgressBar::hidden()).unwrap();
     let walked = cube.stats.settings.surface_walk.as_deref();
     assert!(walked == Some("bvh") || (r.ctx.ray_queries && walked == Some("rayquery")), "{walked:?}");
 }

@@ -8,7 +8,7 @@ use indicatif::ProgressBar;
 
 use crate::common::cuberay;
 
-use cuberay::job::{AccelKind, RenderOptions, Rendered};
+use cuberay::job::{Accel, RenderOptions, Rendered};
 use cuberay::output::{Aov, Image};
 use cuberay::reference::{render, render_aov};
 use cuberay::sampling::{pcg, Sampling};
@@ -436,9 +436,9 @@ fn brute_bvh_and_cube_give_identical_images() {
     for seed in 1..=4 {
         let s = random_scene(seed);
         let mut o = opts(40, 30);
-        o.accel = AccelKind::Brute;
+        o.accel = Accel::Brute;
         let brute = run(&s, &o);
-        o.accel = AccelKind::Bvh;
+        o.accel = Accel::Bvh;
         let bvh = run(&s, &o);
         assert_eq!(brute.stats.settings.accel, "brute");
         assert_eq!(bvh.stats.settings.accel, "bvh");
@@ -451,7 +451,7 @@ fn brute_bvh_and_cube_give_identical_images() {
         assert!(bvh.stats.tests_per_ray.eye < brute.stats.tests_per_ray.eye);
         // The direction-cube tables (with the BVH for rays leaving surfaces) choose which
         // primitives the same f64 tests run on.
-        o.accel = AccelKind::Cube;
+        o.accel = Accel::Cube;
         let cube = run(&s, &o);
         assert_eq!(cube.stats.settings.accel, "cube");
         check_stats(&cube);
@@ -461,9 +461,9 @@ fn brute_bvh_and_cube_give_identical_images() {
         assert!(cube.stats.tests_per_ray.shadow < brute.stats.tests_per_ray.shadow);
         assert!(cube.stats.tests_per_ray.reflect < brute.stats.tests_per_ray.reflect);
         for aov in [Aov::Id, Aov::Depth] {
-            o.accel = AccelKind::Brute;
+            o.accel = Accel::Brute;
             let a = render_aov(&s, &o, aov, &ProgressBar::hidden()).unwrap();
-            for accel in [AccelKind::Bvh, AccelKind::Cube] {
+            for accel in [Accel::Bvh, Accel::Cube] {
                 o.accel = accel;
                 let b = render_aov(&s, &o, aov, &ProgressBar::hidden()).unwrap();
                 assert_eq!(a.image, b.image, "seed {seed}: {aov:?} differs with {accel:?}");

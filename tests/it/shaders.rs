@@ -2,8 +2,7 @@
 //! effect variant validates, and code paths a scene does not call for are absent from its
 //! module. (The twins of the shared structs and constants are checked in `twins.rs`.)
 
-use cuberay::gpu::shaders::{compose, Kernel, Queries, Variant};
-use cuberay::gpu::GpuRenderer;
+use cuberay::gpu::shaders::{compose, Accel, Kernel, Variant};
 use cuberay::job::RenderOptions;
 use cuberay::load;
 use cuberay::scene::Shapes;
@@ -51,7 +50,7 @@ fn every_kernel_and_variant_validates() {
     for v in Variant::all() {
         // A render runs the shadow kernel only with shadows.
         let wavefront = Kernel::wavefront(v);
-        assert_eq!(wavefront.iter().any(|s| s.kernel == Kernel::Shadow), v.shadows, "{v:?}");
+        assert_eq!(wavefront.iter().any(|s| s.kernel == Kernel::Shadow), v.effects.shadows, "{v:?}");
         // Each depth's passes have one `nearest`.
         for depth in 1..=3 {
             let n = wavefront.iter().filter(|s| s.kernel == Kernel::Nearest && s.serves(depth)).count();
@@ -102,18 +101,22 @@ fn variant_functions_follow_the_flags() {
             assert!(!defines(&nearest, f), "{v:?}: nearest defines {f}");
         }
         // A walk samples textures only to test alpha.
-        assert_eq!(defines(&nearest, "sample_texture"), (v.alpha || v.blend) && v.textures, "{v:?}");
+        assert_eq!(
+            defines(&nearest, "sample_texture"),
+            (v.effects.alpha || v.effects.blend) && v.effects.textures,
+            "{v:?}"
+        );
         assert!(defines(&module_of(Kernel::Shade, v), "shade_hit"), "{v:?}");
         let m = module(v);
-        assert_eq!(has_function(&m, "reflect_dir"), v.reflection, "{v:?}");
-        assert_eq!(has_function(&m, "refract_dir"), v.refraction, "{v:?}");
-        assert_eq!(has_function(&m, "sample_texture"), v.textures, "{v:?}");
-        assert_eq!(has_function(&m, "whitted"), v.maps, "{v:?}");
-        assert_eq!(has_function(&m, "mapped_normal"), v.normal_maps, "{v:?}");
-        assert_eq!(has_function(&m, "alpha_passes"), v.alpha || v.blend, "{v:?}");
+        assert_eq!(has_function(&m, "reflect_dir"), v.effects.reflection, "{v:?}");
+        assert_eq!(has_function(&m, "refract_dir"), v.effects.refraction, "{v:?}");
+        assert_eq!(has_function(&m, "sample_texture"), v.effects.textures, "{v:?}");
+        assert_eq!(has_function(&m, "whitted"), v.effects.maps, "{v:?}");
+        assert_eq!(has_function(&m, "mapped_normal"), v.effects.normal_maps, "{v:?}");
+        assert_eq!(has_function(&m, "alpha_passes"), v.effects.alpha || v.effects.blend, "{v:?}");
         assert_eq!(has_f64(&m), v.f64, "{v:?}: f64 only in the f64 variant");
-        assert_eq!(has_function(&m, "occluded_short"), v.shadows, "{v:?}");
-        assert_eq!(has_function(&m, "trace_shadow"), v.shadows, "{v:?}");
+        assert_eq!(has_function(&m, "occluded_short"), v.effects.shadows, "{v:?}");
+        assert_eq!(has_function(&m, "trace_shadow"), v.effects.shadows, "{v:?}");
         // Intersection code only for the kinds of primitive the scene holds.
         assert_eq!(has_function(&m, "intersect_sphere"), v.shapes.spheres, "{v:?}");
         assert_eq!(has_function(&m, "intersect_triangle"), v.shapes.triangles, "{v:?}");
@@ -145,9 +148,9 @@ fn binds(m: &Wavefront, binding: u32) -> bool {
 fn each_kernel_contains_only_its_own_queries() {
     for v in Variant::all() {
         let m = module(v);
-        let cube = v.queries == Queries::Tables;
-        let bvh = v.queries == Queries::Bvh;
-        let brute = v.queries == Queries::Brute;
+        let cube = v.accel == Accel::Cube;
+        let bvh = v.accel == Accel::Bvh;
+        let brute = v.accel == Accel::Brute;
         let table_fns = ["cell_walk", "cube_cell_range", "walk_from"];
         for f in table_fns {
             assert_eq!(has_function(&m, f), cube, "{v:?}: {f}");
@@ -157,22 +160,22 @@ fn each_kernel_contains_only_its_own_queries() {
             assert!(has_function(&m, f), "{v:?}: {f}");
         }
         for f in ["occluded_short", "occluded_step", "walk_inline", "walk_of_shadow"] {
-            assert_eq!(has_function(&m, f), v.shadows, "{v:?}: {f}");
+            assert_eq!(has_function(&m, f), v.effects.shadows, "{v:?}: {f}");
         }
 
-        assert_eq!(has_function(&m, "walk_any"), v.shadows, "{v:?}");
+        assert_eq!(has_function(&m, "walk_any"), v.effects.shadows, "{v:?}");
         let walks_bvh = bvh || (cube && v.surface_rays && !v.surface_rq);
-        let queries_rays = v.queries == Queries::RayQuery || (cube && v.surface_rays && v.surface_rq);
+        let queries_rays = v.accel == Accel::RayQuery || (cube && v.surface_rays && v.surface_rq);
         assert_eq!(v.ray_queries(), queries_rays, "{v:?}");
         assert_eq!(has_function(&m, "rq_nearest"), queries_rays, "{v:?}");
-        assert_eq!(has_function(&m, "rq_any"), queries_rays && v.shadows, "{v:?}");
+        assert_eq!(has_function(&m, "rq_any"), queries_rays && v.effects.shadows, "{v:?}");
         assert_eq!(binds(&m, 25), queries_rays, "{v:?}: binding 25");
         assert_eq!(has_function(&m, "bvh_nearest"), walks_bvh, "{v:?}");
         assert_eq!(has_function(&m, "node_hits"), walks_bvh, "{v:?}");
-        assert_eq!(has_function(&m, "bvh_any"), walks_bvh && v.shadows, "{v:?}");
+        assert_eq!(has_function(&m, "bvh_any"), walks_bvh && v.effects.shadows, "{v:?}");
         assert_eq!(has_function(&m, "bvh_walk"), walks_bvh, "{v:?}");
         // Every accelerator traces the one shadow ray, and only where there are shadows.
-        assert_eq!(has_function(&m, "shadow_ray"), v.shadows, "{v:?}");
+        assert_eq!(has_function(&m, "shadow_ray"), v.effects.shadows, "{v:?}");
         for binding in 11..=15 {
             assert_eq!(binds(&m, binding), cube, "{v:?}: binding {binding}");
         }
@@ -195,16 +198,16 @@ fn each_kernel_contains_only_its_own_queries() {
 fn a_scene_without_mirrors_or_glass_has_no_such_code() {
     // Matte only: no reflection, no refraction.
     let matte = scene(&format!("{VIEW}l 3 3 3\nf 1 0 0 1 0 1 0 1\ns 0 0 0 1\n"));
-    for q in Queries::ALL {
-        let v = Variant::for_effects(matte.effects(), 5).with_queries(q);
+    for q in Accel::GPU {
+        let v = Variant::for_effects(matte.effects(), 5).with_accel(q);
         let m = module(v);
         assert!(!has_function(&m, "reflect_dir") && !has_function(&m, "refract_dir"), "{v:?}");
         assert!(has_function(&m, "occluded_short"), "the light casts shadows");
     }
     // A mirror but no glass: reflection without refraction.
     let mirror = scene(&format!("{VIEW}l 3 3 3\nf 1 1 1 0.2 0.8 10 0 1\ns 0 0 0 1\n"));
-    for q in Queries::ALL {
-        let m = module(Variant::for_effects(mirror.effects(), 5).with_queries(q));
+    for q in Accel::GPU {
+        let m = module(Variant::for_effects(mirror.effects(), 5).with_accel(q));
         assert!(has_function(&m, "reflect_dir") && !has_function(&m, "refract_dir"));
     }
     // Glass: both; depth 1 needs neither.
@@ -235,9 +238,9 @@ fn a_scene_whose_rays_all_leave_the_eye_or_a_light_has_no_bvh_walk() {
         ("mirror at depth 1", &mirror, &shallow, false),
         ("directional light", &sun, &opts, true),
     ] {
-        let v = GpuRenderer::job_variant(s, o, false);
+        let v = cuberay::gpu::prepare::variant_for(s, o, cuberay::gpu::Purpose::Render).unwrap();
         assert_eq!(v.surface_rays, surface, "{name}");
-        assert!(v.tables() && v.shadows, "{name}: {v:?}");
+        assert!(v.cube() && v.effects.shadows, "{name}: {v:?}");
         let m = module(v);
         assert_eq!(has_function(&m, "bvh_nearest"), surface, "{name}");
         assert_eq!(has_function(&m, "bvh_any"), surface, "{name}");
@@ -266,8 +269,8 @@ fn a_scene_compiles_the_intersections_of_its_kinds_only() {
         assert!(Shapes::ALL.contains(shapes) && shapes.contains(shapes), "{prims}");
         let triangles_only = Shapes { spheres: false, triangles: true, cylinders: false };
         assert_eq!(triangles_only.contains(shapes), !spheres && !cylinders, "{prims}");
-        for q in Queries::ALL {
-            let m = module(Variant::for_effects(s.effects(), 5).with_queries(q).with_shapes(shapes));
+        for q in Accel::GPU {
+            let m = module(Variant::for_effects(s.effects(), 5).with_accel(q).with_shapes(shapes));
             assert_eq!(has_function(&m, "intersect_sphere"), spheres, "{prims}");
             assert_eq!(has_function(&m, "intersect_triangle"), triangles, "{prims}");
             assert_eq!(has_function(&m, "intersect_cylinder"), cylinders, "{prims}");
@@ -281,7 +284,7 @@ fn a_scene_compiles_the_intersections_of_its_kinds_only() {
 #[test]
 fn only_directional_lights_walk_shadows_in_the_bvh() {
     let mut seen = [0; 2];
-    for v in Variant::all().into_iter().filter(|v| v.tables() && v.shadows && v.surface_rays) {
+    for v in Variant::all().into_iter().filter(|v| v.cube() && v.effects.shadows && v.surface_rays) {
         for s in
             Kernel::wavefront(v).into_iter().filter(|s| matches!(s.kernel, Kernel::Shade | Kernel::Shadow))
         {
@@ -299,7 +302,7 @@ fn only_directional_lights_walk_shadows_in_the_bvh() {
 /// leaving surfaces, one `nearest` serves every depth.
 #[test]
 fn each_depth_runs_a_nearest_with_its_own_walk_only() {
-    for v in Variant::all().into_iter().filter(|v| v.tables()) {
+    for v in Variant::all().into_iter().filter(|v| v.cube()) {
         let nearest: Vec<_> =
             Kernel::wavefront(v).into_iter().filter(|s| s.kernel == Kernel::Nearest).collect();
         if !v.surface_rays {

@@ -13,7 +13,7 @@ use cuberay::arith::{FAR, NO_ID, SHADOW_END_REL};
 use cuberay::bvh::WIDE_NODE_PRIMS;
 use cuberay::coherence::flat::{GpuEntry, GpuFace, GpuOrigin, NO_ORIGIN};
 use cuberay::coherence::walk::{AnyHit, SURFACE_WALK, UNBOUNDED, WALK_CHUNK};
-use cuberay::gpu::shaders::{compose, Kernel, Queries, Variant};
+use cuberay::gpu::shaders::{compose, Accel, Kernel, Variant};
 use cuberay::layout::bvh::{
     WideNode, BVH_CHUNK, BVH_DECODE_REL, BVH_FRESH, BVH_NO_PARENT, BVH_SLACK, BVH_STACK,
 };
@@ -305,7 +305,7 @@ fn modules() -> Vec<(Kernel, naga::Module)> {
         .iter()
         .flat_map(|&k| {
             let variants: Vec<Variant> = if is_trace_kernel(k) {
-                Queries::ALL
+                Accel::GPU
                     .into_iter()
                     .flat_map(|q| [false, true].map(|f64| Variant::full(q).with_f64(f64)))
                     .collect()

@@ -4,10 +4,11 @@
 
 use std::sync::Arc;
 
-use super::Session;
 use crate::error::Result;
+use crate::gpu::buffers::check_limits;
+use crate::gpu::kernels::compute_pipeline;
 use crate::gpu::schedule::{Pipelines, Progress, Schedule};
-use crate::gpu::shaders::Stage;
+use crate::gpu::shaders::{Kernel, Stage, Variant};
 use crate::gpu::{self, SceneBuffers};
 use crate::layout::Params;
 
@@ -48,60 +49,83 @@ pub fn pass_sample(k: u32, n: u32) -> u32 {
     ((k as u64 * golden_step(n) as u64) % n.max(1) as u64) as u32
 }
 
-impl Session {
-    /// Points the accumulation pass at the current output buffer.
-    pub(super) fn rebind(&mut self) {
-        self.accumulate_bind =
-            accumulate_bind(&self.gpu.ctx, &self.accumulate, &self.tile_buffer, &self.buffers, &self.accum);
+/// The accumulation pass: the `accumulate` kernel and the buffer that tells it which points a
+/// finished tile holds.
+pub(super) struct Accumulator {
+    tile: wgpu::Buffer,
+    pipeline: wgpu::ComputePipeline,
+}
+
+impl Accumulator {
+    pub(super) fn new(ctx: &gpu::GpuContext) -> Result<Accumulator> {
+        let tile = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("accumulate tile"),
+            size: std::mem::size_of::<Tile>() as u64,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let pipeline = compute_pipeline(ctx, Kernel::Accumulate, Variant::default(), None)?;
+        Ok(Accumulator { tile, pipeline })
+    }
+
+    /// The bind group that adds the tiles in `buffers`' output to `accum`.
+    pub(super) fn bind(
+        &self,
+        ctx: &gpu::GpuContext,
+        buffers: &SceneBuffers,
+        accum: &wgpu::Buffer,
+    ) -> wgpu::BindGroup {
+        ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("accumulate"),
+            layout: &self.pipeline.get_bind_group_layout(0),
+            entries: &[(0, &self.tile), (1, &buffers.out), (2, accum)]
+                .map(|(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }),
+        })
     }
 }
 
-/// One submission of `schedule` over the kernels `pipelines`; a finished tile is added
-/// to the accumulation that `accumulate`'s bind group names, and its points to
-/// `points_traced`. Returns whether the tile ended a pass.
+/// An accumulation of `points` grid points (one `vec4<f32>` each), zeroed, within the
+/// adapter's limits.
+pub(super) fn accumulation(ctx: &gpu::GpuContext, label: &str, points: u64) -> Result<wgpu::Buffer> {
+    check_limits(&[(label, points * 16)], &ctx.device.limits())?;
+    Ok(ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: points * 16,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    }))
+}
+
+/// One submission of `schedule` over the kernels `pipelines`; a finished tile is added by
+/// `accumulator` to the accumulation that `bind` names, and its points to `points_traced`.
+/// Returns whether the tile ended a pass.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn step_tile(
     ctx: &gpu::GpuContext,
     schedule: &mut Schedule,
     pipelines: &[(Stage, Arc<wgpu::ComputePipeline>)],
     buffers: &SceneBuffers,
     base: &Params,
-    accumulate: (&wgpu::Buffer, &wgpu::ComputePipeline, &wgpu::BindGroup),
+    accumulator: &Accumulator,
+    bind: &wgpu::BindGroup,
     points_traced: &mut u64,
 ) -> Result<bool> {
-    let (tile_buffer, pipeline, bind) = accumulate;
     let kernels = Pipelines::Wavefront(pipelines);
     let Progress::TileDone { first, count, pass_done } = schedule.step(ctx, &kernels, buffers, base)? else {
         return Ok(false);
     };
     let tile = Tile { first_point: first as u32, point_count: count, ..Tile::default() };
-    ctx.queue.write_buffer(tile_buffer, 0, bytemuck::bytes_of(&tile));
+    ctx.queue.write_buffer(&accumulator.tile, 0, bytemuck::bytes_of(&tile));
     let mut enc = ctx.device.create_command_encoder(&Default::default());
     {
         let mut pass = enc.begin_compute_pass(&Default::default());
-        pass.set_pipeline(pipeline);
+        pass.set_pipeline(&accumulator.pipeline);
         pass.set_bind_group(0, bind, &[]);
         pass.dispatch_workgroups(count.div_ceil(ACCUMULATE_WORKGROUP), 1, 1);
     }
     ctx.queue.submit([enc.finish()]);
     *points_traced += count as u64;
     Ok(pass_done)
-}
-
-/// The accumulation pass's bind group: the tile, the kernels' output, the
-/// accumulation.
-pub(super) fn accumulate_bind(
-    ctx: &gpu::GpuContext,
-    accumulate: &wgpu::ComputePipeline,
-    tile: &wgpu::Buffer,
-    buffers: &SceneBuffers,
-    accum: &wgpu::Buffer,
-) -> wgpu::BindGroup {
-    ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("accumulate"),
-        layout: &accumulate.get_bind_group_layout(0),
-        entries: &[(0, tile), (1, &buffers.out), (2, accum)]
-            .map(|(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }),
-    })
 }
 
 #[cfg(test)]

@@ -4,13 +4,13 @@
 
 use std::time::{Duration, Instant};
 
-use super::accumulate::{accumulate_bind, step_tile};
+use super::accumulate::{accumulation, step_tile};
 use super::{variant, Session, STEP_TARGET};
 use crate::error::Result;
 use crate::gpu::schedule::{Pacing, Schedule, WavePlan};
 use crate::job::{grid_image, RenderOptions};
 use crate::layout::budget::{retry_passes, MAX_DEPTH};
-use crate::layout::{job_params, Params};
+use crate::layout::Params;
 use crate::output::Image;
 use crate::sampling::Sampling;
 
@@ -60,10 +60,10 @@ impl Session {
         let block = self.coarse.as_ref().map_or(FIRST_BLOCK, |c| c.block);
         let depth = self.coarse.as_ref().map_or(self.opts.max_depth, |c| c.depth).min(self.opts.max_depth);
         let (mut params, grid) = self.coarse_params(block);
-        params.max_depth = depth;
+        params.set_max_depth(depth);
         let ctx = &self.gpu.ctx;
         let plan = WavePlan::new(
-            variant(&self.scene, &self.opts, self.toggles, self.opts.max_depth, self.queries),
+            variant(&self.scene, &self.opts, self.toggles, self.opts.max_depth, self.accel),
             depth,
             retry_passes(&self.scene, self.walks.as_ref()),
         );
@@ -72,14 +72,7 @@ impl Session {
             let capacity = (w.div_ceil(MIN_BLOCK) + 1) as u64 * (h.div_ceil(MIN_BLOCK) + 1) as u64;
             let accum = match self.coarse.take() {
                 Some(c) => c.accum,
-                None => ctx.device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("preview coarse accumulation"),
-                    size: capacity * 16,
-                    usage: wgpu::BufferUsages::STORAGE
-                        | wgpu::BufferUsages::COPY_SRC
-                        | wgpu::BufferUsages::COPY_DST,
-                    mapped_at_creation: false,
-                }),
+                None => accumulation(ctx, "preview coarse accumulation", capacity)?,
             };
             let total = grid.0 as u64 * grid.1 as u64;
             let schedule = Schedule::new(
@@ -104,20 +97,20 @@ impl Session {
         let c = self.coarse.as_mut().expect("made above");
         // The depth, the effects or the queries may have changed since the last image.
         c.schedule.set_plan(ctx, plan);
-        let bind = accumulate_bind(ctx, &self.accumulate, &self.tile_buffer, &self.buffers, &c.accum);
+        let bind = self.accumulator.bind(ctx, &self.buffers, &c.accum);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         enc.clear_buffer(&c.accum, 0, None);
         ctx.queue.submit([enc.finish()]);
         loop {
             crate::interrupt::check()?;
-            let accumulate = (&self.tile_buffer, &self.accumulate, &bind);
             let done = step_tile(
                 ctx,
                 &mut c.schedule,
                 &self.pipelines,
                 &self.buffers,
                 &params,
-                accumulate,
+                &self.accumulator,
+                &bind,
                 &mut self.points_traced,
             )?;
             if done {
@@ -159,22 +152,12 @@ impl Session {
         Ok((block, depth))
     }
 
-    /// The params and grid of the coarse image with one eye ray per `block`×`block` pixels:
-    /// grid point (i, j) takes the ray through the centre of pixel (i·b + b/2, j·b + b/2),
-    /// the very ray (bit for bit: `block` is a power of two) of that pixel in a full pass
-    /// with one sample at the pixel centres. The kernels place grid point i at i + 1/2, so
-    /// the image's centre moves to (half − 1/2)/b and a grid step spans b pixels.
+    /// The params and grid of the coarse image with one eye ray per `block`×`block` pixels
+    /// ([`Params::coarse`]).
     fn coarse_params(&self, block: u32) -> (Params, (u32, u32)) {
         let (w, h) = (self.opts.width, self.opts.height);
         let grid = (w.div_ceil(block), h.div_ceil(block));
-        let b = block as f32;
-        let camera = Params {
-            half_w: (self.base.half_w - 0.5) / b,
-            half_h: (self.base.half_h - 0.5) / b,
-            cam_scale: self.base.cam_scale * b,
-            ..self.base
-        };
-        (Params { sample_first: 0, sample_end: 1, ..job_params(&self.coarse_options(grid), camera) }, grid)
+        (self.base.coarse(block, &self.coarse_options(grid)), grid)
     }
 
     /// The options of a coarse image of `grid` points: one sample at each point's centre.

@@ -8,10 +8,9 @@ use std::time::Duration;
 use super::{make_room_for_moves, Session};
 use crate::coherence::{BuildParams, FlatTables, Tables};
 use crate::error::{Error, Result};
-use crate::gpu::shaders::{Queries, Variant};
-use crate::gpu::{self, GpuRenderer};
+use crate::gpu::prepare::{self, add_surface_walk, Purpose};
+use crate::gpu::shaders::Accel;
 use crate::job::RenderOptions;
-use crate::layout::budget::MAX_DEPTH;
 use crate::scene::Scene;
 
 /// How long the camera rests before the eye's table is rebuilt for it.
@@ -44,20 +43,21 @@ impl EyeTable {
     }
 }
 
-/// The build parameters of the session's tables: every effect the scene has, at any depth,
-/// so that toggling one back on or deepening the trees needs no new table.
+/// The build parameters of the session's tables (`opts` resolved): every effect the scene
+/// has, at any depth, so that toggling one back on or deepening the trees needs no new table.
 fn eye_build_params(scene: &Scene, opts: &RenderOptions) -> BuildParams {
-    let all = Variant::for_effects(scene.effects(), MAX_DEPTH).with_queries(Queries::Tables);
-    GpuRenderer::variant_build_params(scene, opts, all)
+    let opts = RenderOptions { accel: Accel::Cube, ..opts.clone() };
+    prepare::tables_of(scene, &opts, Purpose::Preview { effects: scene.effects() })
+        .expect("the tables serve the session's every effect")
 }
 
 /// Gives the candidate list of `flat` room after its end (a quarter more, within the
 /// adapter's binding limit), so that the eye's table rebuilt for another camera, whose list
 /// may come out longer, is written into the same buffer. The walks never read past a
 /// cell's own entries.
-pub(super) fn make_room_for_eye_tables(flat: &mut FlatTables, limits: &wgpu::Limits) {
+pub(super) fn make_room_for_eye_tables(flat: &mut FlatTables, max_binding: u64) {
     let entry = std::mem::size_of::<crate::coherence::flat::GpuEntry>() as u64;
-    let most = (limits.max_storage_buffer_binding_size.min(limits.max_buffer_size) / entry) as usize;
+    let most = (max_binding / entry) as usize;
     let len = flat.entries.len();
     flat.entries.resize((len + len / 4 + 64).min(most).max(len), Default::default());
 }
@@ -67,10 +67,10 @@ impl Session {
     pub fn eye_table(&self) -> EyeTable {
         if self.eye_build.is_some()
             || self.eye_ready.is_some()
-            || (self.wants_tables && self.queries != Queries::Tables)
+            || (self.wants_tables && self.accel != Accel::Cube)
         {
             EyeTable::Building
-        } else if self.queries == Queries::Tables {
+        } else if self.accel == Accel::Cube {
             EyeTable::Ready
         } else {
             EyeTable::None
@@ -110,7 +110,7 @@ impl Session {
     /// the next pass boundary, tables for an older camera go back for another rebuild.
     pub(super) fn poll_eye_table(&mut self, force: bool) -> Result<()> {
         let resting = force || self.last_move.elapsed() >= REST_BEFORE_REBUILD;
-        if self.wants_tables && self.eye_build.is_none() && self.queries != Queries::Tables && resting {
+        if self.wants_tables && self.eye_build.is_none() && self.accel != Accel::Cube && resting {
             // The camera rests (this runs between its frames' passes, not while it moves,
             // and once it has rested a while: a build a drag overtakes cannot be stopped
             // and takes a core from the kernels): the eye's table is rebuilt for it.
@@ -134,17 +134,12 @@ impl Session {
         if self.eye_ready.is_some() && self.schedule.at_pass_start() {
             let mut tables = self.eye_ready.take().expect("checked");
             let mut packed = self.pack_moved();
-            gpu::point_at(&mut packed.params, &tables.flat);
+            packed.params.point_at_tables(&tables.flat);
             // The preview's rays leaving surfaces walk the BVH: its boxes move with the
             // camera in place, where the driver's structure would be built anew.
-            gpu::add_surface_walk(
-                &mut packed,
-                &self.scene,
-                &eye_build_params(&self.scene, &self.opts),
-                false,
-            );
+            add_surface_walk(&mut packed, &self.scene, &eye_build_params(&self.scene, &self.opts), false);
             make_room_for_moves(&mut packed, &self.scene);
-            if let Err(e) = self.install(Queries::Tables, packed, Some(&mut tables)) {
+            if let Err(e) = self.install(Accel::Cube, packed, Some(&mut tables)) {
                 log::warn!("cannot trace the rebuilt tables ({e}): tracing with the BVH");
                 self.wants_tables = false;
             }

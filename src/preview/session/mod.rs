@@ -34,17 +34,17 @@ use std::time::{Duration, Instant};
 use crate::coherence::reach::WalkBounds;
 use crate::coherence::{FlatTables, Tables};
 use crate::error::{Error, Result};
-use crate::gpu::buffers::check_limits;
-use crate::gpu::kernels::compute_pipeline;
+use crate::gpu::buffers::BufferSizes;
+use crate::gpu::prepare::{self, queue_sizes, Purpose, TableSet};
 use crate::gpu::schedule::{Pacing, Schedule, WavePlan};
-use crate::gpu::shaders::{Kernel, Queries, Stage, Variant};
-use crate::gpu::{self, GpuRenderer, SceneBuffers};
+use crate::gpu::shaders::{Accel, Kernel, Stage, Variant};
+use crate::gpu::{GpuRenderer, SceneBuffers};
 use crate::job::{grid_image, Precision, RenderOptions};
-use crate::layout::budget::{retry_passes, tile_points, MAX_DEPTH, TESTS_PER_DISPATCH};
-use crate::layout::{job_params, pack, pack_moved, Packed, Params};
+use crate::layout::budget::{check_loop_budget, retry_passes, MAX_DEPTH};
+use crate::layout::{pack, pack_moved, Packed, Params};
 use crate::output::Image;
 use crate::scene::{Camera, Effects, Scene, Transfer};
-use accumulate::{accumulate_bind, step_tile};
+use accumulate::{accumulation, step_tile, Accumulator};
 pub use accumulate::{pass_sample, Tile, ACCUMULATE_WORKGROUP};
 use coarse::Coarse;
 pub use coarse::{Shown, COARSE_TARGET};
@@ -89,9 +89,10 @@ pub struct Session {
     limit: u32,
     /// The wavefront kernels of the current effects and depth.
     pipelines: Vec<(Stage, Arc<wgpu::ComputePipeline>)>,
-    /// The queries the kernels trace: the tables, the BVH, or brute force (also when the
-    /// tables could not be rebuilt for a new eye).
-    queries: Queries,
+    /// The accelerator the kernels trace with: the tables, the BVH, brute force or ray
+    /// queries (the BVH while the tables are rebuilt for a new eye, or when they could not
+    /// be).
+    accel: Accel,
     /// The direction-cube tables (`--accel cube`, the default), or `None`.
     tables: Option<Tables>,
     /// How long the kernels' walks may be (`None`: brute force), for the passes a depth takes.
@@ -101,9 +102,9 @@ pub struct Session {
     base: Params,
     grid: (u32, u32),
     accum: wgpu::Buffer,
-    tile_buffer: wgpu::Buffer,
-    accumulate: wgpu::ComputePipeline,
-    accumulate_bind: wgpu::BindGroup,
+    accumulator: Accumulator,
+    /// The bind group that adds the output's tiles to `accum`.
+    accum_bind: wgpu::BindGroup,
     schedule: Schedule,
     /// Passes complete.
     passes: u32,
@@ -126,18 +127,9 @@ pub struct Session {
     coarse: Option<Coarse>,
 }
 
-/// The kernels' variant for the session's toggles and depth.
-fn variant(
-    scene: &Scene,
-    opts: &RenderOptions,
-    toggles: Toggles,
-    max_depth: u32,
-    queries: Queries,
-) -> Variant {
-    let v = Variant::for_effects(toggles.apply(scene.effects()), max_depth)
-        .with_queries(queries)
-        .with_f64(opts.precision == Precision::F64);
-    GpuRenderer::for_scene(scene, opts, v)
+/// The kernels' variant for the session's toggles and depth, traced with `accel`.
+fn variant(scene: &Scene, opts: &RenderOptions, toggles: Toggles, max_depth: u32, accel: Accel) -> Variant {
+    prepare::variant(scene, opts, toggles.apply(scene.effects()), max_depth, accel)
 }
 
 /// The walks the kernels of `packed` take: the tables' (if any), and the BVH's where rays
@@ -146,7 +138,7 @@ fn variant(
 fn traced_walks(tables: Option<&WalkBounds>, packed: &Packed) -> Option<WalkBounds> {
     match tables {
         Some(t) if packed.params.surface_walk == 0 => Some(*t),
-        t => gpu::walk_bounds(t, packed),
+        t => prepare::walk_bounds(t, packed),
     }
 }
 
@@ -178,7 +170,9 @@ fn pack_scene(scene: &Scene, opts: &RenderOptions, w: u32, h: u32, fixed: bool) 
 
 impl Session {
     /// Uploads `scene` for `opts` (the image size, the lattice `opts.spp` and seed, the
-    /// depth); the session completes after `limit` passes (at most `opts.spp`).
+    /// depth), prepared as every render is ([`prepare::prepare`]), with room for what a
+    /// camera move rewrites in place; the session completes after `limit` passes (at most
+    /// `opts.spp`).
     pub fn new(
         gpu: Arc<GpuRenderer>,
         scene: Scene,
@@ -186,87 +180,47 @@ impl Session {
         toggles: Toggles,
         limit: u32,
     ) -> Result<Session> {
-        let opts = opts.resolved(&scene);
-        gpu::check(&scene, &opts)?;
-        gpu::check_f64(&gpu.ctx, &opts)?;
-        let mut packed = pack_scene(&scene, &opts, opts.width, opts.height, true);
-        // Tables for every effect the scene has at any depth, so that toggling one back on
-        // or deepening the trees needs none.
-        let all = GpuRenderer::variant(scene.effects(), MAX_DEPTH, opts.accel);
-        if all.queries == Queries::Bvh {
-            packed = packed.with_bvh(&scene);
+        let effects = toggles.apply(scene.effects());
+        let mut p = prepare::prepare(&scene, &opts, &gpu.caps, Purpose::Preview { effects }, None)?;
+        let mut tables = p.tables.take().and_then(TableSet::built);
+        let wants_tables = tables.is_some();
+        if wants_tables || p.variant.accel == Accel::Bvh {
+            make_room_for_moves(&mut p.packed, &scene);
         }
-        let mut tables = gpu.tables(&scene, &opts, all, &mut packed)?;
-        let walks = gpu::walk_bounds(tables.as_ref().map(|t| &t.walks), &packed);
-        gpu.check_loop_budget(&scene, walks.as_ref(), Some(MAX_DEPTH), false)?;
-        let first = variant(&scene, &opts, toggles, opts.max_depth, all.queries);
-        let tile = tile_points(&scene, walks.as_ref(), TESTS_PER_DISPATCH);
-        let sizes = gpu::queue_sizes(&scene, all);
-        let wants_tables = all.queries == Queries::Tables && tables.is_some();
-        if wants_tables || all.queries == Queries::Bvh {
-            make_room_for_moves(&mut packed, &scene);
+        if let Some(t) = tables.as_mut() {
+            make_room_for_eye_tables(&mut t.flat, gpu.caps.max_binding);
         }
-        if wants_tables {
-            if let Some(t) = tables.as_mut() {
-                make_room_for_eye_tables(&mut t.flat, &gpu.ctx.device.limits());
-            }
-        }
-        let buffers = gpu.upload(&packed, tables.as_ref().map(|t| &t.flat), tile, Some(sizes))?;
-        buffers.size_queues(&mut packed.params);
-        let pipelines = compile(&gpu, first, &buffers, &packed.params)?;
+        let buffers = gpu.upload(&p.packed, tables.as_ref().map(|t| &t.flat), p.sizes)?;
+        let base = p.packed.params;
+        let pipelines = compile(&gpu, p.variant, &buffers, &base)?;
         if wants_tables {
             // The kernels a camera move traces with while the eye's table is rebuilt.
-            compile(
-                &gpu,
-                variant(&scene, &opts, toggles, opts.max_depth, Queries::Bvh),
-                &buffers,
-                &packed.params,
-            )?;
+            compile(&gpu, variant(&scene, &p.opts, toggles, p.opts.max_depth, Accel::Bvh), &buffers, &base)?;
         }
-        let grid = opts.grid();
-        let ctx = &gpu.ctx;
+        let (ctx, grid) = (&gpu.ctx, p.opts.grid());
         let total = grid.0 as u64 * grid.1 as u64;
-        check_limits(&[("preview accumulation", total * 16)], &ctx.device.limits())?;
-        let accum = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("preview accumulation"),
-            size: total * 16,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let tile_buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("accumulate tile"),
-            size: std::mem::size_of::<Tile>() as u64,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let accumulate = compute_pipeline(ctx, Kernel::Accumulate, Variant::default(), None)?;
-        let accumulate_bind = accumulate_bind(ctx, &accumulate, &tile_buffer, &buffers, &accum);
-        let plan = WavePlan::new(first, opts.max_depth, retry_passes(&scene, walks.as_ref()));
-        let schedule = Schedule::new(
-            ctx,
-            total,
-            buffers.tile,
-            Some(plan),
-            Pacing::Adaptive { target: STEP_TARGET },
-            false,
-        );
+        let accum = accumulation(ctx, "preview accumulation", total)?;
+        let accumulator = Accumulator::new(ctx)?;
+        let accum_bind = accumulator.bind(ctx, &buffers, &accum);
+        let plan = WavePlan::new(p.variant, p.opts.max_depth, p.retries);
+        let pacing = Pacing::Adaptive { target: STEP_TARGET };
+        let schedule = Schedule::new(ctx, total, buffers.tile, Some(plan), pacing, false);
         let mut s = Session {
-            base: job_params(&opts, packed.params),
+            base,
             gpu,
-            limit: limit.min(opts.spp),
+            limit: limit.min(p.opts.spp),
             scene,
-            opts,
+            opts: p.opts,
             toggles,
             pipelines,
-            queries: all.queries,
+            accel: p.variant.accel,
             tables,
-            walks,
+            walks: p.walks,
             buffers,
             grid,
             accum,
-            tile_buffer,
-            accumulate,
-            accumulate_bind,
+            accumulator,
+            accum_bind,
             schedule,
             passes: 0,
             last_eye_update: Duration::ZERO,
@@ -361,14 +315,20 @@ impl Session {
     }
 
     fn update_eye(&mut self) -> Result<()> {
-        if self.wants_tables || self.queries == Queries::Bvh {
+        if self.accel == Accel::RayQuery {
+            // The driver's structure is built over eye-relative boxes: built anew.
+            let mut packed = self.pack_moved();
+            packed.add_rq(&self.scene);
+            return self.install(Accel::RayQuery, packed, None);
+        }
+        if self.wants_tables || self.accel == Accel::Bvh {
             // The BVH over the re-centred scene (in milliseconds) traces at once; with the
             // tables, the eye's table follows from a worker thread once the camera rests.
             let t0 = Instant::now();
             let mut packed = self.pack_moved();
             make_room_for_moves(&mut packed, &self.scene);
             let t1 = Instant::now();
-            self.install(Queries::Bvh, packed, None)?;
+            self.install(Accel::Bvh, packed, None)?;
             log::debug!(
                 "camera move: packed with the BVH in {:.1} ms, uploaded in {:.1} ms",
                 (t1 - t0).as_secs_f64() * 1e3,
@@ -389,39 +349,34 @@ impl Session {
         Ok(())
     }
 
-    /// Traces with `queries` over `packed` (and `tables`) from now on. The loop budget is
+    /// Traces with `accel` over `packed` (and `tables`) from now on. The loop budget is
     /// checked and the kernels compiled first, so that a failure leaves the session as it
     /// was; then `packed` and `tables` are written into the buffers in place where they fit
     /// (new buffers cost the zeroing of a tile's queues, a stall of about 50 ms on
     /// lavapipe), else into new ones, the tables' made with room
     /// ([`make_room_for_eye_tables`]); the waves' plan and the params follow. Between
     /// passes the accumulation stays valid: every accelerator gives the same pixels.
-    fn install(
-        &mut self,
-        queries: Queries,
-        mut packed: Packed,
-        mut tables: Option<&mut Tables>,
-    ) -> Result<()> {
+    fn install(&mut self, accel: Accel, mut packed: Packed, mut tables: Option<&mut Tables>) -> Result<()> {
         let walks = traced_walks(tables.as_ref().map(|t| &t.walks), &packed);
-        self.gpu.check_loop_budget(&self.scene, walks.as_ref(), Some(MAX_DEPTH), false)?;
-        let v = variant(&self.scene, &self.opts, self.toggles, self.opts.max_depth, queries);
+        if self.gpu.caps.lavapipe {
+            check_loop_budget(&self.scene, walks.as_ref(), Some(MAX_DEPTH))?;
+        }
+        let v = variant(&self.scene, &self.opts, self.toggles, self.opts.max_depth, accel);
         let pipelines = compile(&self.gpu, v, &self.buffers, &self.base)?;
         let ctx = &self.gpu.ctx;
         let in_place = tables.as_ref().is_none_or(|t| self.buffers.rewrite_tables(ctx, &t.flat))
             && self.buffers.rewrite_moved(ctx, &packed);
-        if in_place {
-            self.buffers.size_queues(&mut packed.params);
-        } else {
-            log::debug!("new buffers for the {} kernels", queries.name());
+        if !in_place {
+            log::debug!("new buffers for the {} kernels", accel.name());
             if let Some(t) = tables.as_mut() {
-                make_room_for_eye_tables(&mut t.flat, &ctx.device.limits());
+                make_room_for_eye_tables(&mut t.flat, self.gpu.caps.max_binding);
             }
             packed.add_fixed(&self.scene);
-            self.buffers = self.upload(&mut packed, tables.as_ref().map(|t| &t.flat))?;
-            self.rebind();
+            self.buffers = self.upload(&packed, tables.as_ref().map(|t| &t.flat))?;
+            self.accum_bind = self.accumulator.bind(&self.gpu.ctx, &self.buffers, &self.accum);
         }
         self.pipelines = pipelines;
-        self.queries = queries;
+        self.accel = accel;
         self.walks = walks;
         let retries = retry_passes(&self.scene, self.walks.as_ref());
         self.schedule.set_plan(&self.gpu.ctx, WavePlan::new(v, self.opts.max_depth, retries));
@@ -429,35 +384,20 @@ impl Session {
         Ok(())
     }
 
-    /// The camera, table and BVH parts of `p` (freshly packed) into the session's params.
+    /// The camera, table and BVH parts of `p` (freshly packed) into the session's params,
+    /// with the queues of the current buffers.
     fn set_base(&mut self, p: &Params) {
-        self.base = Params {
-            cam_forward: p.cam_forward,
-            cam_scale: p.cam_scale,
-            cam_right: p.cam_right,
-            cam_up: p.cam_up,
-            half_w: p.half_w,
-            half_h: p.half_h,
-            ortho: p.ortho,
-            eye_origin: p.eye_origin,
-            fallback_origin: p.fallback_origin,
-            bvh_node_count: p.bvh_node_count,
-            bvh_inline: p.bvh_inline,
-            surface_walk: p.surface_walk,
-            ray_queue: self.buffers.ray_queue,
-            shadow_queue: self.buffers.shadow_queue,
-            ..self.base
-        };
+        self.base = self.base.with_camera_of(p);
+        self.base.set_queues(self.buffers.ray_queue, self.buffers.shadow_queue);
     }
 
     /// Uploads `packed` (with `tables`) into buffers with the queues of the scene's every
-    /// effect, for tiles as large as the current ones; sets the queues' sizes in `packed`.
-    fn upload(&self, packed: &mut Packed, tables: Option<&FlatTables>) -> Result<SceneBuffers> {
-        let all = GpuRenderer::variant(self.scene.effects(), MAX_DEPTH, self.opts.accel);
-        let sizes = gpu::queue_sizes(&self.scene, all);
-        let buffers = self.gpu.upload(packed, tables, self.buffers.tile, Some(sizes))?;
-        buffers.size_queues(&mut packed.params);
-        Ok(buffers)
+    /// effect, for tiles as large as the current ones.
+    fn upload(&self, packed: &Packed, tables: Option<&FlatTables>) -> Result<SceneBuffers> {
+        let queues = queue_sizes(&self.scene, Variant::for_effects(self.scene.effects(), MAX_DEPTH));
+        let sizes =
+            BufferSizes::fit(self.buffers.tile, Some(queues), packed.job_bytes(), self.gpu.caps.max_binding);
+        self.gpu.upload(packed, tables, sizes)
     }
 
     /// Switches effects on or off and sets the maximum depth; restarts the
@@ -465,8 +405,8 @@ impl Session {
     pub fn set_effects(&mut self, toggles: Toggles, max_depth: u32) -> Result<()> {
         let mut opts = self.opts.clone();
         opts.max_depth = max_depth;
-        gpu::check(&self.scene, &opts)?;
-        let v = variant(&self.scene, &opts, toggles, max_depth, self.queries);
+        prepare::check(&self.scene, &opts)?;
+        let v = variant(&self.scene, &opts, toggles, max_depth, self.accel);
         self.use_kernel(v)?;
         self.toggles = toggles;
         self.opts = opts;
@@ -474,7 +414,7 @@ impl Session {
             // The coarse image shows the old effects: not shown again.
             c.complete = false;
         }
-        self.base.max_depth = max_depth;
+        self.base.set_max_depth(max_depth);
         let retries = retry_passes(&self.scene, self.walks.as_ref());
         let plan = WavePlan::new(v, max_depth, retries);
         self.schedule.set_plan(&self.gpu.ctx, plan);
@@ -530,14 +470,15 @@ impl Session {
     /// accumulation.
     fn step(&mut self) -> Result<()> {
         let sample = pass_sample(self.passes, self.opts.spp);
-        let base = Params { sample_first: sample, sample_end: sample + 1, ..self.base };
+        let base = self.base.for_sample(sample);
         let pass_done = step_tile(
             &self.gpu.ctx,
             &mut self.schedule,
             &self.pipelines,
             &self.buffers,
             &base,
-            (&self.tile_buffer, &self.accumulate, &self.accumulate_bind),
+            &self.accumulator,
+            &self.accum_bind,
             &mut self.points_traced,
         )?;
         if pass_done {

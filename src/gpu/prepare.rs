@@ -1,0 +1,532 @@
+//! One preparation for every GPU render, without a device: from the scene, the options, what
+//! the adapter offers ([`Capabilities`]) and stored tables if any, [`prepare`] resolves every
+//! option once ([`resolve`]: precision, accelerator, what rays leaving surfaces take), checks
+//! what the kernels cannot trace, derives the kernels' variant ([`variant`], the one place
+//! that does), packs the scene with its final [`Params`](crate::layout::Params) (per tile and
+//! sample aside), builds the candidate tables or takes stored ones, adds the BVH or the ray
+//! queries' boxes, bounds the walks, checks lavapipe's loop budget, and sizes the tiles and
+//! queues ([`Prepared`]). `render`, `compare`, `bench`, `tables`, `accuracy` and the preview
+//! all start here; `cuberay info` prints what [`resolve`] chose.
+
+use std::time::Instant;
+
+use super::buffers::{BufferSizes, QueueSizes};
+use super::shaders::{Depths, Kernel, Stage, Variant};
+use crate::arith::precision::f32_need;
+use crate::coherence::reach::WalkBounds;
+use crate::coherence::{self, BuildParams, FlatTables, Tables};
+use crate::error::{Error, Result};
+use crate::job::{Accel, Precision, RenderOptions, SurfaceWalk};
+use crate::layout::budget::{self, check_loop_budget, MAX_DEPTH, TESTS_PER_DISPATCH};
+use crate::layout::{pack, Packed};
+use crate::output::Aov;
+use crate::sampling::Sampling;
+use crate::scene::{Effects, LightKind, Scene};
+use crate::tablefile::StoredTables;
+
+/// What an adapter offers that a render's choices depend on: plain data, so that the
+/// choices are made, and tested, without a device ([`super::GpuContext::capabilities`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Capabilities {
+    /// The adapter's name and driver, for messages.
+    pub adapter: String,
+    /// Mesa's lavapipe (llvmpipe): its loop limit applies, and its software ray queries
+    /// measured slower than the BVH.
+    pub lavapipe: bool,
+    /// The platform's ray queries (`EXPERIMENTAL_RAY_QUERY`).
+    pub ray_queries: bool,
+    /// 64-bit floats in shaders (`SHADER_F64`).
+    pub f64: bool,
+    /// The largest storage buffer one binding may hold, in bytes.
+    pub max_binding: u64,
+}
+
+/// What a preparation is for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Purpose {
+    /// A render of the image.
+    Render,
+    /// An auxiliary output from the eye ray through each pixel centre.
+    Aov(Aov),
+    /// The preview, simulating `effects` (the scene's, some switched off): its tables and
+    /// queues serve every effect of the scene at any depth, so that switching one back on
+    /// or deepening the trees needs none, and its rays leaving surfaces walk the BVH, whose
+    /// boxes a camera move rewrites in place.
+    Preview { effects: Effects },
+}
+
+/// The tables a render traces: built for it, or read from a file (`render --tables`), with
+/// the bounds on their walks computed here.
+// One per render: the size of its variants does not matter.
+#[allow(clippy::large_enum_variant)]
+pub enum TableSet {
+    Built(Tables),
+    Stored(StoredTables, WalkBounds),
+}
+
+impl TableSet {
+    pub fn flat(&self) -> &FlatTables {
+        match self {
+            TableSet::Built(t) => &t.flat,
+            TableSet::Stored(t, _) => &t.flat,
+        }
+    }
+
+    pub fn walks(&self) -> &WalkBounds {
+        match self {
+            TableSet::Built(t) => &t.walks,
+            TableSet::Stored(_, w) => w,
+        }
+    }
+
+    /// The tables as built, when they were built here.
+    pub fn built(self) -> Option<Tables> {
+        match self {
+            TableSet::Built(t) => Some(t),
+            TableSet::Stored(..) => None,
+        }
+    }
+}
+
+/// A render prepared for the GPU: everything but the device's own objects.
+pub struct Prepared {
+    /// The options with every `auto` resolved ([`resolve`]).
+    pub opts: RenderOptions,
+    /// The kernels' variant, and the kernels with the depths each serves.
+    pub variant: Variant,
+    pub stages: Vec<Stage>,
+    /// The scene packed, with its BVH or ray queries' boxes, and the final params (per tile
+    /// and sample aside).
+    pub packed: Packed,
+    pub tables: Option<TableSet>,
+    /// How long the kernels' walks may be (`None`: brute force).
+    pub walks: Option<WalkBounds>,
+    /// Retry passes planned per depth (see [`budget::retry_passes`]).
+    pub retries: u32,
+    /// The buffers' tile and queues.
+    pub sizes: BufferSizes,
+    /// The wavefront's queues per point (`None`: the `aov` kernel's buffers).
+    pub queues: Option<QueueSizes>,
+    /// Seconds the preparation took (packing, the tables and the BVH).
+    pub preprocess_s: f64,
+}
+
+/// `opts` with every choice `auto` leaves resolved for `scene`, once: the precision
+/// ([`crate::arith::precision`], the reason kept in `auto_precision`), the accelerator
+/// (`auto`: the candidate tables), and, on the adapter `caps` describes, what rays leaving
+/// surfaces take (ray queries where the adapter has them and they measured faster, else the
+/// BVH). Refuses what the kernels cannot trace, an f64 render on an adapter without f64, and
+/// ray queries asked of an adapter without them. `caps` `None`: without an adapter (`cuberay
+/// tables`), the choices that depend on one stay as given.
+pub fn resolve(scene: &Scene, opts: &RenderOptions, caps: Option<&Capabilities>) -> Result<RenderOptions> {
+    check(scene, opts)?;
+    choose(scene, opts, caps)
+}
+
+/// The choices of [`resolve`] without its checks of the scene and options (`cuberay info`
+/// shows them for a scene the GPU refuses too).
+pub fn choose(scene: &Scene, opts: &RenderOptions, caps: Option<&Capabilities>) -> Result<RenderOptions> {
+    let mut o = opts.clone();
+    if o.precision == Precision::Auto {
+        let need = f32_need(scene, o.height);
+        o.precision = if need.needs_f64() { Precision::F64 } else { Precision::F32 };
+        log::info!("precision {}: {}", o.precision.name(), need.reason());
+        o.auto_precision = Some(need);
+    }
+    if o.accel == Accel::Auto {
+        o.accel = Accel::Cube;
+    }
+    let Some(caps) = caps else { return Ok(o) };
+    check_f64(caps, &o)?;
+    let asked = match (o.accel, o.surface) {
+        (Accel::RayQuery, _) => Some("--accel rayquery"),
+        (Accel::Cube, SurfaceWalk::RayQuery) => Some("--surface-walk rayquery"),
+        _ => None,
+    };
+    if let (Some(flag), false) = (asked, caps.ray_queries) {
+        return Err(Error::Options(format!(
+            "{flag} needs the GPU's ray queries (Vulkan's VK_KHR_ray_query), which {} does not offer: a GPU \
+             with ray tracing has them, and so has Mesa's lavapipe from 24.1 on (Debian 12: mesa-vulkan-drivers \
+             from bookworm-backports; docs/drivers-and-faults.md says how to use it beside the system's)",
+            caps.adapter
+        )));
+    }
+    if o.surface == SurfaceWalk::Auto {
+        o.surface = if caps.ray_queries && ray_queries_measured_faster(caps) {
+            SurfaceWalk::RayQuery
+        } else {
+            SurfaceWalk::Bvh
+        };
+    }
+    Ok(o)
+}
+
+/// Whether rays leaving surfaces go to ray queries by default on an adapter that has them:
+/// everywhere but on lavapipe, whose software walk of its structure took 0.98–3.5× the wide
+/// BVH's time for those rays on Mesa 25.0 (docs/performance.md, "ray queries"). A GPU walks
+/// it in hardware, which is what ray queries are for.
+fn ray_queries_measured_faster(caps: &Capabilities) -> bool {
+    !caps.lavapipe
+}
+
+/// The kernels' variant of a render of `scene` with resolved `opts` that simulates `effects`
+/// to `max_depth` with `accel` (the one place that derives a variant): the intersection code
+/// of the scene's kinds of primitive only; the walk of rays leaving surfaces only if the
+/// render traces such rays ([`coherence::traces_surface_rays`]: mirrors or glass, or shadow
+/// rays towards a directional light), so that a scene lit by point lights alone, without
+/// mirrors, gets table kernels without a BVH loop; the BVH's shadow walk only where a
+/// directional light's shadow rays take it; counted if `opts` ask for the counts.
+pub fn variant(
+    scene: &Scene,
+    opts: &RenderOptions,
+    effects: Effects,
+    max_depth: u32,
+    accel: Accel,
+) -> Variant {
+    debug_assert!(accel != Accel::Auto, "a variant of an unresolved accelerator");
+    let v = Variant::for_effects(effects, max_depth)
+        .with_accel(accel)
+        .with_f64(opts.precision == Precision::F64)
+        .with_surface_rq(opts.surface == SurfaceWalk::RayQuery)
+        .with_shapes(scene.shapes())
+        .with_counters(opts.count);
+    let params = table_params(scene, opts, v.effects);
+    let directional = scene.lights.iter().any(|l| l.kind == LightKind::Directional);
+    v.with_surface_rays(coherence::traces_surface_rays(scene, &params)).with_bvh_shadows(directional)
+}
+
+/// How the tables of a render with `opts` whose kernels simulate `effects` are built: for
+/// its image, eye cells and spawn policy, and only for the rays those kernels trace (the
+/// one place that turns render options into a table build).
+pub fn table_params(scene: &Scene, opts: &RenderOptions, effects: Effects) -> BuildParams {
+    let effects = Effects {
+        shadows: effects.shadows,
+        reflection: effects.reflection,
+        refraction: effects.refraction,
+        ..scene.effects()
+    };
+    BuildParams {
+        image: Some((opts.width, opts.height)),
+        spawn: opts.spawn,
+        effects: Some(effects),
+        eye_n: opts.eye_cells,
+        ..BuildParams::default()
+    }
+}
+
+/// The effects and depth a preparation for `purpose` simulates.
+fn simulated(scene: &Scene, opts: &RenderOptions, purpose: Purpose) -> (Effects, u32) {
+    match purpose {
+        Purpose::Render => (scene.effects(), opts.max_depth),
+        Purpose::Aov(_) => (Effects::default(), 1),
+        Purpose::Preview { effects } => (effects, opts.max_depth),
+    }
+}
+
+/// The effects and depth the tables and queues of a preparation for `purpose` serve: what
+/// it simulates, or for the preview every effect of the scene at any depth.
+fn served(scene: &Scene, opts: &RenderOptions, purpose: Purpose) -> (Effects, u32) {
+    match purpose {
+        Purpose::Preview { .. } => (scene.effects(), MAX_DEPTH),
+        _ => simulated(scene, opts, purpose),
+    }
+}
+
+/// The parameters the tables of a render of `scene` with `opts` for `purpose` are built
+/// with, or `None` when it traces none: what `cuberay tables` builds, and what a stored table
+/// file must have been built with. Resolves `opts` without an adapter (the tables do not
+/// depend on one).
+pub fn build_params(scene: &Scene, opts: &RenderOptions, purpose: Purpose) -> Result<Option<BuildParams>> {
+    Ok(tables_of(scene, &resolve(scene, opts, None)?, purpose))
+}
+
+/// The variant a render of `scene` with `opts` for `purpose` runs, resolved without an
+/// adapter (rays leaving surfaces take the BVH).
+pub fn variant_for(scene: &Scene, opts: &RenderOptions, purpose: Purpose) -> Result<Variant> {
+    let opts = resolve(scene, opts, None)?;
+    let (effects, depth) = simulated(scene, &opts, purpose);
+    Ok(variant(scene, &opts, effects, depth, opts.accel))
+}
+
+/// [`build_params`] for resolved `opts`.
+pub fn tables_of(scene: &Scene, opts: &RenderOptions, purpose: Purpose) -> Option<BuildParams> {
+    let (effects, depth) = served(scene, opts, purpose);
+    let serves = variant(scene, opts, effects, depth, opts.accel);
+    serves.cube().then(|| table_params(scene, opts, serves.effects))
+}
+
+/// Prepares a render of `scene` with `opts` for `purpose` on the adapter `caps` describes,
+/// building the tables it traces or taking `stored` ones (built with [`build_params`],
+/// checked here).
+pub fn prepare(
+    scene: &Scene,
+    opts: &RenderOptions,
+    caps: &Capabilities,
+    purpose: Purpose,
+    stored: Option<StoredTables>,
+) -> Result<Prepared> {
+    let mut opts = resolve(scene, opts, Some(caps))?;
+    if matches!(purpose, Purpose::Preview { .. }) {
+        opts.surface = SurfaceWalk::Bvh;
+    }
+    let start = Instant::now();
+    let (effects, depth) = simulated(scene, &opts, purpose);
+    let variant = variant(scene, &opts, effects, depth, opts.accel);
+    let serves = match purpose {
+        Purpose::Preview { .. } => self::variant(scene, &opts, scene.effects(), MAX_DEPTH, opts.accel),
+        _ => variant,
+    };
+    let mut packed = pack(scene, opts.width, opts.height, opts.spawn);
+    if variant.f64 {
+        packed.use_f64(scene, opts.spawn);
+    }
+    match serves.accel {
+        Accel::Bvh => packed.add_bvh(scene),
+        Accel::RayQuery => packed.add_rq(scene),
+        Accel::Auto | Accel::Cube | Accel::Brute => {}
+    }
+    let tables = take_tables(scene, &opts, serves, &mut packed, stored)?;
+    debug_assert!(
+        variant.surface_rays || packed.params.surface_walk == 0,
+        "the tables send rays leaving surfaces to kernels without their walk"
+    );
+    let walks = walk_bounds(tables.as_ref().map(TableSet::walks), &packed);
+    // Lavapipe ends loops past its limit silently; one with ray queries (Mesa 24.1 and
+    // later) has no such limit: Mesa 25.0 ran loops of 200,000 iterations whole.
+    if caps.lavapipe && !variant.ray_queries() {
+        let wavefront = (!matches!(purpose, Purpose::Aov(_))).then_some(depth);
+        check_loop_budget(scene, walks.as_ref(), wavefront)?;
+    }
+    let queues = (!matches!(purpose, Purpose::Aov(_))).then(|| queue_sizes(scene, serves));
+    let tile = budget::tile_points(scene, walks.as_ref(), TESTS_PER_DISPATCH);
+    let sizes = BufferSizes::fit(tile, queues, packed.job_bytes(), caps.max_binding);
+    let job = match purpose {
+        Purpose::Aov(_) => RenderOptions { spp: 1, sampling: Sampling::Pixels, max_depth: 1, ..opts.clone() },
+        _ => opts.clone(),
+    };
+    packed.params = packed.params.with_job(&job);
+    if let Purpose::Aov(aov) = purpose {
+        packed.params.set_aov(aov);
+    }
+    packed.params.set_queues(sizes.ray_queue, sizes.shadow_queue);
+    let stages = match purpose {
+        Purpose::Aov(_) => vec![Stage { kernel: Kernel::Aov, depths: Depths::All }],
+        _ => Kernel::wavefront(variant),
+    };
+    Ok(Prepared {
+        retries: budget::retry_passes(scene, walks.as_ref()),
+        opts,
+        variant,
+        stages,
+        packed,
+        tables,
+        walks,
+        sizes,
+        queues,
+        preprocess_s: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// The tables the kernels of `serves` trace: built here, or `stored` ones checked against
+/// the scene (refused where the render traces none); `packed`'s params are pointed at them,
+/// and the BVH or the ray queries' boxes are added where rays leaving surfaces take them.
+fn take_tables(
+    scene: &Scene,
+    opts: &RenderOptions,
+    serves: Variant,
+    packed: &mut Packed,
+    stored: Option<StoredTables>,
+) -> Result<Option<TableSet>> {
+    if !serves.cube() {
+        return match stored {
+            Some(_) => Err(Error::Options(format!(
+                "stored tables are for --accel cube or auto; this render traces none (--accel {})",
+                serves.accel.name()
+            ))),
+            None => Ok(None),
+        };
+    }
+    let params = table_params(scene, opts, serves.effects);
+    let set = match stored {
+        Some(t) => {
+            t.flat.check_scene(scene.primitives.len(), scene.lights.len())?;
+            let walks = WalkBounds::of(scene, &t.flat);
+            TableSet::Stored(t, walks)
+        }
+        None => {
+            let t = coherence::build(scene, &params)?;
+            log::info!(
+                "tables: {} origins, {} entries, longest lists {} (nearest) {} (shadow), fallback reachable: {}",
+                t.flat.origins.len(),
+                t.flat.entries.len(),
+                t.walks.worst_closest,
+                t.walks.worst_shadow,
+                t.walks.fallback_reachable
+            );
+            TableSet::Built(t)
+        }
+    };
+    packed.params.point_at_tables(set.flat());
+    add_surface_walk(packed, scene, &params, serves.surface_rq);
+    Ok(Some(set))
+}
+
+/// The checks a render runs on stored tables before it uploads them, without a device: for
+/// tests and the tables file's fuzz target.
+pub fn check_stored(scene: &Scene, opts: &RenderOptions, t: &StoredTables) -> Result<()> {
+    let opts = resolve(scene, opts, None)?;
+    let serves = variant(scene, &opts, scene.effects(), opts.max_depth, opts.accel);
+    let mut packed = pack(scene, opts.width, opts.height, opts.spawn);
+    take_tables(scene, &opts, serves, &mut packed, Some(t.clone())).map(|_| ())
+}
+
+/// Adds what the rays leaving surfaces take, if the render the tables were built for (with
+/// `params`) traces such rays: the BVH, or with `rq` the ray queries' boxes; else leaves
+/// `packed` alone.
+pub fn add_surface_walk(packed: &mut Packed, scene: &Scene, params: &BuildParams, rq: bool) {
+    if coherence::traces_surface_rays(scene, params) {
+        if rq {
+            packed.add_rq(scene);
+        } else {
+            packed.add_bvh(scene);
+        }
+        packed.params.set_surface_walk(true);
+    }
+}
+
+/// How long the walks of a render with `tables` (`None`: none) and `packed`'s BVH or ray
+/// queries' boxes (if any) may be: with both, rays leaving surfaces take the latter.
+pub fn walk_bounds(tables: Option<&WalkBounds>, packed: &Packed) -> Option<WalkBounds> {
+    let surface = match (&packed.bvh, &packed.rq) {
+        (Some(b), _) => Some(b.walk_bounds()),
+        (None, Some(r)) => Some(crate::layout::rayquery::walk_bounds(r)),
+        (None, None) => None,
+    };
+    match (tables, surface) {
+        (Some(t), Some(b)) => Some(t.or(&b)),
+        (t, b) => t.copied().or(b),
+    }
+}
+
+/// The wavefront's queues per point of a tile for `scene` with `variant`: one ray per depth
+/// and point without glass or blended surfaces (reflection does not branch), four with them
+/// (a tile whose rays branch further overflows and runs again in halves), and a shadow ray
+/// per light.
+pub fn queue_sizes(scene: &Scene, variant: Variant) -> QueueSizes {
+    QueueSizes {
+        rays_per_point: if variant.effects.refraction || variant.effects.blend { 4 } else { 1 },
+        shadows_per_ray: if variant.effects.shadows { scene.lights.len().max(1) as u32 } else { 0 },
+    }
+}
+
+/// Checks that an adapter with `caps` has the 64-bit floats an f64 render of `opts`
+/// (resolved) needs; the error says why `auto` chose f64 where it did.
+fn check_f64(caps: &Capabilities, opts: &RenderOptions) -> Result<()> {
+    if opts.precision != Precision::F64 || caps.f64 {
+        return Ok(());
+    }
+    let why = match &opts.auto_precision {
+        Some(need) => format!(
+            "this scene needs f64 ({}), and f64 kernels need 64-bit floats in shaders (SHADER_F64), which {} does \
+             not offer; --precision f32 renders it in f32 anyway",
+            need.reason(),
+            caps.adapter
+        ),
+        None => format!(
+            "--precision f64 needs 64-bit floats in shaders (SHADER_F64), which {} does not offer",
+            caps.adapter
+        ),
+    };
+    Err(Error::Options(why))
+}
+
+/// Checks that the GPU backend can render `scene` with `opts`.
+pub fn check(scene: &Scene, opts: &RenderOptions) -> Result<()> {
+    opts.validate()?;
+    scene.validate()?;
+    if opts.max_depth > MAX_DEPTH {
+        return Err(Error::Options(format!(
+            "--max-depth {} is deeper than the GPU backend traces ({MAX_DEPTH}); use --backend cpu",
+            opts.max_depth
+        )));
+    }
+    if scene.primitives.len() >= u32::MAX as usize {
+        return Err(Error::Scene("too many primitives for the GPU backend".into()));
+    }
+    check_f32_range(scene)?;
+    Ok(())
+}
+
+/// How far from the camera (where the packed scene is centred) a coordinate may lie on the
+/// GPU: the kernels square coordinates and radii in f32, whose largest value is 3.4·10³⁸.
+pub const F32_REACH: f64 = (1u64 << 60) as f64;
+
+/// Refuses a scene that the kernels' f32 arithmetic would overflow: a finite f64 value that
+/// turns to Inf in f32, or squares to it, so that no Inf reaches a kernel.
+fn check_f32_range(scene: &Scene) -> Result<()> {
+    let eye = scene.camera.eye;
+    let reach_of = |b: crate::scene::Aabb| (b.min - eye).abs().max((b.max - eye).abs()).max_element();
+    let too_far = |what: String, reach: f64| {
+        Error::Scene(format!(
+            "{what} reaches {reach:.3e} from the camera, beyond what the GPU's f32 arithmetic can \
+             square ({F32_REACH:.3e}); render it with --backend cpu"
+        ))
+    };
+    for (id, p) in scene.primitives.iter().enumerate() {
+        let r = reach_of(p.bounds());
+        if r > F32_REACH {
+            return Err(too_far(format!("primitive {id}"), r));
+        }
+    }
+    for (i, l) in scene.lights.iter().enumerate() {
+        let r = (l.position - eye).abs().max_element();
+        if !matches!(l.kind, LightKind::Directional) && r > F32_REACH {
+            return Err(too_far(format!("light {i}"), r));
+        }
+    }
+    check_f32_values(scene)
+}
+
+/// Refuses material, light and colour values beyond f32's range: finite in f64, they must
+/// stay finite in the f32 the GPU holds them in.
+fn check_f32_values(scene: &Scene) -> Result<()> {
+    let beyond = |what: String, x: f64| {
+        Error::Scene(format!(
+            "{what} is {x:.3e}, beyond f32's range ({:.3e}), which the GPU holds it in; render it \
+             with --backend cpu",
+            f32::MAX
+        ))
+    };
+    let fits = |x: f64| x.abs() <= f32::MAX as f64;
+    for (i, m) in scene.materials.iter().enumerate() {
+        let values = [
+            ("colour", m.color.abs().max_element()),
+            ("diffuse weight", m.kd),
+            ("highlight weight", m.ks),
+            ("Phong exponent", m.shine),
+            ("mirror weight", m.mirror.abs().max_element()),
+            ("transmittance", m.transmittance),
+            ("index of refraction", m.ior),
+            ("emission", m.emission.abs().max_element()),
+        ];
+        if let Some((what, x)) = values.into_iter().find(|&(_, x)| !fits(x)) {
+            let named = m.name.as_ref().map(|n| format!(" ({n})")).unwrap_or_default();
+            return Err(beyond(format!("material {i}{named}: its {what}"), x));
+        }
+    }
+    for (i, l) in scene.lights.iter().enumerate() {
+        let radiance = (l.color * l.intensity).abs().max_element();
+        if !fits(radiance) {
+            return Err(beyond(format!("light {i}: its colour times intensity"), radiance));
+        }
+        if let Some(r) = l.range.filter(|&r| !fits(r)) {
+            return Err(beyond(format!("light {i}: its range"), r));
+        }
+    }
+    for (name, v) in [("the ambient light", scene.ambient), ("the background", scene.background)] {
+        if !fits(v.abs().max_element()) {
+            return Err(beyond(name.into(), v.abs().max_element()));
+        }
+    }
+    Ok(())
+}
