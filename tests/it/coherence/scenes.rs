@@ -34,7 +34,7 @@ cases!(spd_every_ray_agrees_with_brute_force: super::spd_every_ray_agrees_with_b
     tree => ("tree_s1"),
 });
 
-/// Every scene of `scenes/hard/` (the hard-case suite of `tests/it/hard.rs`), with the default
+/// Every scene of `scenes/hard/` (the hard-case suite of `tests/it/hard/`), with the default
 /// build and with small tables: rays from the eye through the image and from every light in
 /// every direction (nearest and any-hit) all agree with brute force.
 fn hard_scene_tables_match_brute_force(file: &str) {
