@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes the glTF scenes that test per-hit maps (tests/it/gpu.rs):
+"""Writes the glTF scenes that test per-hit maps (tests/it/gpu/closed_forms.rs):
 
 - scenes/alpha_mask.gltf: a red-glowing quad cut out by an alpha-masked 4x4 checker
   (nearest filtering, alphaCutoff 0.5) in front of a blue-glowing, lit white wall, seen

@@ -1,6 +1,6 @@
 // Tone mapping: how radiance beyond 1 comes into [0, 1] before the transfer encodes it
 // (twin: scene::Tonemap::apply in src/scene/mod.rs; keep in sync). The preview's display
-// pass applies it; tests/it/arith.rs runs it against the twin.
+// pass applies it; tests/it/arith/tonemap.rs runs it against the twin.
 
 const TONEMAP_NONE: u32 = 0u;
 const TONEMAP_PBR_NEUTRAL: u32 = 1u;

@@ -37,12 +37,12 @@ use crate::scene::{Aabb, Primitive, Projection, Scene};
 
 /// The largest offset-to-size ratio f32 is trusted with on a primitive's own size, `2⁻⁴`:
 /// a sphere of radius 5·10⁻⁵ one unit from the eye is at `2⁻⁶·⁷` (6.6× under it; f32 covers
-/// its pixels exactly, `hard::tiny_spheres`).
+/// its pixels exactly, `hard::scale::tiny_spheres`).
 pub const OWN_LIMIT: f64 = 1.0 / 16.0;
 
 /// The largest offset-to-size ratio f32 is trusted with on the size of what touches a
 /// primitive, `2⁻⁷`: a unit ball on a ground sphere of radius 10⁵ is at 0.095 (12× over; f32
-/// misses the contact, `hard::contact_on_huge_geometry`); the SPD scenes and the glTF sample
+/// misses the contact, `hard::scale::contact_on_huge_geometry`); the SPD scenes and the glTF sample
 /// models are at least 7× under (`docs/accuracy.md`, "Precision chosen per scene").
 pub const CONTACT_LIMIT: f64 = 1.0 / 128.0;
 

@@ -61,7 +61,7 @@ pub fn shadow_inline(scene: &Scene) -> u32 {
 /// primitive and perhaps a node), a quarter of what [`shadow_inline`] entries may take, less
 /// the two groups of primitives a walk whose budget runs out tests before it stops. A quarter, because lavapipe ended these walks early
 /// at half of it (measured with eight lights, nine thousand triangles and walks of thousands
-/// of nodes: `bvh_walks_longer_than_a_step_resume` in `tests/it/gpu.rs`): it counted more
+/// of nodes: `bvh_walks_longer_than_a_step_resume` in `tests/it/gpu/accels.rs`): it counted more
 /// iterations than the walk's (measured when each iteration was one box or one primitive;
 /// a walk now takes fewer, so the budget has room). A walk that does not end within the
 /// budget becomes a job and starts over; a BVH shadow walk takes tens of iterations, so

@@ -1,8 +1,8 @@
 //! `--precision auto`: the rule of `cuberay::arith::precision` pinned from both sides on
 //! scenes whose ratios are known in closed form, on the hard cases, and on every shared
 //! scene (none of which may switch to f64). The renders that prove f64 is right where the
-//! rule picks it are the hard cases' own (`hard::contact_on_huge_geometry`, which renders
-//! with no flag).
+//! rule picks it are the hard cases' own (`hard::scale::contact_on_huge_geometry`, which
+//! renders with no flag).
 
 use std::path::Path;
 

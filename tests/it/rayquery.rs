@@ -76,8 +76,8 @@ fn scene(path: &Path) -> Scene {
 /// Renders `scene` at `size`² by brute force and with ray queries (every ray, and in f32 the
 /// rays leaving surfaces under the tables), in f32 and f64, and returns every difference: a
 /// pixel's bits or a ray count. (The BVH and the tables with it give brute force's bytes in
-/// `gpu::accels_match_brute_force` and its kin; each further accelerator here would cost a
-/// cold compile of every kernel on CI's first run.)
+/// `gpu::accels::accels_match_brute_force` and its kin; each further accelerator here would
+/// cost a cold compile of every kernel on CI's first run.)
 fn differences(r: &GpuRenderer, name: &str, scene: &Scene, size: u32) -> Vec<String> {
     let mut found = Vec::new();
     for precision in [Precision::F32, Precision::F64] {
@@ -237,8 +237,9 @@ mod child {
         let mut paths = files(&dir, &["gltf"]);
         paths.push(dir.join("showcase.nff"));
         let mut scenes = named(paths);
-        // The masked checker blended instead (as gpu::alpha_blend_lets_one_minus_alpha_through):
-        // pass-through rays, and shadow rays that test its alpha.
+        // The masked checker blended instead (as
+        // gpu::closed_forms::alpha_blend_lets_one_minus_alpha_through): pass-through rays, and
+        // shadow rays that test its alpha.
         let mut blended = scene(&dir.join("alpha_mask.gltf"));
         blended.materials[0].alpha = cuberay::scene::Alpha::Blend;
         blended.materials[0].opacity = 0.6;
