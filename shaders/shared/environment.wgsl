@@ -5,18 +5,20 @@
 // v = acos(y)/π down it; bilinear between texel centres, wrapped around in u, clamped at
 // the poles. Texels are shared-exponent RGB: mantissa bytes times 2^(e − 136).
 
-// Texel (`x`, `y`) of the map, `x` wrapped around, `y` clamped, decoded.
-fn env_texel(t: TextureInfo, x: i32, y: i32) -> vec3<f32> {
+#include "shared/bilinear.wgsl"
+
+// Texel (`x`, `y`) of the map, `x` wrapped around, `y` clamped, decoded (`w` 0).
+fn env_texel(t: TextureInfo, x: i32, y: i32) -> vec4<f32> {
     let w = i32(t.width);
     let xi = ((x % w) + w) % w;
     let yi = clamp(y, 0, i32(t.height) - 1);
     let c = texels[t.offset + u32(yi) * t.width + u32(xi)];
     let e = c >> 24u;
     if e == 0u {
-        return vec3<f32>(0.0);
+        return vec4<f32>(0.0);
     }
     let m = vec3<f32>(f32(c & 255u), f32((c >> 8u) & 255u), f32((c >> 16u) & 255u));
-    return m * ldexp(1.0, i32(e) - 136);
+    return vec4<f32>(m * ldexp(1.0, i32(e) - 136), 0.0);
 }
 
 // The radiance arriving from direction `d` (unit).
@@ -30,15 +32,9 @@ fn environment(d: vec3<f32>) -> vec3<f32> {
     }
     let v = acos(clamp(l.y / length(l), -1.0, 1.0)) * inv_pi;
     let t = texture_infos[params.env_texture - 1u];
-    let px = u * f32(t.width) - 0.5;
-    let py = v * f32(t.height) - 0.5;
-    let x0 = floor(px);
-    let y0 = floor(py);
-    let fx = px - x0;
-    let fy = py - y0;
-    let i = i32(x0);
-    let j = i32(y0);
-    let top = env_texel(t, i, j) * (1.0 - fx) + env_texel(t, i + 1, j) * fx;
-    let bottom = env_texel(t, i, j + 1) * (1.0 - fx) + env_texel(t, i + 1, j + 1) * fx;
-    return (top * (1.0 - fy) + bottom * fy) * params.env_intensity;
+    let p = footprint(u * f32(t.width), v * f32(t.height));
+    let i = p.i;
+    let j = p.j;
+    let c = bilinear(env_texel(t, i, j), env_texel(t, i + 1, j), env_texel(t, i, j + 1), env_texel(t, i + 1, j + 1), p.f);
+    return c.xyz * params.env_intensity;
 }

@@ -2,6 +2,8 @@
 // modes, nearest or bilinear, as the CPU reference samples them (src/reference/texture.rs);
 // and a material's texture read at a surface point through its UV set and transform.
 
+#include "shared/bilinear.wgsl"
+
 fn srgb_to_linear(v: u32) -> f32 {
     let c = f32(v) / 255.0;
     if c <= 0.04045 {
@@ -45,17 +47,10 @@ fn sample_texture(index: u32, uv: vec2<f32>) -> vec4<f32> {
     if (t.flags & TEX_BILINEAR) == 0u {
         return texel(t, i32(floor(x)), i32(floor(y)));
     }
-    let xs = x - 0.5;
-    let ys = y - 0.5;
-    let x0 = floor(xs);
-    let y0 = floor(ys);
-    let fx = xs - x0;
-    let fy = ys - y0;
-    let i = i32(x0);
-    let j = i32(y0);
-    let top = texel(t, i, j) * (1.0 - fx) + texel(t, i + 1, j) * fx;
-    let bottom = texel(t, i, j + 1) * (1.0 - fx) + texel(t, i + 1, j + 1) * fx;
-    return top * (1.0 - fy) + bottom * fy;
+    let p = footprint(x, y);
+    let i = p.i;
+    let j = p.j;
+    return bilinear(texel(t, i, j), texel(t, i + 1, j), texel(t, i, j + 1), texel(t, i + 1, j + 1), p.f);
 }
 
 // Texture `r` at a point with UV sets `uv0` (`has0`) and `uv1` (`has1`); `fallback` where

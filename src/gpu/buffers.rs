@@ -5,41 +5,25 @@
 //! the kernels' outputs and the wavefront's queues (sized for a tile), with their one bind
 //! group.
 
+use super::bindings::SceneBinding;
 use super::GpuContext;
 use crate::coherence::FlatTables;
 use crate::error::{Error, Result};
 use crate::layout::counters::COUNTER_BYTES;
 use crate::layout::rayquery::RqBox;
-use crate::layout::{Packed, Params, PassDesc, QUEUE_SHADOW, QUEUE_WORDS, WORKGROUP};
+use crate::layout::{Packed, QUEUE_SHADOW, QUEUE_WORDS, WORKGROUP};
 
-/// A packed scene's buffers on the GPU with their bind group (the bindings of
-/// `shaders/shared/layout.wgsl`, `wavefront.wgsl`, `counters.wgsl`, `tables.wgsl` and
-/// `bvh.wgsl`), sized for tiles of up to `tile` grid points. Positions are relative to the
-/// eye: a camera move rewrites `prims`, `lights` and `params`.
+/// A packed scene's buffers on the GPU with their bind group: one buffer for each binding
+/// of the scene's family ([`SceneBinding`], indexed by it: `buffers[SceneBinding::Prims]`),
+/// the ray queries' structure where the kernels use them, and the dispatch arguments, sized
+/// for tiles of up to `tile` grid points. Positions are relative to the eye: a camera move
+/// rewrites the primitives, the lights, the BVH and the params.
 pub struct SceneBuffers {
-    pub params: wgpu::Buffer,
-    pub prims: wgpu::Buffer,
-    pub lights: wgpu::Buffer,
-    /// One `vec4<f32>` per point of the tile: its radiance (`resolve`) or its AOV (`aov`).
-    pub out: wgpu::Buffer,
-    /// The 64-bit counters (`COUNTER_COUNT` of them, low word first).
-    pub counters: wgpu::Buffer,
-    /// The wavefront's queues of [`Job`](crate::layout::Job)s, their lengths and dispatch arguments
-    /// (`QUEUE_WORDS` words), the current pass, and each tile point's radiance in fixed
-    /// point (6 words a point).
-    pub jobs: wgpu::Buffer,
-    pub queues: wgpu::Buffer,
-    pub pass_desc: wgpu::Buffer,
-    pub accum: wgpu::Buffer,
-    /// The dispatch arguments of the current pass, copied from `queues` (a buffer the kernel
-    /// writes cannot also be its dispatch's argument buffer).
+    /// The buffers of [`SceneBinding::BUFFERS`], in its order.
+    bound: Vec<wgpu::Buffer>,
+    /// The dispatch arguments of the current pass, copied from the queues (a buffer the
+    /// kernel writes cannot also be its dispatch's argument buffer).
     pub indirect: wgpu::Buffer,
-    /// The BVH's nodes, primitive list and parents (a placeholder word without a BVH).
-    pub bvh_nodes: wgpu::Buffer,
-    pub bvh_prims: wgpu::Buffer,
-    pub bvh_parents: wgpu::Buffer,
-    /// The candidate tables' buffers ([`FlatTables`]; placeholders without tables).
-    pub tables: [wgpu::Buffer; 5],
     /// The ray queries' acceleration structure, where the kernels use ray queries.
     pub rq: Option<RqStructure>,
     pub bind: wgpu::BindGroup,
@@ -50,37 +34,49 @@ pub struct SceneBuffers {
     pub shadow_queue: u32,
 }
 
+impl std::ops::Index<SceneBinding> for SceneBuffers {
+    type Output = wgpu::Buffer;
+
+    /// The buffer bound at `b` (every binding but the ray queries' structure).
+    fn index(&self, b: SceneBinding) -> &wgpu::Buffer {
+        &self.bound[slot(b)]
+    }
+}
+
+/// Where the buffer of binding `b` is in [`SceneBinding::BUFFERS`].
+fn slot(b: SceneBinding) -> usize {
+    SceneBinding::BUFFERS.iter().position(|&x| x == b).expect("a binding of a buffer")
+}
+
 impl SceneBuffers {
     /// Writes the eye-dependent parts of `packed` (the same scene re-centred on another eye,
     /// with its BVH) into these buffers, when they were made for a BVH at least as large:
     /// a camera move then allocates nothing (new buffers of a tile's queues cost their
     /// zeroing). Returns whether it did.
     pub fn rewrite_moved(&self, ctx: &GpuContext, packed: &Packed) -> bool {
+        use SceneBinding::*;
         // The driver's structure is built over eye-relative boxes: a new eye builds anew.
         let Some(bvh) = packed.bvh.as_ref().filter(|_| self.rq.is_none() && packed.rq.is_none()) else {
             return false;
         };
-        let (nodes, prims, parents): (&[u8], &[u8], &[u8]) = (
-            bytemuck::cast_slice(&bvh.nodes),
-            bytemuck::cast_slice(&bvh.prims),
-            bytemuck::cast_slice(&bvh.parents),
-        );
-        let fits = |bytes: &[u8], b: &wgpu::Buffer| !bytes.is_empty() && bytes.len() as u64 <= b.size();
-        if !fits(nodes, &self.bvh_nodes)
-            || !fits(prims, &self.bvh_prims)
-            || !fits(parents, &self.bvh_parents)
-            || packed.prim_bytes().len() as u64 != self.prims.size()
-        {
+        let parts: [(SceneBinding, &[u8]); 3] = [
+            (BvhNodes, bytemuck::cast_slice(&bvh.nodes)),
+            (BvhPrims, bytemuck::cast_slice(&bvh.prims)),
+            (BvhParents, bytemuck::cast_slice(&bvh.parents)),
+        ];
+        let fits =
+            |(b, bytes): &(SceneBinding, &[u8])| !bytes.is_empty() && bytes.len() as u64 <= self[*b].size();
+        if !parts.iter().all(fits) || packed.prim_bytes().len() as u64 != self[Prims].size() {
             return false;
         }
         let queue = &ctx.queue;
-        queue.write_buffer(&self.prims, 0, packed.prim_bytes());
+        queue.write_buffer(&self[Prims], 0, packed.prim_bytes());
         if !packed.lights.is_empty() {
-            queue.write_buffer(&self.lights, 0, bytemuck::cast_slice(&packed.lights));
+            queue.write_buffer(&self[Lights], 0, bytemuck::cast_slice(&packed.lights));
         }
-        queue.write_buffer(&self.bvh_nodes, 0, nodes);
-        queue.write_buffer(&self.bvh_prims, 0, prims);
-        queue.write_buffer(&self.bvh_parents, 0, parents);
+        for (b, bytes) in parts {
+            queue.write_buffer(&self[b], 0, bytes);
+        }
         true
     }
 
@@ -88,23 +84,70 @@ impl SceneBuffers {
     /// preview's eye table, rebuilt for a resting camera, into buffers made with room).
     /// Returns whether it did.
     pub fn rewrite_tables(&self, ctx: &GpuContext, flat: &FlatTables) -> bool {
-        let parts: [&[u8]; 5] = [
-            bytemuck::cast_slice(&flat.origins),
-            bytemuck::cast_slice(&flat.faces),
-            bytemuck::cast_slice(&flat.cell_start),
-            bytemuck::cast_slice(&flat.entries),
-            bytemuck::cast_slice(&flat.light_origin),
-        ];
-        if parts.iter().zip(&self.tables).any(|(p, b)| p.len() as u64 > b.size()) {
+        let parts = table_parts(Some(flat));
+        if parts.iter().any(|&(b, p)| p.len() as u64 > self[b].size()) {
             return false;
         }
-        for (p, b) in parts.iter().zip(&self.tables) {
+        for (b, p) in parts {
             if !p.is_empty() {
-                ctx.queue.write_buffer(b, 0, p);
+                ctx.queue.write_buffer(&self[b], 0, p);
             }
         }
         true
     }
+}
+
+/// The tables' buffers' contents (empty without tables).
+fn table_parts(flat: Option<&FlatTables>) -> [(SceneBinding, &[u8]); 5] {
+    use SceneBinding::*;
+    let bytes = |part: fn(&FlatTables) -> &[u8]| flat.map_or(&[][..], part);
+    [
+        (Origins, bytes(|f| bytemuck::cast_slice(&f.origins))),
+        (Faces, bytes(|f| bytemuck::cast_slice(&f.faces))),
+        (CellStart, bytes(|f| bytemuck::cast_slice(&f.cell_start))),
+        (Entries, bytes(|f| bytemuck::cast_slice(&f.entries))),
+        (LightOrigin, bytes(|f| bytemuck::cast_slice(&f.light_origin))),
+    ]
+}
+
+/// What the buffers of the scene's data hold: `packed` (its BVH, if any) and the tables.
+fn data_parts<'a>(packed: &'a Packed, tables: Option<&'a FlatTables>) -> Vec<(SceneBinding, &'a [u8])> {
+    use SceneBinding::*;
+    let bvh = packed.bvh.as_ref();
+    let bvh_part = |part: fn(&crate::layout::bvh::GpuBvh) -> &[u8]| bvh.map_or(&[][..], part);
+    let mut parts = vec![
+        (Prims, packed.prim_bytes()),
+        (Materials, bytemuck::cast_slice(&packed.materials)),
+        (Lights, bytemuck::cast_slice(&packed.lights)),
+        (TriAttrs, bytemuck::cast_slice(&packed.tri_attrs)),
+        (TextureInfos, bytemuck::cast_slice(&packed.texture_infos)),
+        (Texels, bytemuck::cast_slice(&packed.texels)),
+        (BvhNodes, bvh_part(|b| bytemuck::cast_slice(&b.nodes))),
+        (BvhPrims, bvh_part(|b| bytemuck::cast_slice(&b.prims))),
+        (BvhParents, bvh_part(|b| bytemuck::cast_slice(&b.parents))),
+    ];
+    parts.extend(table_parts(tables));
+    parts
+}
+
+/// The size and usage of the buffer of binding `b` the kernels fill (the params, the
+/// outputs, the queues), for buffers of `sizes` and jobs of `job_bytes`; `None` for a
+/// binding of the scene's data.
+fn work_buffer(b: SceneBinding, sizes: BufferSizes, job_bytes: u64) -> Option<(u64, wgpu::BufferUsages)> {
+    use wgpu::BufferUsages as U;
+    use SceneBinding::*;
+    Some(match b {
+        Params => (std::mem::size_of::<crate::layout::Params>() as u64, U::STORAGE | U::COPY_DST),
+        OutColor => (sizes.tile * 16, U::STORAGE | U::COPY_SRC),
+        // COPY_DST: a tile that runs again restores the counts saved before it.
+        Counters => (COUNTER_BYTES, U::STORAGE | U::COPY_SRC | U::COPY_DST),
+        Jobs => (sizes.jobs_bytes.max(job_bytes), U::STORAGE),
+        Queues => (4 * QUEUE_WORDS as u64, U::STORAGE | U::COPY_SRC | U::COPY_DST),
+        PassDesc => (std::mem::size_of::<crate::layout::PassDesc>() as u64, U::STORAGE | U::COPY_DST),
+        // Each tile point's radiance in fixed point (6 words a point).
+        Accum => (if sizes.wavefront { sizes.tile * 24 } else { 24 }, U::STORAGE | U::COPY_DST),
+        _ => return None,
+    })
 }
 
 /// The platform's ray-tracing structure over the scene's boxes ([`RqBox`], one per
@@ -286,23 +329,11 @@ pub fn upload(
 ) -> Result<SceneBuffers> {
     let device = &ctx.device;
     let job_bytes = packed.job_bytes();
-    let BufferSizes { tile, ray_queue, shadow_queue, jobs_bytes, wavefront } = sizes;
-    let size = |bytes: usize| bytes as u64;
-    let mut sizes = vec![
-        ("prims", size(packed.prim_bytes().len())),
-        ("tri_attrs", size(std::mem::size_of_val(packed.tri_attrs.as_slice()))),
-        ("texels", size(std::mem::size_of_val(packed.texels.as_slice()))),
-        ("out", tile * 16),
-        ("ray queues", jobs_bytes),
-    ];
-    if let Some(t) = tables {
-        sizes.push(("cell_start", size(std::mem::size_of_val(t.cell_start.as_slice()))));
-        sizes.push(("entries", size(std::mem::size_of_val(t.entries.as_slice()))));
-    }
-    if let Some(b) = &packed.bvh {
-        sizes.push(("bvh_nodes", size(std::mem::size_of_val(b.nodes.as_slice()))));
-    }
-    check_limits(&sizes, &device.limits())?;
+    let data = data_parts(packed, tables);
+    let mut limited: Vec<(&str, u64)> =
+        data.iter().map(|(b, p)| (b.binding().name, p.len() as u64)).collect();
+    limited.extend([("out", sizes.tile * 16), ("ray queues", sizes.jobs_bytes)]);
+    check_limits(&limited, &device.limits())?;
     // A device that is gone (its loss reported on the next poll) creates nothing.
     let _ = device.poll(wgpu::PollType::Poll);
     ctx.fault()?;
@@ -310,149 +341,81 @@ pub fn upload(
     let rq = packed.rq.as_deref().map(|boxes| build_rq(ctx, boxes)).transpose()?;
     let out_of_memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
     let invalid = device.push_error_scope(wgpu::ErrorFilter::Validation);
-    let storage = |label: &str, bytes: &[u8], extra: wgpu::BufferUsages| {
-        // Storage bindings may not be empty. The contents go through the queue (not a
-        // buffer mapped at creation, whose mapping panics on a lost device); every buffer
-        // holds 32-bit words, so its length is a whole number of copy units.
-        let contents = if bytes.is_empty() { &[0u8; 256][..] } else { bytes };
-        assert_eq!(contents.len() as u64 % wgpu::COPY_BUFFER_ALIGNMENT, 0, "{label}: not whole words");
-        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some(label),
-            size: contents.len() as u64,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | extra,
-            mapped_at_creation: false,
-        });
-        ctx.queue.write_buffer(&buffer, 0, contents);
-        buffer
-    };
-    let none = wgpu::BufferUsages::empty();
-    let prims = storage("prims", packed.prim_bytes(), none);
-    let materials = storage("materials", bytemuck::cast_slice(&packed.materials), none);
-    let lights = storage("lights", bytemuck::cast_slice(&packed.lights), none);
-    let attrs = storage("tri_attrs", bytemuck::cast_slice(&packed.tri_attrs), none);
-    let infos = storage("texture_infos", bytemuck::cast_slice(&packed.texture_infos), none);
-    let texels = storage("texels", bytemuck::cast_slice(&packed.texels), none);
-    let table = |label: &str, bytes: Option<&[u8]>| storage(label, bytes.unwrap_or(&[]), none);
-    let origins = table("origins", tables.map(|f| bytemuck::cast_slice(&f.origins)));
-    let faces = table("faces", tables.map(|f| bytemuck::cast_slice(&f.faces)));
-    let cell_start = table("cell_start", tables.map(|f| bytemuck::cast_slice(&f.cell_start)));
-    let entries = table("entries", tables.map(|f| bytemuck::cast_slice(&f.entries)));
-    let light_origin = table("light_origin", tables.map(|f| bytemuck::cast_slice(&f.light_origin)));
-    let bvh = packed.bvh.as_ref();
-    let bvh_nodes = table("bvh_nodes", bvh.map(|b| bytemuck::cast_slice(&b.nodes)));
-    let bvh_prims = table("bvh_prims", bvh.map(|b| bytemuck::cast_slice(&b.prims)));
-    let bvh_parents = table("bvh_parents", bvh.map(|b| bytemuck::cast_slice(&b.parents)));
-    let params = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("params"),
-        size: std::mem::size_of::<Params>() as u64,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let out = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("out"),
-        size: tile * 16,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
-    // New buffers are zeroed.
-    let counters = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("counters"),
-        size: COUNTER_BYTES,
-        // COPY_DST: a tile that runs again restores the counts saved before it.
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let jobs = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("ray queues"),
-        size: jobs_bytes.max(job_bytes),
-        usage: wgpu::BufferUsages::STORAGE,
-        mapped_at_creation: false,
-    });
-    let queues_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("queue lengths"),
-        size: 4 * QUEUE_WORDS as u64,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let pass_desc = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("pass"),
-        size: std::mem::size_of::<PassDesc>() as u64,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
+    let bound: Vec<wgpu::Buffer> = SceneBinding::BUFFERS
+        .iter()
+        .map(|&b| match work_buffer(b, sizes, job_bytes) {
+            // New buffers are zeroed.
+            Some((size, usage)) => device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(b.binding().name),
+                size,
+                usage,
+                mapped_at_creation: false,
+            }),
+            None => {
+                let bytes = data.iter().find(|(d, _)| *d == b).map_or(&[][..], |(_, p)| p);
+                storage_buffer(ctx, b.binding().name, bytes)
+            }
+        })
+        .collect();
     let indirect = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("dispatch arguments"),
         size: 12,
         usage: wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    let accum = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("radiance sums"),
-        size: if wavefront { tile * 24 } else { 24 },
+    let bind = bind_group(device, layout, &bound, rq.as_ref());
+    let buffers = SceneBuffers {
+        bind,
+        bound,
+        indirect,
+        rq,
+        tile: sizes.tile,
+        ray_queue: sizes.ray_queue,
+        shadow_queue: sizes.shadow_queue,
+    };
+    let failed = [pollster::block_on(invalid.pop()), pollster::block_on(out_of_memory.pop())];
+    if let Some(e) = failed.into_iter().flatten().next() {
+        let mib = limited.iter().map(|s| s.1).sum::<u64>() as f64 / (1u64 << 20) as f64;
+        return Err(Error::Gpu(format!("cannot create the scene's buffers ({mib:.0} MiB and more): {e}")));
+    }
+    Ok(buffers)
+}
+
+/// A storage buffer holding `bytes`. Storage bindings may not be empty: an empty one holds a
+/// placeholder. The contents go through the queue (not a buffer mapped at creation, whose
+/// mapping panics on a lost device); every buffer holds 32-bit words, so its length is a
+/// whole number of copy units.
+fn storage_buffer(ctx: &GpuContext, label: &str, bytes: &[u8]) -> wgpu::Buffer {
+    let contents = if bytes.is_empty() { &[0u8; 256][..] } else { bytes };
+    assert_eq!(contents.len() as u64 % wgpu::COPY_BUFFER_ALIGNMENT, 0, "{label}: not whole words");
+    let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: contents.len() as u64,
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    let buffers = [
-        (0, &params),
-        (1, &prims),
-        (2, &materials),
-        (3, &lights),
-        (4, &attrs),
-        (5, &infos),
-        (6, &texels),
-        (7, &out),
-        (8, &counters),
-        (9, &jobs),
-        (10, &queues_buffer),
-        (11, &origins),
-        (12, &faces),
-        (13, &cell_start),
-        (14, &entries),
-        (15, &light_origin),
-        (20, &bvh_nodes),
-        (21, &bvh_prims),
-        (22, &pass_desc),
-        (23, &accum),
-        (24, &bvh_parents),
-    ];
-    let mut bind_entries: Vec<wgpu::BindGroupEntry> = buffers
-        .into_iter()
-        .map(|(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() })
+    ctx.queue.write_buffer(&buffer, 0, contents);
+    buffer
+}
+
+/// The scene family's bind group over the buffers `bound` (of [`SceneBinding::BUFFERS`]),
+/// with the ray queries' structure `rq` where there is one.
+fn bind_group(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    bound: &[wgpu::Buffer],
+    rq: Option<&RqStructure>,
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = SceneBinding::family(rq.is_some())
+        .map(|b| wgpu::BindGroupEntry {
+            binding: b.binding().number,
+            resource: match (b, rq) {
+                (SceneBinding::RqScene, Some(rq)) => rq.tlas.as_binding(),
+                _ => bound[slot(b)].as_entire_binding(),
+            },
+        })
         .collect();
-    if let Some(rq) = &rq {
-        bind_entries.push(wgpu::BindGroupEntry { binding: 25, resource: rq.tlas.as_binding() });
-    }
-    let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("scene"),
-        layout,
-        entries: &bind_entries,
-    });
-    let failed = [pollster::block_on(invalid.pop()), pollster::block_on(out_of_memory.pop())];
-    if let Some(e) = failed.into_iter().flatten().next() {
-        let mib = sizes.iter().map(|s| s.1).sum::<u64>() as f64 / (1u64 << 20) as f64;
-        return Err(Error::Gpu(format!("cannot create the scene's buffers ({mib:.0} MiB and more): {e}")));
-    }
-    Ok(SceneBuffers {
-        params,
-        prims,
-        lights,
-        out,
-        counters,
-        jobs,
-        queues: queues_buffer,
-        pass_desc,
-        accum,
-        indirect,
-        bvh_nodes,
-        bvh_prims,
-        bvh_parents,
-        tables: [origins, faces, cell_start, entries, light_origin],
-        rq,
-        bind,
-        tile,
-        ray_queue,
-        shadow_queue,
-    })
+    device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("scene"), layout, entries: &entries })
 }
 
 #[cfg(test)]

@@ -1,8 +1,6 @@
 //! Compiled kernels: one pipeline per kernel and [`Variant`], compiled on first use and
-//! cached, over the bind group layout of the scene buffers (`shaders/shared/layout.wgsl`,
-//! `wavefront.wgsl`, `counters.wgsl`, `tables.wgsl` and `bvh.wgsl`: bindings 0 to 24), and
-//! for the kernels that use ray queries the same with the acceleration structure
-//! (`rayquery.wgsl`, binding 25).
+//! cached, over the bind group layout of the scene buffers ([`SceneBinding`]), and for the
+//! kernels that use ray queries the same with the acceleration structure.
 //!
 //! Lavapipe compiles a kernel at its first dispatch, not at pipeline creation (seconds over
 //! the wavefront kernels; docs/drivers-and-faults.md has the figures); Mesa's disk cache
@@ -17,41 +15,10 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
+use super::bindings::{self, SceneBinding};
 use super::shaders::{self, Kernel, Variant};
 use super::GpuContext;
 use crate::error::Result;
-
-/// The scene buffers' bindings: 0 `params`, 1–6 the read-only scene, 7–10 the kernels'
-/// outputs and queues, 11–15 the candidate tables, 20–21 and 24 the BVH (a kernel binds only
-/// the buffers of its own queries), 22 the current pass, 23 the radiance sums, and with
-/// `rq` 25 the ray queries' acceleration structure.
-/// `params` is a read-only storage buffer, not a uniform: lavapipe would compile a variant
-/// of the kernel for every tile's values (see `shaders/shared/layout.wgsl`).
-fn bind_layout_entries(rq: bool) -> Vec<wgpu::BindGroupLayoutEntry> {
-    let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
-        count: None,
-    };
-    let storage = |read_only| wgpu::BufferBindingType::Storage { read_only };
-    let mut entries = vec![entry(0, storage(true))];
-    entries.extend((1..=6).map(|b| entry(b, storage(true))));
-    entries.extend((7..=10).map(|b| entry(b, storage(false))));
-    // 11–15 the candidate tables, 20, 21 and 24 the BVH.
-    entries.extend([11, 12, 13, 14, 15, 20, 21, 24].map(|b| entry(b, storage(true))));
-    entries.push(entry(22, storage(true)));
-    entries.push(entry(23, storage(false)));
-    if rq {
-        entries.push(wgpu::BindGroupLayoutEntry {
-            binding: 25,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::AccelerationStructure { vertex_return: false },
-            count: None,
-        });
-    }
-    entries
-}
 
 /// A bind group layout of the scene buffers and its pipeline layout.
 struct Layouts {
@@ -61,13 +28,11 @@ struct Layouts {
 
 impl Layouts {
     fn new(ctx: &GpuContext, rq: bool) -> Layouts {
-        let label = Some(if rq { "scene with ray queries" } else { "scene" });
-        let bind = ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label,
-            entries: &bind_layout_entries(rq),
-        });
+        let label = if rq { "scene with ray queries" } else { "scene" };
+        let family = SceneBinding::family(rq).map(SceneBinding::binding);
+        let bind = bindings::layout(&ctx.device, label, family, wgpu::ShaderStages::COMPUTE);
         let pipeline = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label,
+            label: Some(label),
             bind_group_layouts: &[Some(&bind)],
             immediate_size: 0,
         });

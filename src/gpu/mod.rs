@@ -6,6 +6,7 @@
 //! the renderer ([`GpuRenderer`]). The structs and
 //! constants it shares with the WGSL are in [`crate::layout`].
 
+pub mod bindings;
 pub mod buffers;
 mod context;
 pub mod kernels;

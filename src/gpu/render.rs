@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use indicatif::ProgressBar;
 
+use super::bindings::SceneBinding;
 use super::buffers::{upload, BufferSizes, SceneBuffers};
 use super::kernels::{first_compile_marker, mark_compiled, Kernels};
 use super::prepare::{prepare, Capabilities, Prepared, Purpose, TableSet};
@@ -296,7 +297,7 @@ impl GpuRenderer {
             let bytes = count as u64 * 16;
             let mut enc =
                 self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-            enc.copy_buffer_to_buffer(&buffers.out, 0, &readback, 0, bytes);
+            enc.copy_buffer_to_buffer(&buffers[SceneBinding::OutColor], 0, &readback, 0, bytes);
             self.ctx.queue.submit([enc.finish()]);
             let data = self.ctx.read(&readback, bytes)?;
             values.extend(bytemuck::cast_slice::<u8, [f32; 4]>(&data).iter().copied());
@@ -325,7 +326,7 @@ impl GpuRenderer {
     pub fn counters(&self, buffers: &SceneBuffers) -> Result<(Counters, stats::LaneStats)> {
         let read = self.ctx.readback_buffer("counters readback", COUNTER_BYTES);
         let mut enc = self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-        enc.copy_buffer_to_buffer(&buffers.counters, 0, &read, 0, COUNTER_BYTES);
+        enc.copy_buffer_to_buffer(&buffers[SceneBinding::Counters], 0, &read, 0, COUNTER_BYTES);
         self.ctx.queue.submit([enc.finish()]);
         let raw = self.ctx.read(&read, COUNTER_BYTES)?;
         Ok((decode_counters(&raw), decode_lanes(&raw)))

@@ -30,6 +30,7 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use super::bindings::SceneBinding;
 use super::buffers::SceneBuffers;
 pub use super::plan::{Pass, WavePlan};
 use super::shaders::{Kernel, Stage};
@@ -194,8 +195,8 @@ pub fn warm_up(
     base: &Params,
 ) -> Result<Duration> {
     let p = Params { first_point: 0, point_count: 0, ..*base };
-    ctx.queue.write_buffer(&buffers.params, 0, bytemuck::bytes_of(&p));
-    ctx.queue.write_buffer(&buffers.queues, 0, bytemuck::cast_slice(&fresh_queues()));
+    ctx.queue.write_buffer(&buffers[SceneBinding::Params], 0, bytemuck::bytes_of(&p));
+    ctx.queue.write_buffer(&buffers[SceneBinding::Queues], 0, bytemuck::cast_slice(&fresh_queues()));
     let mut enc = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
     {
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -371,13 +372,19 @@ impl Schedule {
             None => {
                 let count = self.tile_size.min(self.total - self.next_point) as u32;
                 let p = Params { first_point: self.next_point as u32, point_count: count, ..*base };
-                queue.write_buffer(&buffers.params, 0, bytemuck::bytes_of(&p));
-                queue.write_buffer(&buffers.queues, 0, bytemuck::cast_slice(&fresh_queues()));
+                queue.write_buffer(&buffers[SceneBinding::Params], 0, bytemuck::bytes_of(&p));
+                queue.write_buffer(&buffers[SceneBinding::Queues], 0, bytemuck::cast_slice(&fresh_queues()));
                 if self.plan.is_some() {
-                    enc.clear_buffer(&buffers.accum, 0, Some(count as u64 * 24));
+                    enc.clear_buffer(&buffers[SceneBinding::Accum], 0, Some(count as u64 * 24));
                 }
                 let bytes = crate::layout::counters::COUNTER_BYTES;
-                enc.copy_buffer_to_buffer(&buffers.counters, 0, &self.counters_saved, 0, bytes);
+                enc.copy_buffer_to_buffer(
+                    &buffers[SceneBinding::Counters],
+                    0,
+                    &self.counters_saved,
+                    0,
+                    bytes,
+                );
                 let samples = (base.sample_first, base.sample_end.max(base.sample_first + 1));
                 Tile { first: self.next_point, count, samples, wave: 0, longest_pass: 0.0 }
             }
@@ -392,14 +399,20 @@ impl Schedule {
         // Each dispatch's kernel and depth (0: none, the resolve pass).
         let mut kernels: Vec<(Kernel, u32)> = Vec::with_capacity(passes.len() + 1);
         for (i, p) in passes.iter().enumerate() {
-            enc.copy_buffer_to_buffer(&self.table, i as u64 * desc_bytes, &buffers.pass_desc, 0, desc_bytes);
+            enc.copy_buffer_to_buffer(
+                &self.table,
+                i as u64 * desc_bytes,
+                &buffers[SceneBinding::PassDesc],
+                0,
+                desc_bytes,
+            );
             for &q in &p.resets {
-                enc.clear_buffer(&buffers.queues, 4 * q as u64, Some(4));
-                enc.clear_buffer(&buffers.queues, 4 * (QUEUE_ARGS + 3 * q) as u64, Some(4));
+                enc.clear_buffer(&buffers[SceneBinding::Queues], 4 * q as u64, Some(4));
+                enc.clear_buffer(&buffers[SceneBinding::Queues], 4 * (QUEUE_ARGS + 3 * q) as u64, Some(4));
             }
             if let Some(q) = p.over {
                 enc.copy_buffer_to_buffer(
-                    &buffers.queues,
+                    &buffers[SceneBinding::Queues],
                     4 * (QUEUE_ARGS + 3 * q) as u64,
                     &buffers.indirect,
                     0,
@@ -430,7 +443,13 @@ impl Schedule {
             pass.dispatch_workgroups(groups, 1, 1);
             drop(pass);
             kernels.push((Kernel::Resolve, 0));
-            enc.copy_buffer_to_buffer(&buffers.queues, 0, &self.queues_read, 0, 4 * QUEUE_WORDS as u64);
+            enc.copy_buffer_to_buffer(
+                &buffers[SceneBinding::Queues],
+                0,
+                &self.queues_read,
+                0,
+                4 * QUEUE_WORDS as u64,
+            );
         }
         if let Some(t) = &self.timer {
             let n = 2 * kernels.len() as u32;
@@ -501,7 +520,7 @@ impl Schedule {
     fn redo(&mut self, ctx: &GpuContext, buffers: &SceneBuffers, tile: Tile, overflow: u32) -> Result<()> {
         let mut enc = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
         let bytes = crate::layout::counters::COUNTER_BYTES;
-        enc.copy_buffer_to_buffer(&self.counters_saved, 0, &buffers.counters, 0, bytes);
+        enc.copy_buffer_to_buffer(&self.counters_saved, 0, &buffers[SceneBinding::Counters], 0, bytes);
         ctx.queue.submit([enc.finish()]);
         ctx.wait()?;
         if overflow & OVERFLOW_FULL != 0 {

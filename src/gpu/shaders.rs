@@ -48,6 +48,7 @@ const SOURCES: &[(&str, &str)] = &[
     ("shared/bvh.wgsl", include_str!("../../shaders/shared/bvh.wgsl")),
     ("shared/rayquery.wgsl", include_str!("../../shaders/shared/rayquery.wgsl")),
     ("shared/sampling.wgsl", include_str!("../../shaders/shared/sampling.wgsl")),
+    ("shared/bilinear.wgsl", include_str!("../../shaders/shared/bilinear.wgsl")),
     ("shared/texture.wgsl", include_str!("../../shaders/shared/texture.wgsl")),
     ("shared/environment.wgsl", include_str!("../../shaders/shared/environment.wgsl")),
     ("shared/tonemap.wgsl", include_str!("../../shaders/shared/tonemap.wgsl")),

@@ -3,6 +3,7 @@
 
 use super::session::Session;
 use crate::error::Result;
+use crate::gpu::bindings::{self, DISPLAY};
 use crate::gpu::kernels::shader_module;
 use crate::gpu::shaders::{Kernel, Variant};
 use crate::gpu::GpuContext;
@@ -44,6 +45,7 @@ pub const ENCODE_LINEARIZE: u32 = 2;
 
 /// The display pass: a full-window triangle whose fragments read the accumulation.
 pub struct Display {
+    layout: wgpu::BindGroupLayout,
     pipeline: wgpu::RenderPipeline,
     view_buffer: wgpu::Buffer,
     /// The target format encodes sRGB in hardware.
@@ -54,9 +56,15 @@ impl Display {
     pub fn new(ctx: &GpuContext, format: wgpu::TextureFormat) -> Result<Display> {
         let device = &ctx.device;
         let module = shader_module(ctx, Kernel::Display, Variant::default())?;
+        let layout = bindings::layout(device, "display", DISPLAY, wgpu::ShaderStages::FRAGMENT);
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("display"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("display"),
-            layout: None,
+            layout: Some(&pipeline_layout),
             vertex: wgpu::VertexState {
                 module: &module,
                 entry_point: Some("vs_main"),
@@ -81,7 +89,7 @@ impl Display {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        Ok(Display { pipeline, view_buffer, srgb_target: format.is_srgb() })
+        Ok(Display { layout, pipeline, view_buffer, srgb_target: format.is_srgb() })
     }
 
     /// Draws the session's accumulation into `target`.
@@ -109,14 +117,13 @@ impl Display {
             ..View::default()
         };
         ctx.queue.write_buffer(&self.view_buffer, 0, bytemuck::bytes_of(&view));
-        let bind = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("display"),
-            layout: &self.pipeline.get_bind_group_layout(0),
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: self.view_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: shown.buffer.as_entire_binding() },
-            ],
-        });
+        let bind = bindings::buffers_group(
+            &ctx.device,
+            "display",
+            &self.layout,
+            &DISPLAY,
+            [&self.view_buffer, shown.buffer],
+        );
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         {
             let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {

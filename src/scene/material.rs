@@ -402,8 +402,8 @@ pub fn srgb_to_linear(v: u8) -> f64 {
 
 /// Bilinear interpolation between texel centres at texel-space position (`x`, `y`) (texel
 /// `i`'s centre at `i + 0.5`) of `texel(i, j)`, which wraps or clamps the indices as its
-/// image does: how textures and environment maps are sampled (the kernels' twins:
-/// `sample_texture` and `environment` in `shaders/shared/`).
+/// image does: how textures and environment maps are sampled (the kernels' twin:
+/// `shaders/shared/bilinear.wgsl`).
 pub fn bilinear<T>(x: f64, y: f64, texel: impl Fn(i64, i64) -> T) -> T
 where
     T: Copy + std::ops::Mul<f64, Output = T> + std::ops::Add<Output = T>,

@@ -7,6 +7,7 @@ mod common;
 
 mod accuracy;
 mod arith;
+mod bindings;
 mod cli;
 mod coherence;
 mod environment;

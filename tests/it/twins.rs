@@ -398,6 +398,7 @@ const WGSL_ONLY_STRUCTS: &[&str] = &[
     "ShadowRay",
     "BoxRay",
     "NodeHits",
+    "Footprint",
     "BvhWalk",
     "VertexOut",
     // naga's own, for ray queries (what the driver reads, not a buffer of ours).

@@ -5,6 +5,7 @@
 use std::sync::Arc;
 
 use crate::error::Result;
+use crate::gpu::bindings::{self, SceneBinding, ACCUMULATE};
 use crate::gpu::buffers::check_limits;
 use crate::gpu::kernels::compute_pipeline;
 use crate::gpu::schedule::{Pipelines, Progress, Schedule};
@@ -53,6 +54,7 @@ pub fn pass_sample(k: u32, n: u32) -> u32 {
 /// finished tile holds.
 pub(super) struct Accumulator {
     tile: wgpu::Buffer,
+    layout: wgpu::BindGroupLayout,
     pipeline: wgpu::ComputePipeline,
 }
 
@@ -64,8 +66,14 @@ impl Accumulator {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let pipeline = compute_pipeline(ctx, Kernel::Accumulate, Variant::default(), None)?;
-        Ok(Accumulator { tile, pipeline })
+        let layout = bindings::layout(&ctx.device, "accumulate", ACCUMULATE, wgpu::ShaderStages::COMPUTE);
+        let pipeline_layout = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("accumulate"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = compute_pipeline(ctx, Kernel::Accumulate, Variant::default(), Some(&pipeline_layout))?;
+        Ok(Accumulator { tile, layout, pipeline })
     }
 
     /// The bind group that adds the tiles in `buffers`' output to `accum`.
@@ -75,12 +83,13 @@ impl Accumulator {
         buffers: &SceneBuffers,
         accum: &wgpu::Buffer,
     ) -> wgpu::BindGroup {
-        ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("accumulate"),
-            layout: &self.pipeline.get_bind_group_layout(0),
-            entries: &[(0, &self.tile), (1, &buffers.out), (2, accum)]
-                .map(|(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }),
-        })
+        bindings::buffers_group(
+            &ctx.device,
+            "accumulate",
+            &self.layout,
+            &ACCUMULATE,
+            [&self.tile, &buffers[SceneBinding::OutColor], accum],
+        )
     }
 }
 

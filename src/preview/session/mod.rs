@@ -34,6 +34,7 @@ use std::time::{Duration, Instant};
 use crate::coherence::reach::WalkBounds;
 use crate::coherence::{FlatTables, Tables};
 use crate::error::{Error, Result};
+use crate::gpu::bindings::SceneBinding;
 use crate::gpu::buffers::BufferSizes;
 use crate::gpu::prepare::{self, queue_sizes, Purpose, TableSet};
 use crate::gpu::schedule::{Pacing, Schedule, WavePlan};
@@ -340,10 +341,10 @@ impl Session {
         let packed = self.pack_moved();
         let queue = &self.gpu.ctx.queue;
         if !packed.prims.is_empty() {
-            queue.write_buffer(&self.buffers.prims, 0, packed.prim_bytes());
+            queue.write_buffer(&self.buffers[SceneBinding::Prims], 0, packed.prim_bytes());
         }
         if !packed.lights.is_empty() {
-            queue.write_buffer(&self.buffers.lights, 0, bytemuck::cast_slice(&packed.lights));
+            queue.write_buffer(&self.buffers[SceneBinding::Lights], 0, bytemuck::cast_slice(&packed.lights));
         }
         self.set_base(&packed.params);
         Ok(())
