@@ -14,7 +14,7 @@ fn aov(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_
         var v = vec4<f32>(0.0);
         if h.found {
             count(C_EYE_HIT);
-            let prim = prims[h.prim];
+            let prim = prim_at(h.prim);
             let s = surface(prim, ray, h.hit);
             switch params.aov {
                 case AOV_DEPTH: {

@@ -11,8 +11,8 @@
 //! Layers, each using only those before it: [`scene`] ← [`load`]; [`scene`] ← [`arith`] ←
 //! [`coherence`] ← [`layout`] ← [`gpu`] ← [`preview`], [`accuracy`]; the CPU
 //! [`reference`](mod@reference) beside them.
-//! [`job`], [`sampling`], [`bvh`], [`stats`], [`output`], [`region`], [`part`], [`interrupt`] and
-//! [`error`] are shared by both backends.
+//! [`job`], [`sampling`], [`bvh`], [`stats`], [`phases`], [`output`], [`region`], [`part`],
+//! [`interrupt`] and [`error`] are shared by both backends.
 //!
 //! - [`scene`]: the plain-data scene model both renderers read;
 //! - [`load`]: NFF and glTF loaders that produce a validated [`scene::Scene`];
@@ -26,8 +26,8 @@
 //! - [`gpu`]: the WGSL kernels through wgpu;
 //! - [`preview`]: the interactive window that refines a render progressively;
 //! - [`reference`](mod@reference): the independent CPU renderer in f64;
-//! - [`stats`], [`output`], [`compare`], [`info`]: statistics, image files, image
-//!   comparison, scene summaries;
+//! - [`stats`], [`phases`], [`output`], [`compare`], [`info`]: statistics, where a command's
+//!   time goes, image files, image comparison, scene summaries;
 //! - [`region`], [`part`]: the part of an image a render covers (`--tile`, `--crop`), and
 //!   the partial EXRs that `cuberay merge` assembles;
 //! - [`tablefile`]: candidate tables stored on disk, so that the tasks of a split render
@@ -51,6 +51,7 @@ pub mod layout;
 pub mod load;
 pub mod output;
 pub mod part;
+pub mod phases;
 pub mod preview;
 pub mod reference;
 pub mod region;

@@ -488,5 +488,6 @@ fn add_times(a: Times, b: &Times) -> Times {
             (Some(x), Some(y)) => Some(x + y),
             (x, y) => x.or(y),
         },
+        phases: a.phases + b.phases,
     }
 }

@@ -176,6 +176,9 @@ pub struct Times {
     /// outlasted the passes planned for it (then with another pass per depth); `null` on the
     /// CPU.
     pub tiles_run_again: Option<u32>,
+    /// The command's time by phase, as a user waits for it ([`crate::phases`]).
+    #[serde(default)]
+    pub phases: crate::phases::Phases,
 }
 
 /// The GPU kernel time of one depth of the ray trees (the eye rays: depth 1), seconds: the

@@ -57,7 +57,7 @@ fn take_hit(id: u32, best: ptr<function, Closest>, h: PrimHit, t_max: f32) -> f3
 // Tests primitive `id` for a nearest-hit query (table walk, BVH or brute force) and takes its
 // hit into `best` by the tie rule. Returns the new limit.
 fn consider(id: u32, best: ptr<function, Closest>, ray: Ray, t_max: f32, ray_kind: u32) -> f32 {
-    let p = prims[id];
+    let p = prim_at(id);
     count_test(ray_kind, p.kind);
     var h = intersect_prim(p, ray, t_max);
 #if ALPHA
@@ -95,7 +95,7 @@ fn alpha_passes(p: Prim, h: PrimHit, shadow: bool) -> bool {
 // Tests primitive `id` for an any-hit query (a shadow ray): a hit at 0 < t < t_max, if any.
 // The any-hit twin of `consider`.
 fn test_any(id: u32, ray: Ray, t_max: f32) -> PrimHit {
-    let p = prims[id];
+    let p = prim_at(id);
     count_test(RAY_SHADOW, p.kind);
     var h = intersect_prim(p, ray, t_max);
 #if CUTOUTS

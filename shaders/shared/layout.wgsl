@@ -68,7 +68,8 @@ struct Params {
     env_y: vec3<f32>,
     env_intensity: f32,
     env_z: vec3<f32>,
-    env_pad: u32,
+    // SPLIT_PRIMS: primitives in each of the bindings they are split over (prim_at()).
+    prims_per_binding: u32,
 }
 
 // The precision of positions and of the intersection arithmetic: f32, or f64 in the F64
@@ -201,12 +202,45 @@ struct TextureInfo {
 // minutes) and every tile paid a compile or a cache load.
 @group(0) @binding(0) var<storage, read> params: Params;
 @group(0) @binding(1) var<storage, read> prims: array<Prim>;
+#if SPLIT_PRIMS
+// Primitives past what one binding holds (lavapipe: 128 MiB, 2M primitives in f32).
+@group(0) @binding(26) var<storage, read> prims_1: array<Prim>;
+@group(0) @binding(27) var<storage, read> prims_2: array<Prim>;
+@group(0) @binding(28) var<storage, read> prims_3: array<Prim>;
+#endif
 @group(0) @binding(2) var<storage, read> materials: array<Material>;
 @group(0) @binding(3) var<storage, read> lights: array<Light>;
 @group(0) @binding(4) var<storage, read> tri_attrs: array<TriAttr>;
 @group(0) @binding(5) var<storage, read> texture_infos: array<TextureInfo>;
 @group(0) @binding(6) var<storage, read> texels: array<u32>;
 @group(0) @binding(7) var<storage, read_write> out_color: array<vec4<f32>>;
+
+// Primitive `id`: with SPLIT_PRIMS, the primitives lie in up to four bindings of
+// `params.prims_per_binding` each, in order (twin: gpu::buffers' data_parts).
+fn prim_at(id: u32) -> Prim {
+#if SPLIT_PRIMS
+    let k = id / params.prims_per_binding;
+    let i = id - k * params.prims_per_binding;
+    var p: Prim;
+    switch k {
+        case 0u: {
+            p = prims[i];
+        }
+        case 1u: {
+            p = prims_1[i];
+        }
+        case 2u: {
+            p = prims_2[i];
+        }
+        default: {
+            p = prims_3[i];
+        }
+    }
+    return p;
+#else
+    return prims[id];
+#endif
+}
 
 // Invocations per workgroup of the `render` and `aov` kernels.
 const WORKGROUP: u32 = 64u;

@@ -145,7 +145,7 @@ fn mapped_normal(m: Material, s: Surface) -> vec3<f32> {
 // itself when it cannot meet it again (a triangle; a sphere whose outward normal `ng`
 // the ray leaves along), else NO_ID.
 fn leave_skip(id: u32, dir: vec3<f32>, ng: vec3<f32>) -> u32 {
-    let p = prims[id];
+    let p = prim_at(id);
     if p.kind == KIND_TRIANGLE || (p.kind == KIND_SPHERE && (p.flags & FLAG_INSIDE_ONLY) == 0u && dot(dir, ng) > 0.0) {
         return id;
     }
@@ -304,7 +304,7 @@ fn shade_hit(job: Job) {
     let pending = job.ray;
     let ray = make_ray(pending.o, pending.d);
     let h = restored_closest(job.walk, WALK_RESUME);
-    let prim = prims[h.prim];
+    let prim = prim_at(h.prim);
     let mat = materials[prim.material];
     var s = surface(prim, ray, h.hit);
 #if NORMAL_MAPS

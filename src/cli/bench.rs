@@ -1,12 +1,14 @@
 //! `cuberay bench`: renders a set of scenes with each chosen accelerator and backend, a
 //! counted run and a warm-up of each, and then `--runs` uncounted rounds in which every
 //! accelerator renders once, in turn, and prints what each costs (medians over the rounds):
-//! preprocessing, bytes of the acceleration structure, kernel time, rays per second, tests
-//! and bound tests per ray by kind, the kernel time's ratio to the BVH's and to the ray
-//! queries' (taken within each round, so that a drift of the machine's speed between rounds
-//! cancels out; with the rounds' range), and the longest single dispatch. Speed targets are
-//! checked with this
-//! command, never with timed tests.
+//! the time to an image by phase ([`cuberay::phases`]: the GPU's start-up, the scene's load,
+//! the build of the tables and the BVH, the upload, the kernels' first compilation, the
+//! kernels) and in all, bytes of the acceleration structure, kernel time, rays per second,
+//! tests and bound tests per ray by kind, the whole time's and the kernel time's ratios to
+//! the BVH's and the kernel time's to the ray queries' (taken within each round, so that a
+//! drift of the machine's speed between rounds cancels out; with the rounds' range), and the
+//! longest single dispatch. Speed targets are checked with this command, never with timed
+//! tests.
 
 use std::path::PathBuf;
 
@@ -17,6 +19,7 @@ use serde::Serialize;
 use cuberay::gpu::GpuRenderer;
 use cuberay::job::{Accel, RenderOptions, Rendered};
 use cuberay::layout::MAX_DEPTH;
+use cuberay::phases::Phases;
 use cuberay::reference;
 use cuberay::stats::{Stats, TestsPerRay};
 
@@ -88,6 +91,14 @@ struct Row {
     /// Seconds to load and validate the scene file (once per scene, before any render).
     load_s: f64,
     preprocess_s: f64,
+    /// The time to an image by phase: the GPU's start-up (once per process), the load, then
+    /// medians over the timed runs, but for `compile_s`, the kernels' first use (the warm-up
+    /// run, which a `render` command pays); `total_s` is their sum.
+    phases: Phases,
+    /// `phases.total_s` over the BVH's in the same round, the median over the rounds, and
+    /// their range.
+    whole_ratio_to_bvh: Option<f64>,
+    whole_range: Option<(f64, f64)>,
     accel_bytes: u64,
     /// GPU: the kernel time from timestamp queries; CPU: the trace time.
     kernel_s: f64,
@@ -144,6 +155,7 @@ struct Report<'a> {
 struct Timed {
     kernel_s: f64,
     preprocess_s: f64,
+    phases: Phases,
     longest_dispatch_s: Option<f64>,
     /// Kernel time by depth: all kernels, `nearest` alone and `shade` alone.
     depths: [(f64, f64, f64); MAX_DEPTH as usize],
@@ -160,6 +172,13 @@ impl Timed {
                 BenchBackend::Cpu => t.trace_s,
             },
             preprocess_s: t.preprocess_s,
+            phases: match backend {
+                BenchBackend::Gpu => t.phases,
+                // The reference has no GPU phases: its preprocessing and its trace.
+                BenchBackend::Cpu => {
+                    Phases { build_s: t.preprocess_s, trace_s: t.trace_s, ..Phases::default() }
+                }
+            },
             longest_dispatch_s: t.longest_dispatch_s,
             depths: {
                 let mut d = [(0.0, 0.0, 0.0); MAX_DEPTH as usize];
@@ -205,18 +224,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     if args.accel.is_empty() || args.backend.is_empty() {
         bail!("nothing to run: give at least one --accel and one --backend");
     }
-    let scenes: Vec<PathBuf> = if args.scenes.is_empty() {
-        let paths: Vec<PathBuf> = CANONICAL.iter().map(|n| args.spd_dir.join(format!("{n}.nff"))).collect();
-        if let Some(missing) = paths.iter().find(|p| !p.is_file()) {
-            bail!(
-                "the SPD canonical scenes are not there ({} is missing): give scene files, or --spd-dir",
-                missing.display()
-            );
-        }
-        paths
-    } else {
-        args.scenes.clone()
-    };
+    let scenes = scene_paths(&args)?;
     let gpu = if args.backend.contains(&BenchBackend::Gpu) { Some(GpuRenderer::new()?) } else { None };
     let mut rows = Vec::new();
     let progress = progress_bar("bench");
@@ -224,100 +232,12 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         let load_start = std::time::Instant::now();
         let loaded = super::load_scene(path, None, None, &args.scene_args.setup())?;
         let load_s = load_start.elapsed().as_secs_f64();
-        let scene = &loaded.scene;
         let name =
             path.file_stem().map_or_else(|| path.display().to_string(), |s| s.to_string_lossy().into());
         for &backend in &args.backend {
-            let render = |accel: Accel, count: bool| -> anyhow::Result<Rendered> {
-                let opts = RenderOptions {
-                    sampling: args.sampling.into(),
-                    max_depth: args.max_depth,
-                    accel,
-                    surface: args.surface_walk.into(),
-                    count,
-                    precision: args.precision.into(),
-                    ..RenderOptions::new(args.width, args.height)
-                };
-                let what = format!("{name}, --accel {accel:?} --backend {backend:?}").to_lowercase();
-                progress.set_message(what.clone());
-                let hidden = indicatif::ProgressBar::hidden();
-                let rendered = match backend {
-                    BenchBackend::Gpu => gpu.as_ref().expect("opened above").render(scene, &opts, &hidden),
-                    BenchBackend::Cpu => reference::render(scene, &opts, &hidden),
-                };
-                rendered.with_context(|| format!("cannot render {what}"))
-            };
-            // Two untimed runs of each: one that counts the rays and tests, and a warm-up of
-            // the kernels the timed runs use, which count nothing, as a render without
-            // `--stats` (on lavapipe counting costs the kernels 5–22 % of their time). The
-            // warm-up compiles them and fills the caches, so that no timed run pays for it
-            // (on an adapter without timestamps the time is the trace time, compilation
-            // included).
-            let mut stats: Vec<Stats> = Vec::new();
-            for accel in args.accel.iter().map(|&a| Accel::from(a)) {
-                stats.push(render(accel, true)?.stats);
-                render(accel, false)?;
-            }
-            // The timed runs go in rounds, each accelerator once a round, so that a drift of
-            // the machine's speed meets them alike; the ratios are taken within a round.
-            let mut runs: Vec<Vec<Timed>> = vec![Vec::new(); args.accel.len()];
-            for _ in 0..args.runs {
-                for (k, &accel) in args.accel.iter().enumerate() {
-                    let r = render(accel.into(), false)?;
-                    runs[k].push(Timed::of(&r, backend));
-                }
-            }
-            // The BVH's row by what the render ran (`auto` may resolve to it on the CPU).
-            let bvh = stats.iter().position(|s| s.settings.accel == "bvh");
-            let rayquery = stats.iter().position(|s| s.settings.accel == "rayquery");
-            let kernels: Vec<Vec<f64>> =
-                runs.iter().map(|r| r.iter().map(|t| t.kernel_s).collect()).collect();
-            for (k, s) in stats.into_iter().enumerate() {
-                let timed = &runs[k];
-                let kernel_s = median(kernels[k].clone());
-                let (ratio_to_bvh, ratio_range) = median_and_range(&round_ratios(&kernels, k, bvh));
-                let (ratio_to_rayquery, rayquery_range) =
-                    median_and_range(&round_ratios(&kernels, k, rayquery));
-                let gpu = backend == BenchBackend::Gpu && s.time.gpu_s.is_some();
-                let by_depth = |f: &dyn Fn(&Timed) -> f64| median(timed.iter().map(f).collect());
-                let ran = s.time.gpu_depth_s.as_ref().map_or(0, |d| d.len());
-                let depth_kernel_s: Vec<f64> =
-                    (0..ran).map(|d| by_depth(&|t: &Timed| t.depths[d].0)).collect();
-                let surface_depths_s = (gpu && ran > 1).then(|| depth_kernel_s.iter().skip(1).sum::<f64>());
-                let eye_nearest = by_depth(&|t: &Timed| t.depths[0].1);
-                let surface_nearest = by_depth(&|t: &Timed| t.depths[1..].iter().map(|d| d.1).sum());
-                let surface_shade = by_depth(&|t: &Timed| t.depths[1..].iter().map(|d| d.2).sum());
-                let per = |secs: f64, rays: u64| (gpu && rays > 0).then(|| secs * 1e6 / rays as f64);
-                rows.push(Row {
-                    scene: name.clone(),
-                    accel: s.settings.accel.clone(),
-                    backend: match backend {
-                        BenchBackend::Gpu => "gpu",
-                        BenchBackend::Cpu => "cpu",
-                    },
-                    precision: s.settings.precision.clone(),
-                    load_s,
-                    preprocess_s: median(timed.iter().map(|t| t.preprocess_s).collect()),
-                    accel_bytes: s.accel_bytes,
-                    kernel_s,
-                    rays: s.rays.total,
-                    mrays_per_s: s.rays.total as f64 / kernel_s.max(1e-9) / 1e6,
-                    tests_per_ray: s.tests_per_ray,
-                    bound_tests_per_ray: s.bound_tests_per_ray,
-                    ratio_to_bvh,
-                    ratio_range,
-                    ratio_to_rayquery,
-                    rayquery_range,
-                    surface_walk: s.settings.surface_walk.clone(),
-                    longest_dispatch_s: timed.iter().filter_map(|t| t.longest_dispatch_s).reduce(f64::max),
-                    depth_kernel_s,
-                    surface_depths_s,
-                    surface_shade_share: surface_depths_s.filter(|&s| s > 0.0).map(|s| surface_shade / s),
-                    eye_ray_us: per(eye_nearest, s.rays.eye),
-                    surface_ray_us: per(surface_nearest, s.rays.reflect + s.rays.refract),
-                    lanes: gpu.then(|| s.lanes.clone()),
-                });
-            }
+            let bench =
+                Bench { args: &args, gpu: gpu.as_ref(), scene: &loaded.scene, name: &name, backend, load_s };
+            rows.extend(bench.rows(&progress)?);
         }
         progress.inc(1);
     }
@@ -339,6 +259,173 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The scene files to run: those given, else the SPD canonical scenes under `--spd-dir`.
+fn scene_paths(args: &BenchArgs) -> anyhow::Result<Vec<PathBuf>> {
+    if !args.scenes.is_empty() {
+        return Ok(args.scenes.clone());
+    }
+    let paths: Vec<PathBuf> = CANONICAL.iter().map(|n| args.spd_dir.join(format!("{n}.nff"))).collect();
+    if let Some(missing) = paths.iter().find(|p| !p.is_file()) {
+        bail!(
+            "the SPD canonical scenes are not there ({} is missing): give scene files, or --spd-dir",
+            missing.display()
+        );
+    }
+    Ok(paths)
+}
+
+/// One scene on one backend, every accelerator.
+struct Bench<'a> {
+    args: &'a BenchArgs,
+    gpu: Option<&'a GpuRenderer>,
+    scene: &'a cuberay::scene::Scene,
+    name: &'a str,
+    backend: BenchBackend,
+    load_s: f64,
+}
+
+impl Bench<'_> {
+    /// A render with `accel`, counted or not.
+    fn render(
+        &self,
+        accel: Accel,
+        count: bool,
+        progress: &indicatif::ProgressBar,
+    ) -> anyhow::Result<Rendered> {
+        let args = self.args;
+        let opts = RenderOptions {
+            sampling: args.sampling.into(),
+            max_depth: args.max_depth,
+            accel,
+            surface: args.surface_walk.into(),
+            count,
+            precision: args.precision.into(),
+            ..RenderOptions::new(args.width, args.height)
+        };
+        let what =
+            format!("{}, --accel {} --backend {:?}", self.name, accel.name(), self.backend).to_lowercase();
+        progress.set_message(what.clone());
+        let hidden = indicatif::ProgressBar::hidden();
+        let rendered = match self.backend {
+            BenchBackend::Gpu => self.gpu.expect("opened for a GPU bench").render(self.scene, &opts, &hidden),
+            BenchBackend::Cpu => reference::render(self.scene, &opts, &hidden),
+        };
+        rendered.with_context(|| format!("cannot render {what}"))
+    }
+
+    /// The rows of every accelerator: each renders once counted and once as a warm-up, then
+    /// once a round for `--runs` rounds.
+    fn rows(&self, progress: &indicatif::ProgressBar) -> anyhow::Result<Vec<Row>> {
+        let accels: Vec<Accel> = self.args.accel.iter().map(|&a| a.into()).collect();
+        // Two untimed runs of each: one that counts the rays and tests, and a warm-up of the
+        // kernels the timed runs use, which count nothing, as a render without `--stats` (on
+        // lavapipe counting costs the kernels 5–22 % of their time). The warm-up compiles them
+        // and fills the caches, so that no timed run pays for it; its compilation is what a
+        // `render` command pays at its first use of the kernels.
+        let mut counted: Vec<(Stats, f64)> = Vec::new();
+        for &accel in &accels {
+            let stats = self.render(accel, true, progress)?.stats;
+            let compile_s = self.render(accel, false, progress)?.stats.time.phases.compile_s;
+            counted.push((stats, compile_s));
+        }
+        // The timed runs go in rounds, each accelerator once a round, so that a drift of the
+        // machine's speed meets them alike; the ratios are taken within a round.
+        let mut runs: Vec<Vec<Timed>> = vec![Vec::new(); accels.len()];
+        for _ in 0..self.args.runs {
+            for (k, &accel) in accels.iter().enumerate() {
+                runs[k].push(Timed::of(&self.render(accel, false, progress)?, self.backend));
+            }
+        }
+        let startup_s =
+            self.gpu.filter(|_| self.backend == BenchBackend::Gpu).map_or(0.0, |g| g.ctx.opened_s);
+        for (k, r) in runs.iter_mut().enumerate() {
+            for t in r.iter_mut() {
+                let p = &mut t.phases;
+                (p.startup_s, p.load_s, p.compile_s) = (startup_s, self.load_s, counted[k].1);
+                p.total_s = 0.0;
+                p.total_s = p.whole();
+            }
+        }
+        // The BVH's row by what the render ran (`auto` may resolve to it on the CPU).
+        let bvh = counted.iter().position(|(s, _)| s.settings.accel == "bvh");
+        let rayquery = counted.iter().position(|(s, _)| s.settings.accel == "rayquery");
+        let series = |f: fn(&Timed) -> f64| -> Vec<Vec<f64>> {
+            runs.iter().map(|r| r.iter().map(f).collect()).collect()
+        };
+        let kernels = series(|t| t.kernel_s);
+        let wholes = series(|t| t.phases.total_s);
+        Ok(counted
+            .into_iter()
+            .enumerate()
+            .map(|(k, (s, _))| {
+                let mut row = self.row(s, &runs[k]);
+                (row.ratio_to_bvh, row.ratio_range) = median_and_range(&round_ratios(&kernels, k, bvh));
+                (row.ratio_to_rayquery, row.rayquery_range) =
+                    median_and_range(&round_ratios(&kernels, k, rayquery));
+                (row.whole_ratio_to_bvh, row.whole_range) = median_and_range(&round_ratios(&wholes, k, bvh));
+                row
+            })
+            .collect())
+    }
+
+    /// The row of the accelerator whose counted run gave `s` and whose timed runs are `timed`
+    /// (the ratios left for the caller).
+    fn row(&self, s: Stats, timed: &[Timed]) -> Row {
+        let gpu = self.backend == BenchBackend::Gpu && s.time.gpu_s.is_some();
+        let med = |f: &dyn Fn(&Timed) -> f64| median(timed.iter().map(f).collect());
+        let kernel_s = med(&|t| t.kernel_s);
+        let ran = s.time.gpu_depth_s.as_ref().map_or(0, |d| d.len());
+        let depth_kernel_s: Vec<f64> = (0..ran).map(|d| med(&|t: &Timed| t.depths[d].0)).collect();
+        let surface_depths_s = (gpu && ran > 1).then(|| depth_kernel_s.iter().skip(1).sum::<f64>());
+        let eye_nearest = med(&|t| t.depths[0].1);
+        let surface_nearest = med(&|t| t.depths[1..].iter().map(|d| d.1).sum());
+        let surface_shade = med(&|t| t.depths[1..].iter().map(|d| d.2).sum());
+        let per = |secs: f64, rays: u64| (gpu && rays > 0).then(|| secs * 1e6 / rays as f64);
+        let first = timed[0].phases;
+        let phases = Phases {
+            build_s: med(&|t| t.phases.build_s),
+            tables_s: med(&|t| t.phases.tables_s),
+            bvh_s: med(&|t| t.phases.bvh_s),
+            upload_s: med(&|t| t.phases.upload_s),
+            trace_s: med(&|t| t.phases.trace_s),
+            total_s: med(&|t| t.phases.total_s),
+            ..first
+        };
+        Row {
+            scene: self.name.to_string(),
+            accel: s.settings.accel.clone(),
+            backend: match self.backend {
+                BenchBackend::Gpu => "gpu",
+                BenchBackend::Cpu => "cpu",
+            },
+            precision: s.settings.precision.clone(),
+            load_s: self.load_s,
+            preprocess_s: med(&|t| t.preprocess_s),
+            phases,
+            whole_ratio_to_bvh: None,
+            whole_range: None,
+            accel_bytes: s.accel_bytes,
+            kernel_s,
+            rays: s.rays.total,
+            mrays_per_s: s.rays.total as f64 / kernel_s.max(1e-9) / 1e6,
+            tests_per_ray: s.tests_per_ray,
+            bound_tests_per_ray: s.bound_tests_per_ray,
+            ratio_to_bvh: None,
+            ratio_range: None,
+            ratio_to_rayquery: None,
+            rayquery_range: None,
+            surface_walk: s.settings.surface_walk.clone(),
+            longest_dispatch_s: timed.iter().filter_map(|t| t.longest_dispatch_s).reduce(f64::max),
+            depth_kernel_s,
+            surface_depths_s,
+            surface_shade_share: surface_depths_s.filter(|&s| s > 0.0).map(|s| surface_shade / s),
+            eye_ray_us: per(eye_nearest, s.rays.eye),
+            surface_ray_us: per(surface_nearest, s.rays.reflect + s.rays.refract),
+            lanes: gpu.then(|| s.lanes.clone()),
+        }
+    }
+}
+
 /// The rows as a Markdown table.
 fn table(rows: &[Row], args: &BenchArgs, adapter: Option<&str>) -> String {
     let mut out = format!(
@@ -351,8 +438,8 @@ fn table(rows: &[Row], args: &BenchArgs, adapter: Option<&str>) -> String {
         args.runs,
         adapter.map(|a| format!(", GPU: {a}")).unwrap_or_default()
     );
-    out += "| scene | accel | backend | preprocess s | MiB | kernel s | depths 2+ s | µs/eye ray | µs/surface ray | M rays/s | tests/ray eye | shadow | reflect | refract | all | bound/ray all | × BVH (rounds' range) | × rayquery | longest dispatch ms |\n";
-    out += "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+    out += "| scene | accel | backend | to image s | × BVH | build s (tables, bvh) | upload s | compile s | MiB | kernel s | × BVH (rounds' range) | × rayquery | depths 2+ s | µs/eye ray | µs/surface ray | M rays/s | tests/ray eye | shadow | reflect | refract | all | bound/ray all | longest dispatch ms |\n";
+    out += "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for r in rows {
         let t = &r.tests_per_ray;
         // `cube`'s rays leaving surfaces go to the BVH or to ray queries: say which.
@@ -360,14 +447,23 @@ fn table(rows: &[Row], args: &BenchArgs, adapter: Option<&str>) -> String {
             Some(w) => format!("{} ({w})", r.accel),
             None => r.accel.clone(),
         };
+        let p = &r.phases;
         out += &format!(
-            "| {} | {} | {} | {:.3} | {:.1} | {:.3} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {} | {} |\n",
+            "| {} | {} | {} | {:.3} | {} | {:.3} ({:.3}, {:.3}) | {:.3} | {:.3} | {:.1} | {:.3} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {} |\n",
             r.scene,
             accel,
             if r.backend == "gpu" && r.precision == "f64" { "gpu f64" } else { r.backend },
-            r.preprocess_s,
+            p.total_s,
+            ratio_cell(r.whole_ratio_to_bvh, r.whole_range),
+            p.build_s,
+            p.tables_s,
+            p.bvh_s,
+            p.upload_s,
+            p.compile_s,
             r.accel_bytes as f64 / (1u64 << 20) as f64,
             r.kernel_s,
+            ratio_cell(r.ratio_to_bvh, r.ratio_range),
+            ratio_cell(r.ratio_to_rayquery, r.rayquery_range),
             r.surface_depths_s.map_or("–".into(), |x| format!("{x:.3}")),
             r.eye_ray_us.map_or("–".into(), |x| format!("{x:.3}")),
             r.surface_ray_us.map_or("–".into(), |x| format!("{x:.3}")),
@@ -378,8 +474,6 @@ fn table(rows: &[Row], args: &BenchArgs, adapter: Option<&str>) -> String {
             t.refract,
             t.all,
             r.bound_tests_per_ray.all,
-            ratio_cell(r.ratio_to_bvh, r.ratio_range),
-            ratio_cell(r.ratio_to_rayquery, r.rayquery_range),
             r.longest_dispatch_s.map_or("–".into(), |x| format!("{:.1}", x * 1e3)),
         );
     }

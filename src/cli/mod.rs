@@ -63,7 +63,16 @@ enum Command {
     Accuracy(accuracy::AccuracyArgs),
 }
 
+/// When the command started: its time to an image counts from here.
+static STARTED: std::sync::OnceLock<std::time::Instant> = std::sync::OnceLock::new();
+
+/// When the command started.
+fn started() -> std::time::Instant {
+    *STARTED.get_or_init(std::time::Instant::now)
+}
+
 pub fn main() -> ExitCode {
+    started();
     quiet_device_selection();
     init_logging();
     stop_on_signals();

@@ -275,12 +275,16 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         Backend::Gpu => Some(GpuRenderer::new()?),
         Backend::Cpu => None,
     };
+    // The first frame's time to image counts from the command's start, the others' from
+    // their own.
+    let mut since = super::started();
     for frame in frames {
         let output = match frame {
             Some(f) => frame_path(&args.output, f)?,
             None => args.output.clone(),
         };
-        render_one(&args, gpu.as_ref(), frame, format, &output)?;
+        render_one(&args, gpu.as_ref(), frame, format, &output, since)?;
+        since = std::time::Instant::now();
     }
     Ok(())
 }
@@ -340,9 +344,12 @@ fn render_one(
     frame: Option<u32>,
     format: OutputFormat,
     output: &std::path::Path,
+    since: std::time::Instant,
 ) -> anyhow::Result<()> {
     let time = frame.map(|f| f as f64 / args.fps);
+    let load_start = std::time::Instant::now();
     let (scene_name, loaded, mut opts) = args.trace.load_at(&args.scene, time)?;
+    let load_s = load_start.elapsed().as_secs_f64();
     opts.region = match (args.tile, args.crop) {
         (Some((i, n)), _) => Some(Region::band(i, n, opts.width, opts.height)?),
         (None, crop) => crop,
@@ -401,6 +408,7 @@ fn render_one(
     if !rendered.image.is_finite() {
         bail!("the render produced a non-finite pixel; nothing written (this is a renderer bug)");
     }
+    let output_start = std::time::Instant::now();
     match scene_id.filter(|_| part) {
         Some(id) => {
             let aov = args.aov.and_then(|a| a.to_possible_value()).map(|v| v.get_name().to_string());
@@ -412,9 +420,17 @@ fn render_one(
         }
         None => output::write(&rendered.image, output)?,
     }
+    let phases = &mut rendered.stats.time.phases;
+    phases.startup_s = gpu.filter(|_| since <= super::started()).map_or(0.0, |g| g.ctx.opened_s);
+    phases.load_s = load_s;
+    phases.output_s = output_start.elapsed().as_secs_f64();
+    phases.total_s = since.elapsed().as_secs_f64();
     match args.stats {
         Some(StatsFormat::Json) => println!("{}", rendered.stats.to_json()),
-        Some(StatsFormat::Text) => print!("{}", rendered.stats.to_text()),
+        Some(StatsFormat::Text) => {
+            print!("{}", rendered.stats.to_text());
+            println!("{}", rendered.stats.time.phases.to_text());
+        }
         None => {}
     }
     Ok(())

@@ -67,10 +67,14 @@ pub enum SceneBinding {
     BvhParents,
     /// The ray queries' top-level structure (only where the kernels use ray queries).
     RqScene,
+    /// The primitives past what one binding holds (`SPLIT_PRIMS`; placeholders otherwise).
+    Prims1,
+    Prims2,
+    Prims3,
 }
 
 impl SceneBinding {
-    pub const ALL: [SceneBinding; 22] = [
+    pub const ALL: [SceneBinding; 25] = [
         SceneBinding::Params,
         SceneBinding::Prims,
         SceneBinding::Materials,
@@ -93,10 +97,13 @@ impl SceneBinding {
         SceneBinding::Accum,
         SceneBinding::BvhParents,
         SceneBinding::RqScene,
+        SceneBinding::Prims1,
+        SceneBinding::Prims2,
+        SceneBinding::Prims3,
     ];
 
     /// The bindings that hold buffers: all but the ray queries' structure.
-    pub const BUFFERS: [SceneBinding; 21] = [
+    pub const BUFFERS: [SceneBinding; 24] = [
         SceneBinding::Params,
         SceneBinding::Prims,
         SceneBinding::Materials,
@@ -118,7 +125,14 @@ impl SceneBinding {
         SceneBinding::PassDesc,
         SceneBinding::Accum,
         SceneBinding::BvhParents,
+        SceneBinding::Prims1,
+        SceneBinding::Prims2,
+        SceneBinding::Prims3,
     ];
+
+    /// The bindings the primitives are split over, in order (`SPLIT_PRIMS`).
+    pub const PRIMS: [SceneBinding; 4] =
+        [SceneBinding::Prims, SceneBinding::Prims1, SceneBinding::Prims2, SceneBinding::Prims3];
 
     /// The binding's number, WGSL variable and access: the one place they are declared.
     pub const fn binding(self) -> Binding {
@@ -147,6 +161,9 @@ impl SceneBinding {
             SceneBinding::RqScene => {
                 Binding { number: 25, name: "rq_scene", access: Access::AccelerationStructure }
             }
+            SceneBinding::Prims1 => read(26, "prims_1"),
+            SceneBinding::Prims2 => read(27, "prims_2"),
+            SceneBinding::Prims3 => read(28, "prims_3"),
         }
     }
 

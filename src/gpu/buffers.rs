@@ -66,11 +66,15 @@ impl SceneBuffers {
         ];
         let fits =
             |(b, bytes): &(SceneBinding, &[u8])| !bytes.is_empty() && bytes.len() as u64 <= self[*b].size();
-        if !parts.iter().all(fits) || packed.prim_bytes().len() as u64 != self[Prims].size() {
+        let prims: Vec<_> =
+            data_parts(packed, None).into_iter().filter(|(b, _)| SceneBinding::PRIMS.contains(b)).collect();
+        if !parts.iter().all(fits) || prims.iter().any(|&(b, p)| p.len() as u64 != self[b].size()) {
             return false;
         }
         let queue = &ctx.queue;
-        queue.write_buffer(&self[Prims], 0, packed.prim_bytes());
+        for (b, p) in prims {
+            queue.write_buffer(&self[b], 0, p);
+        }
         if !packed.lights.is_empty() {
             queue.write_buffer(&self[Lights], 0, bytemuck::cast_slice(&packed.lights));
         }
@@ -115,8 +119,14 @@ fn data_parts<'a>(packed: &'a Packed, tables: Option<&'a FlatTables>) -> Vec<(Sc
     use SceneBinding::*;
     let bvh = packed.bvh.as_ref();
     let bvh_part = |part: fn(&crate::layout::bvh::GpuBvh) -> &[u8]| bvh.map_or(&[][..], part);
-    let mut parts = vec![
-        (Prims, packed.prim_bytes()),
+    // Split over bindings of `prims_per_binding` primitives each where one cannot hold them.
+    let prim_bytes = packed.prim_bytes();
+    let per_binding = packed.params.prims_per_binding as usize * packed.prim_size();
+    let mut parts: Vec<(SceneBinding, &[u8])> = match per_binding {
+        0 => vec![(Prims, prim_bytes)],
+        n => SceneBinding::PRIMS.into_iter().zip(prim_bytes.chunks(n)).collect(),
+    };
+    parts.extend([
         (Materials, bytemuck::cast_slice(&packed.materials)),
         (Lights, bytemuck::cast_slice(&packed.lights)),
         (TriAttrs, bytemuck::cast_slice(&packed.tri_attrs)),
@@ -125,7 +135,7 @@ fn data_parts<'a>(packed: &'a Packed, tables: Option<&'a FlatTables>) -> Vec<(Sc
         (BvhNodes, bvh_part(|b| bytemuck::cast_slice(&b.nodes))),
         (BvhPrims, bvh_part(|b| bytemuck::cast_slice(&b.prims))),
         (BvhParents, bvh_part(|b| bytemuck::cast_slice(&b.parents))),
-    ];
+    ]);
     parts.extend(table_parts(tables));
     parts
 }

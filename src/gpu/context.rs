@@ -22,6 +22,8 @@ pub struct GpuContext {
     /// Whether kernels may use the platform's ray queries (`EXPERIMENTAL_RAY_QUERY`:
     /// `--accel rayquery`, and the rays leaving surfaces under `cube`).
     pub ray_queries: bool,
+    /// Seconds it took to open: the instance, the adapter and the device.
+    pub opened_s: f64,
     /// The first fault the device reported on its own (a lost device, or an error no
     /// operation of ours captured): every later wait returns it as an error.
     fault: Arc<Mutex<Option<String>>>,
@@ -34,7 +36,13 @@ impl GpuContext {
     }
 
     async fn new_async() -> Result<GpuContext> {
-        Self::open(&Self::instance(InstanceDescriptor::new_without_display_handle_from_env()), None).await
+        let start = std::time::Instant::now();
+        let instance = Self::instance(InstanceDescriptor::new_without_display_handle_from_env());
+        let instance_s = start.elapsed().as_secs_f64();
+        let mut ctx = Self::open(&instance, None).await?;
+        ctx.opened_s = start.elapsed().as_secs_f64();
+        log::info!("GPU opened in {:.3} s (instance {:.3} s)", ctx.opened_s, instance_s);
+        Ok(ctx)
     }
 
     /// An instance on the primary backends (Vulkan, Metal, DX12; compute needs no GL)
@@ -47,7 +55,9 @@ impl GpuContext {
     /// Opens an adapter of `instance` (one that can present to `surface` when given) as
     /// [`GpuContext::new`] does.
     pub async fn open(instance: &Instance, surface: Option<&wgpu::Surface<'_>>) -> Result<GpuContext> {
+        let start = std::time::Instant::now();
         let adapter = pick_adapter(instance, desc_backends(), surface).await?;
+        log::info!("adapter found in {:.3} s", start.elapsed().as_secs_f64());
         let info = adapter.get_info();
         let wanted = Features::TIMESTAMP_QUERY | Features::SHADER_F64 | Features::EXPERIMENTAL_RAY_QUERY;
         let features = adapter.features() & wanted;
@@ -108,6 +118,7 @@ impl GpuContext {
             timestamps: features.contains(Features::TIMESTAMP_QUERY),
             f64: features.contains(Features::SHADER_F64),
             ray_queries,
+            opened_s: start.elapsed().as_secs_f64(),
             info,
             fault,
         })

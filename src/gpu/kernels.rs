@@ -40,6 +40,9 @@ impl Layouts {
     }
 }
 
+/// A wavefront stage's pipeline: the kernel, the depths it serves, and its compiled pipeline.
+pub type StagePipeline = (super::shaders::Stage, Arc<wgpu::ComputePipeline>);
+
 /// The compute pipelines of the trace kernels (the wavefront's, `aov`) by variant.
 pub struct Kernels {
     plain: Layouts,
@@ -93,10 +96,11 @@ impl Kernels {
     ) -> Result<Arc<wgpu::ComputePipeline>> {
         let variant = kernel.variant_of(variant);
         let rq = rq || variant.ray_queries();
-        let mut cache = self.cache.lock().expect("kernel cache lock");
-        if let Some(k) = cache.get(&(kernel, variant, rq)) {
+        if let Some(k) = self.cache.lock().expect("kernel cache lock").get(&(kernel, variant, rq)) {
             return Ok(k.clone());
         }
+        // Made outside the lock, so that several kernels are made at once (lavapipe turns
+        // each into its own IR at this call: tens of milliseconds a kernel).
         let layouts = self.layouts(rq).ok_or_else(|| {
             crate::error::Error::Options(format!(
                 "{} has no ray queries for the {} kernel",
@@ -106,8 +110,8 @@ impl Kernels {
         })?;
         let pipeline = Arc::new(compute_pipeline(ctx, kernel, variant, Some(&layouts.pipeline))?);
         self.compiles.fetch_add(1, Ordering::Relaxed);
-        cache.insert((kernel, variant, rq), pipeline.clone());
-        Ok(pipeline)
+        let mut cache = self.cache.lock().expect("kernel cache lock");
+        Ok(cache.entry((kernel, variant, rq)).or_insert(pipeline).clone())
     }
 
     /// Records that the pipeline of `kernel` for `variant` has been dispatched; `true` the

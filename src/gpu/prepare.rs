@@ -109,6 +109,9 @@ pub struct Prepared {
     pub queues: Option<QueueSizes>,
     /// Seconds the preparation took (packing, the tables and the BVH).
     pub preprocess_s: f64,
+    /// Of those, the tables' build (0 with stored ones) and the BVH's.
+    pub tables_s: f64,
+    pub bvh_s: f64,
 }
 
 /// `opts` with every choice `auto` leaves resolved for `scene`, once: the precision
@@ -255,9 +258,42 @@ pub fn tables_of(scene: &Scene, opts: &RenderOptions, purpose: Purpose) -> Optio
     serves.cube().then(|| table_params(scene, opts, serves.effects))
 }
 
+/// What a render will run, decided before anything is built: the options resolved, the
+/// kernels' variant and stages, and the variant whose tables and queues the buffers hold. The
+/// kernels can be made from it while [`build`] builds the rest.
+#[derive(Clone, Debug)]
+pub struct Plan {
+    pub opts: RenderOptions,
+    pub purpose: Purpose,
+    pub variant: Variant,
+    pub stages: Vec<Stage>,
+    /// The render's variant, or for the preview every effect of the scene at any depth.
+    pub serves: Variant,
+}
+
+/// The plan of a render of `scene` with `opts` for `purpose` on the adapter `caps` describes.
+pub fn plan(scene: &Scene, opts: &RenderOptions, caps: &Capabilities, purpose: Purpose) -> Result<Plan> {
+    let mut opts = resolve(scene, opts, Some(caps))?;
+    if matches!(purpose, Purpose::Preview { .. }) {
+        opts.surface = SurfaceWalk::Bvh;
+    }
+    let (effects, depth) = simulated(scene, &opts, purpose);
+    let split = prims_per_binding(scene, &opts, caps)?.is_some();
+    let variant = Variant { split_prims: split, ..variant(scene, &opts, effects, depth, opts.accel) };
+    let serves = match purpose {
+        Purpose::Preview { .. } => self::variant(scene, &opts, scene.effects(), MAX_DEPTH, opts.accel),
+        _ => variant,
+    };
+    let stages = match purpose {
+        Purpose::Aov(_) => vec![Stage { kernel: Kernel::Aov, depths: Depths::All }],
+        _ => Kernel::wavefront(variant),
+    };
+    Ok(Plan { opts, purpose, variant, stages, serves })
+}
+
 /// Prepares a render of `scene` with `opts` for `purpose` on the adapter `caps` describes,
 /// building the tables it traces or taking `stored` ones (built with [`build_params`],
-/// checked here).
+/// checked here): [`plan`], then [`build`].
 pub fn prepare(
     scene: &Scene,
     opts: &RenderOptions,
@@ -265,21 +301,26 @@ pub fn prepare(
     purpose: Purpose,
     stored: Option<StoredTables>,
 ) -> Result<Prepared> {
-    let mut opts = resolve(scene, opts, Some(caps))?;
-    if matches!(purpose, Purpose::Preview { .. }) {
-        opts.surface = SurfaceWalk::Bvh;
-    }
+    build(scene, plan(scene, opts, caps, purpose)?, caps, stored)
+}
+
+/// Builds what `plan` traces: the scene packed with its final params, the tables (or
+/// `stored` ones, checked), the BVH or the ray queries' boxes, the walks' bounds, the loop
+/// budget checked, the tiles and queues sized.
+pub fn build(
+    scene: &Scene,
+    plan: Plan,
+    caps: &Capabilities,
+    stored: Option<StoredTables>,
+) -> Result<Prepared> {
     let start = Instant::now();
-    let (effects, depth) = simulated(scene, &opts, purpose);
-    let variant = variant(scene, &opts, effects, depth, opts.accel);
-    let serves = match purpose {
-        Purpose::Preview { .. } => self::variant(scene, &opts, scene.effects(), MAX_DEPTH, opts.accel),
-        _ => variant,
-    };
+    let Plan { opts, purpose, variant, stages, serves } = plan;
+    let depth = simulated(scene, &opts, purpose).1;
     let mut packed = pack(scene, opts.width, opts.height, opts.spawn);
     if variant.f64 {
         packed.use_f64(scene, opts.spawn);
     }
+    packed.params.set_prims_per_binding(prims_per_binding(scene, &opts, caps)?.unwrap_or(0));
     match serves.accel {
         Accel::Bvh => packed.add_bvh(scene),
         Accel::RayQuery => packed.add_rq(scene),
@@ -298,7 +339,14 @@ pub fn prepare(
         check_loop_budget(scene, walks.as_ref(), wavefront)?;
     }
     let queues = (!matches!(purpose, Purpose::Aov(_))).then(|| queue_sizes(scene, serves));
-    let tile = budget::tile_points(scene, walks.as_ref(), TESTS_PER_DISPATCH);
+    // No larger than the grid it traces: a small image allocates (and zeroes) no queues it
+    // cannot fill, which cost a 64² render a third of its time.
+    let points = match purpose {
+        Purpose::Render => opts.grid_region().points(),
+        Purpose::Aov(_) => opts.region().width() as u64 * opts.region().height() as u64,
+        Purpose::Preview { .. } => opts.grid().0 as u64 * opts.grid().1 as u64,
+    };
+    let tile = budget::tile_points(scene, walks.as_ref(), TESTS_PER_DISPATCH).min(whole_groups(points));
     let sizes = BufferSizes::fit(tile, queues, packed.job_bytes(), caps.max_binding);
     let job = match purpose {
         Purpose::Aov(_) => RenderOptions { spp: 1, sampling: Sampling::Pixels, max_depth: 1, ..opts.clone() },
@@ -309,11 +357,13 @@ pub fn prepare(
         packed.params.set_aov(aov);
     }
     packed.params.set_queues(sizes.ray_queue, sizes.shadow_queue);
-    let stages = match purpose {
-        Purpose::Aov(_) => vec![Stage { kernel: Kernel::Aov, depths: Depths::All }],
-        _ => Kernel::wavefront(variant),
+    let tables_s = match &tables {
+        Some(TableSet::Built(t)) => t.build_s,
+        _ => 0.0,
     };
     Ok(Prepared {
+        tables_s,
+        bvh_s: packed.bvh_s,
         retries: budget::retry_passes(scene, walks.as_ref()),
         opts,
         variant,
@@ -351,10 +401,17 @@ fn take_tables(
         Some(t) => {
             t.flat.check_scene(scene.primitives.len(), scene.lights.len())?;
             let walks = WalkBounds::of(scene, &t.flat);
+            add_surface_walk(packed, scene, &params, serves.surface_rq);
             TableSet::Stored(t, walks)
         }
         None => {
-            let t = coherence::build(scene, &params)?;
+            // What the rays leaving surfaces walk is built beside the tables, which keep
+            // every core busy only while several origins are left.
+            let (t, ()) = rayon::join(
+                || coherence::build(scene, &params),
+                || add_surface_walk(packed, scene, &params, serves.surface_rq),
+            );
+            let t = t?;
             log::info!(
                 "tables: {} origins, {} entries, longest lists {} (nearest) {} (shadow), fallback reachable: {}",
                 t.flat.origins.len(),
@@ -367,7 +424,6 @@ fn take_tables(
         }
     };
     packed.params.point_at_tables(set.flat());
-    add_surface_walk(packed, scene, &params, serves.surface_rq);
     Ok(Some(set))
 }
 
@@ -417,6 +473,41 @@ pub fn queue_sizes(scene: &Scene, variant: Variant) -> QueueSizes {
         rays_per_point: if variant.effects.refraction || variant.effects.blend { 4 } else { 1 },
         shadows_per_ray: if variant.effects.shadows { scene.lights.len().max(1) as u32 } else { 0 },
     }
+}
+
+/// The most bindings the primitives are split over (`SPLIT_PRIMS`: bindings 1 and 26–28).
+const PRIM_BINDINGS: u64 = 4;
+
+/// How many primitives each binding holds where one binding of the adapter `caps` describes
+/// cannot hold them all (`None`: it can); refuses, before anything is built, a scene whose
+/// primitives need more than [`PRIM_BINDINGS`] bindings.
+fn prims_per_binding(scene: &Scene, opts: &RenderOptions, caps: &Capabilities) -> Result<Option<u32>> {
+    let size = match opts.precision {
+        Precision::F64 => std::mem::size_of::<crate::layout::Prim64>(),
+        _ => std::mem::size_of::<crate::layout::Prim>(),
+    } as u64;
+    let n = scene.primitives.len() as u64;
+    if n * size <= caps.max_binding {
+        return Ok(None);
+    }
+    let per = caps.max_binding / size;
+    if n > PRIM_BINDINGS * per {
+        return Err(Error::Options(format!(
+            "the scene's {n} primitives need {} bytes on the GPU ({size} each, {}), more than {PRIM_BINDINGS} \
+             bindings of {}'s {} bytes hold; render it with --backend cpu",
+            n * size,
+            opts.precision.name(),
+            caps.adapter,
+            caps.max_binding
+        )));
+    }
+    Ok(Some(per.min(u32::MAX as u64) as u32))
+}
+
+/// `points` rounded up to whole workgroups, at least one.
+fn whole_groups(points: u64) -> u64 {
+    let group = crate::layout::WORKGROUP as u64;
+    points.div_ceil(group).max(1) * group
 }
 
 /// Checks that an adapter with `caps` has the 64-bit floats an f64 render of `opts`

@@ -9,8 +9,8 @@ use indicatif::ProgressBar;
 
 use super::bindings::SceneBinding;
 use super::buffers::{upload, BufferSizes, SceneBuffers};
-use super::kernels::{first_compile_marker, mark_compiled, Kernels};
-use super::prepare::{prepare, Capabilities, Prepared, Purpose, TableSet};
+use super::kernels::{first_compile_marker, mark_compiled, Kernels, StagePipeline};
+use super::prepare::{self, Capabilities, Prepared, Purpose, TableSet};
 use super::schedule::{self, Pacing, Pipelines, Progress, Schedule, WavePlan};
 use super::shaders::{Kernel, Stage, Variant};
 use super::GpuContext;
@@ -20,6 +20,7 @@ use crate::job::{grid_image, simulated_effects, RenderOptions, Rendered};
 use crate::layout::counters::{decode_counters, decode_lanes, COUNTER_BYTES};
 use crate::layout::Packed;
 use crate::output::{Aov, Image};
+use crate::phases::Phases;
 use crate::scene::Scene;
 use crate::stats::{self, Counters, Stats};
 use crate::tablefile::StoredTables;
@@ -45,6 +46,10 @@ struct RunOutput {
     /// Lane coherence, when the kernels counted.
     lanes: Option<stats::LaneStats>,
     compile_s: f64,
+    /// Creating and filling the buffers.
+    upload_s: f64,
+    /// The schedule's loop over the grid: the kernels and the readbacks.
+    loop_s: f64,
     /// The driver's build of the ray queries' structure (0 without one).
     accel_build_s: f64,
     longest_submit_s: f64,
@@ -53,6 +58,21 @@ struct RunOutput {
 }
 
 impl RunOutput {
+    /// The phases of a render of `p` whose kernels took `trace_s` (the command adds its
+    /// start-up, load and output): the upload includes the driver's build of the ray
+    /// queries' structure.
+    fn phases(&self, p: &Prepared) -> Phases {
+        Phases {
+            build_s: p.preprocess_s,
+            tables_s: p.tables_s,
+            bvh_s: p.bvh_s,
+            upload_s: self.upload_s,
+            compile_s: self.compile_s,
+            trace_s: self.loop_s,
+            ..Phases::default()
+        }
+    }
+
     /// The times of a render whose preprocessing took `preprocess_s` and whose run took
     /// `trace_s`; `aov`: the kernel was the AOV pass, `shadows`: the shadow kernel ran.
     fn times(&self, preprocess_s: f64, trace_s: f64, aov: bool, shadows: bool) -> stats::Times {
@@ -91,6 +111,7 @@ impl RunOutput {
             longest_submit_s: Some(self.longest_submit_s),
             longest_dispatch_s: self.longest_dispatch_s,
             tiles_run_again: Some(self.tiles_run_again),
+            phases: Phases::default(),
         }
     }
 }
@@ -114,16 +135,43 @@ impl GpuRenderer {
     /// The pipelines of `stages` for a render of `variant`, each compiled in its own
     /// variant ([`Stage::variant`]) on first use, all over the bind group layout of the
     /// render's buffers (with the ray queries' structure where `variant` uses them).
-    pub fn pipelines(
-        &self,
-        stages: &[Stage],
-        variant: Variant,
-    ) -> Result<Vec<(Stage, std::sync::Arc<wgpu::ComputePipeline>)>> {
+    pub fn pipelines(&self, stages: &[Stage], variant: Variant) -> Result<Vec<StagePipeline>> {
         let rq = variant.ray_queries();
-        stages
-            .iter()
-            .map(|&s| Ok((s, self.kernels.get(&self.ctx, s.kernel, s.variant(variant), rq)?)))
-            .collect()
+        // Each on a thread of its own: making a pipeline is the driver's work on one core.
+        std::thread::scope(|scope| {
+            let made: Vec<_> = stages
+                .iter()
+                .map(|&s| {
+                    scope.spawn(move || {
+                        Ok((s, self.kernels.get(&self.ctx, s.kernel, s.variant(variant), rq)?))
+                    })
+                })
+                .collect();
+            made.into_iter().map(|m| m.join().expect("a kernel's thread does not panic")).collect()
+        })
+    }
+
+    /// Plans a render of `scene` for `purpose` ([`prepare::plan`]), then makes its kernels
+    /// while [`prepare::build`] builds what they trace, on another thread; returns both, and
+    /// the seconds the kernels took.
+    fn prepare(
+        &self,
+        scene: &Scene,
+        opts: &RenderOptions,
+        purpose: Purpose,
+        stored: Option<StoredTables>,
+    ) -> Result<(Prepared, Vec<StagePipeline>, f64)> {
+        let plan = prepare::plan(scene, opts, &self.caps, purpose)?;
+        let (variant, stages) = (plan.variant, plan.stages.clone());
+        std::thread::scope(|scope| {
+            let made = scope.spawn(|| {
+                let start = Instant::now();
+                (self.pipelines(&stages, variant), start.elapsed().as_secs_f64())
+            });
+            let prepared = prepare::build(scene, plan, &self.caps, stored);
+            let (pipelines, made_s) = made.join().expect("the kernels' thread does not panic");
+            Ok((prepared?, pipelines?, made_s))
+        })
     }
 
     /// Dispatches each of `pipelines` (kernels of `variant`) once over no points, the first
@@ -133,11 +181,11 @@ impl GpuRenderer {
     pub fn warm_up(
         &self,
         variant: Variant,
-        pipelines: &[(Stage, std::sync::Arc<wgpu::ComputePipeline>)],
+        pipelines: &[StagePipeline],
         buffers: &SceneBuffers,
         base: &crate::layout::Params,
     ) -> Result<f64> {
-        let cold: Vec<&(Stage, std::sync::Arc<wgpu::ComputePipeline>)> = pipelines
+        let cold: Vec<&StagePipeline> = pipelines
             .iter()
             .filter(|(s, _)| self.kernels.first_warm_up(s.kernel, s.variant(variant)))
             .collect();
@@ -201,10 +249,10 @@ impl GpuRenderer {
         stored: Option<StoredTables>,
         progress: &ProgressBar,
     ) -> Result<Rendered> {
-        let p = prepare(scene, opts, &self.caps, Purpose::Render, stored)?;
+        let (p, pipelines, made_s) = self.prepare(scene, opts, Purpose::Render, stored)?;
         let opts = &p.opts;
         let start = Instant::now();
-        let run = self.run(&p, opts.grid_region().size, progress)?;
+        let run = self.run(&p, &pipelines, made_s, opts.grid_region().size, progress)?;
         // The driver's build of the ray queries' structure is preprocessing, as the BVH's is.
         let trace_s = start.elapsed().as_secs_f64() - run.accel_build_s;
         let preprocess_s = p.preprocess_s + run.accel_build_s;
@@ -217,6 +265,7 @@ impl GpuRenderer {
             run.times(preprocess_s, trace_s, false, variant.effects.shadows),
         );
         stats.settings.surface_walk = surface_walk_name(variant);
+        stats.time.phases = run.phases(&p);
         stats.accel_bytes = accel_bytes(&p.packed, p.tables.as_ref());
         stats.texture_bytes = std::mem::size_of_val(p.packed.texels.as_slice()) as u64;
         stats.counted = variant.counters;
@@ -245,13 +294,14 @@ impl GpuRenderer {
         stored: Option<StoredTables>,
         progress: &ProgressBar,
     ) -> Result<Rendered> {
-        let p = prepare(scene, opts, &self.caps, Purpose::Aov(aov), stored)?;
+        let (p, pipelines, made_s) = self.prepare(scene, opts, Purpose::Aov(aov), stored)?;
         let opts = &p.opts;
         let (w, h) = (opts.region().width(), opts.region().height());
         let start = Instant::now();
-        let run = self.run(&p, (w, h), progress)?;
+        let run = self.run(&p, &pipelines, made_s, (w, h), progress)?;
         let trace_s = start.elapsed().as_secs_f64() - run.accel_build_s;
         let times = run.times(p.preprocess_s + run.accel_build_s, trace_s, true, false);
+        let phases = run.phases(&p);
         let mut image = Image::new(w, h, true);
         image.pixels = run.values;
         let mut stats = Stats::new(
@@ -260,31 +310,41 @@ impl GpuRenderer {
             &run.counters,
             times,
         );
+        stats.time.phases = phases;
         stats.accel_bytes = accel_bytes(&p.packed, p.tables.as_ref());
         stats.texture_bytes = std::mem::size_of_val(p.packed.texels.as_slice()) as u64;
         stats.counted = p.variant.counters;
         Ok(Rendered { image, stats })
     }
 
-    /// Runs the kernels of `p` over the `grid` of points with the fixed schedule: the
-    /// wavefront kernels until every tile is done, or the `aov` kernel once per tile, after
-    /// warming each pipeline up.
-    fn run(&self, p: &Prepared, grid: (u32, u32), progress: &ProgressBar) -> Result<RunOutput> {
+    /// Runs `pipelines`, the kernels of `p` (made in `made_s`), over the `grid` of points
+    /// with the fixed schedule: the wavefront kernels until every tile is done, or the `aov`
+    /// kernel once per tile, after warming each pipeline up.
+    fn run(
+        &self,
+        p: &Prepared,
+        pipelines: &[StagePipeline],
+        made_s: f64,
+        grid: (u32, u32),
+        progress: &ProgressBar,
+    ) -> Result<RunOutput> {
         let variant = p.variant;
-        let pipelines = self.pipelines(&p.stages, variant)?;
         let total = grid.0 as u64 * grid.1 as u64;
+        let start = Instant::now();
         let buffers = self.upload(&p.packed, p.tables.as_ref().map(TableSet::flat), p.sizes)?;
+        let upload_s = start.elapsed().as_secs_f64();
         let params = p.packed.params;
-        let compile_s = self.warm_up(variant, &pipelines, &buffers, &params)?;
+        let compile_s = made_s + self.warm_up(variant, pipelines, &buffers, &params)?;
         let wavefront = p.queues.is_some();
         let plan = wavefront.then(|| WavePlan::new(variant, p.opts.max_depth, p.retries));
         let kernels = match pipelines.iter().find(|p| p.0.kernel == Kernel::Aov) {
             Some((_, aov)) => Pipelines::Single(aov),
-            None => Pipelines::Wavefront(&pipelines),
+            None => Pipelines::Wavefront(pipelines),
         };
         let readback = self.ctx.readback_buffer("readback", buffers.tile * 16);
         let mut schedule = Schedule::new(&self.ctx, total, buffers.tile, plan, Pacing::Fixed, true);
         progress.set_length(total);
+        let start = Instant::now();
         let mut values = Vec::with_capacity(total as usize);
         loop {
             // Between submissions a stop asked for ends the render.
@@ -306,6 +366,7 @@ impl GpuRenderer {
                 break;
             }
         }
+        let loop_s = start.elapsed().as_secs_f64();
         let (counters, lanes) = self.counters(&buffers)?;
         Ok(RunOutput {
             values,
@@ -315,6 +376,8 @@ impl GpuRenderer {
             depth_s: schedule.depth_s(),
             lanes: (variant.counters && wavefront).then_some(lanes),
             compile_s,
+            upload_s,
+            loop_s,
             accel_build_s: buffers.rq.as_ref().map_or(0.0, |r| r.build_s),
             longest_submit_s: schedule.longest_submit().as_secs_f64(),
             longest_dispatch_s: schedule.longest_pass(),

@@ -27,13 +27,13 @@
 //! [`Pacing::Adaptive`] (the preview) sizes tiles so that one submission (a wave) takes about
 //! a target time, keeping the window responsive.
 
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::bindings::SceneBinding;
 use super::buffers::SceneBuffers;
+use super::kernels::StagePipeline;
 pub use super::plan::{Pass, WavePlan};
-use super::shaders::{Kernel, Stage};
+use super::shaders::Kernel;
 use super::GpuContext;
 use crate::error::{Error, Result};
 use crate::layout::{
@@ -155,7 +155,7 @@ fn kernel_slot(k: Kernel) -> usize {
 /// with the depths it serves ([`Kernel::wavefront`]), or one kernel run once over each tile
 /// (the `aov` kernel).
 pub enum Pipelines<'a> {
-    Wavefront(&'a [(Stage, Arc<wgpu::ComputePipeline>)]),
+    Wavefront(&'a [StagePipeline]),
     Single(&'a wgpu::ComputePipeline),
 }
 

@@ -41,6 +41,11 @@ pub struct Variant {
     /// (`SURFACE_RQ`) instead of the BVH walk: the default where the adapter offers them and
     /// its measurements favour them (`gpu::prepare::resolve`).
     pub surface_rq: bool,
+    /// Whether the primitives are split over several bindings (`SPLIT_PRIMS`): more than one
+    /// binding holds (lavapipe: 128 MiB, two million primitives in f32). Every read of a
+    /// primitive then picks its binding, which lavapipe pays in every lane, so only a scene
+    /// that needs it gets it.
+    pub split_prims: bool,
     /// Whether the kernels count rays and tests into the statistics counters (`COUNTERS`).
     /// On lavapipe counting costs a kernel 5–22 % of its time (a private array indexed per
     /// lane at every test, workgroup atomics at the end), so a render counts only when asked
@@ -60,6 +65,7 @@ impl Default for Variant {
             surface_rays: false,
             bvh_shadows: false,
             surface_rq: false,
+            split_prims: false,
             counters: false,
         }
     }
@@ -79,6 +85,7 @@ impl Variant {
             surface_rays: reflection || e.shadows || (e.blend && secondary),
             bvh_shadows: e.shadows,
             surface_rq: false,
+            split_prims: false,
             counters: true,
         }
     }
@@ -142,7 +149,8 @@ impl Variant {
     /// alone (36), so that
     /// each `#if` is compiled both ways. Vertex colours, maps, normal maps, alpha and blend are off in the 32 effect sets
     /// and on in the rest (each further effect is compiled on and off against a
-    /// representative rest, not in the full product).
+    /// representative rest, not in the full product); last, every effect with the
+    /// primitives split over bindings, for each accelerator (4).
     pub fn all() -> Vec<Variant> {
         let none = Effects::default();
         let effects = [false, true].into_iter().flat_map(move |f64| {
@@ -162,6 +170,7 @@ impl Variant {
                     surface_rays: b & 3 != 0,
                     bvh_shadows: b & 1 != 0,
                     surface_rq: false,
+                    split_prims: false,
                     counters: true,
                 })
             })
@@ -229,7 +238,16 @@ impl Variant {
                 full.with_counters(false),
             ]
         });
-        effects.chain(shapes).chain(point_lit).chain(uncounted).chain(apart).chain(surface_rq).collect()
+        // The primitives split over bindings, with every accelerator.
+        let split = Accel::GPU.into_iter().map(|accel| Variant { split_prims: true, ..Variant::full(accel) });
+        effects
+            .chain(shapes)
+            .chain(point_lit)
+            .chain(uncounted)
+            .chain(apart)
+            .chain(surface_rq)
+            .chain(split)
+            .collect()
     }
 
     /// Every effect with `accel`.
@@ -268,6 +286,7 @@ impl Variant {
                 Accel::Auto | Accel::Brute | Accel::RayQuery => false,
             },
             "COUNTERS" => self.counters,
+            "SPLIT_PRIMS" => self.split_prims,
             "CUBE" => self.accel == Accel::Cube,
             "BVH" => self.accel == Accel::Bvh,
             "BRUTE" => self.accel == Accel::Brute,

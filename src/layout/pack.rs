@@ -45,6 +45,8 @@ pub struct Packed {
     /// `--accel rayquery`, or `cube` when rays leave surfaces and take ray queries: the
     /// boxes the driver's structure is built over ([`Packed::add_rq`]).
     pub rq: Option<Vec<RqBox>>,
+    /// Seconds spent building the BVH or the ray queries' boxes.
+    pub bvh_s: f64,
 }
 
 impl Packed {
@@ -105,6 +107,16 @@ impl Packed {
         }
     }
 
+    /// The bytes of one primitive as the kernels read it ([`Prim`], or [`Prim64`] after
+    /// [`Packed::use_f64`]).
+    pub fn prim_size(&self) -> usize {
+        if self.prims64.is_empty() {
+            std::mem::size_of::<Prim>()
+        } else {
+            std::mem::size_of::<Prim64>()
+        }
+    }
+
     /// The bytes of one queued ray ([`Job`], or [`Job64`] after [`Packed::use_f64`]).
     pub fn job_bytes(&self) -> u64 {
         if self.prims64.is_empty() {
@@ -116,15 +128,19 @@ impl Packed {
 
     /// [`Packed::with_bvh`] in place.
     pub fn add_bvh(&mut self, scene: &Scene) {
+        let start = std::time::Instant::now();
         let bvh = pack_bvh(scene);
         self.params.set_bvh(bvh.nodes.len() as u32, super::budget::bvh_shadow_inline(scene));
         self.bvh = Some(bvh);
+        self.bvh_s += start.elapsed().as_secs_f64();
     }
 
     /// Adds the boxes of the platform's ray queries (`--accel rayquery`, or the rays leaving
     /// surfaces under `cube`; [`super::rayquery`]).
     pub fn add_rq(&mut self, scene: &Scene) {
+        let start = std::time::Instant::now();
         self.rq = Some(rq_boxes(scene));
+        self.bvh_s += start.elapsed().as_secs_f64();
     }
 }
 
@@ -216,6 +232,7 @@ pub fn pack_moved(scene: &Scene, width: u32, height: u32, spawn: SpawnPolicy) ->
         params,
         bvh: None,
         rq: None,
+        bvh_s: 0.0,
     }
 }
 

@@ -93,6 +93,11 @@ impl Params {
         self.surface_walk = on as u32;
     }
 
+    /// The primitives in each binding they are split over (`SPLIT_PRIMS`); 0: one binding.
+    pub fn set_prims_per_binding(&mut self, n: u32) {
+        self.prims_per_binding = n;
+    }
+
     /// The jobs each ray queue and each shadow queue of the buffers holds.
     pub fn set_queues(&mut self, ray_queue: u32, shadow_queue: u32) {
         self.ray_queue = ray_queue;

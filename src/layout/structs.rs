@@ -77,7 +77,9 @@ pub struct Params {
     pub env_y: [f32; 3],
     pub env_intensity: f32,
     pub env_z: [f32; 3],
-    pub env_pad: u32,
+    /// `SPLIT_PRIMS`: primitives in each binding they are split over
+    /// (`gpu::buffers`); unused otherwise.
+    pub prims_per_binding: u32,
 }
 
 /// One primitive (WGSL `Prim`, keep in sync with `shaders/shared/layout.wgsl`): sphere `a` =

@@ -55,11 +55,10 @@ fn the_tracing_kernels_bind_the_scene_family() {
     let mut used = Vec::new();
     let tracing = [Kernel::Nearest, Kernel::Shade, Kernel::Shadow, Kernel::Resolve, Kernel::Aov];
     for f64 in [false, true] {
-        let variants = Accel::GPU.map(|a| Variant { f64, ..Variant::full(a) }).into_iter().chain([Variant {
-            f64,
-            ..Variant::full(Accel::Cube)
-        }
-        .with_surface_rq(true)]);
+        let variants = Accel::GPU.map(|a| Variant { f64, ..Variant::full(a) }).into_iter().chain([
+            Variant { f64, ..Variant::full(Accel::Cube) }.with_surface_rq(true),
+            Variant { f64, split_prims: true, ..Variant::full(Accel::Bvh) },
+        ]);
         for v in variants {
             for k in tracing {
                 check(k, v, &family, &mut used);

@@ -123,7 +123,7 @@ fn rust_structs() -> BTreeMap<&'static str, Layout> {
             env_y,
             env_intensity,
             env_z,
-            env_pad,
+            prims_per_binding,
         }),
         twin!(Prim { a, b, c, kind, material, flags, attr }),
         twin!(Prim64 { a, b, c, kind, material, flags, attr, pad }),

@@ -2,14 +2,13 @@
 //! kernels' output to an accumulation; and the order of the passes, each of which renders
 //! one sample of the lattice.
 
-use std::sync::Arc;
-
 use crate::error::Result;
 use crate::gpu::bindings::{self, SceneBinding, ACCUMULATE};
 use crate::gpu::buffers::check_limits;
 use crate::gpu::kernels::compute_pipeline;
+use crate::gpu::kernels::StagePipeline;
 use crate::gpu::schedule::{Pipelines, Progress, Schedule};
-use crate::gpu::shaders::{Kernel, Stage, Variant};
+use crate::gpu::shaders::{Kernel, Variant};
 use crate::gpu::{self, SceneBuffers};
 use crate::layout::Params;
 
@@ -112,7 +111,7 @@ pub(super) fn accumulation(ctx: &gpu::GpuContext, label: &str, points: u64) -> R
 pub(super) fn step_tile(
     ctx: &gpu::GpuContext,
     schedule: &mut Schedule,
-    pipelines: &[(Stage, Arc<wgpu::ComputePipeline>)],
+    pipelines: &[StagePipeline],
     buffers: &SceneBuffers,
     base: &Params,
     accumulator: &Accumulator,

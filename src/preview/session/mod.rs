@@ -36,9 +36,10 @@ use crate::coherence::{FlatTables, Tables};
 use crate::error::{Error, Result};
 use crate::gpu::bindings::SceneBinding;
 use crate::gpu::buffers::BufferSizes;
+use crate::gpu::kernels::StagePipeline;
 use crate::gpu::prepare::{self, queue_sizes, Purpose, TableSet};
 use crate::gpu::schedule::{Pacing, Schedule, WavePlan};
-use crate::gpu::shaders::{Accel, Kernel, Stage, Variant};
+use crate::gpu::shaders::{Accel, Kernel, Variant};
 use crate::gpu::{GpuRenderer, SceneBuffers};
 use crate::job::{grid_image, Precision, RenderOptions};
 use crate::layout::budget::{check_loop_budget, retry_passes, MAX_DEPTH};
@@ -89,7 +90,7 @@ pub struct Session {
     /// Passes after which the session is complete (at most `opts.spp`).
     limit: u32,
     /// The wavefront kernels of the current effects and depth.
-    pipelines: Vec<(Stage, Arc<wgpu::ComputePipeline>)>,
+    pipelines: Vec<StagePipeline>,
     /// The accelerator the kernels trace with: the tables, the BVH, brute force or ray
     /// queries (the BVH while the tables are rebuilt for a new eye, or when they could not
     /// be).
@@ -521,7 +522,7 @@ fn compile(
     v: Variant,
     buffers: &SceneBuffers,
     base: &Params,
-) -> Result<Vec<(Stage, Arc<wgpu::ComputePipeline>)>> {
+) -> Result<Vec<StagePipeline>> {
     let pipelines = gpu.pipelines(&Kernel::wavefront(v), v)?;
     gpu.warm_up(v, &pipelines, buffers, base)?;
     Ok(pipelines)

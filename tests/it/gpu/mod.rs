@@ -34,6 +34,7 @@ mod closed_forms;
 mod commands;
 mod device;
 mod gltf_samples;
+mod split;
 
 fn hidden() -> ProgressBar {
     ProgressBar::hidden()
