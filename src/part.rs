@@ -170,29 +170,72 @@ pub const MAX_PART_PIXELS: u64 = 1 << 26;
 
 /// Reads a partial EXR written by [`write_part`].
 pub fn read_part(path: &Path) -> Result<Part, Error> {
-    use exr::prelude as x;
-    use x::traits::*;
-    let bad = |m: String| Error::Part { path: path.to_owned(), message: m };
     if !path.exists() {
-        return Err(bad("no such file".into()));
+        return Err(part_error(path, "no such file".into()));
     }
-    // The header first: a small file must not make the reader allocate pixels for a huge
-    // data window that no part cuberay writes could have (32768 a side, MAX_PART_PIXELS in
-    // all).
-    let meta = x::MetaData::read_from_file(path, false)
-        .map_err(|e| bad(format!("not a readable RGB EXR file: {e}")))?;
+    check_part_size(path)?;
+    let file = read_rgba(path)?;
+    let info = part_record(path, &file.layer)?;
+    check_placement(path, &info, &file)?;
+    let win = info.region();
+    let mut image = Image::new(win.width(), win.height(), info.aov.is_some());
+    image.transfer = info.settings.transfer;
+    image.tonemap = info.settings.tonemap;
+    image.exposure = output::exposure_scale(info.settings.exposure);
+    image.pixels = file.pixels;
+    if !image.is_finite() {
+        return Err(part_error(path, "it holds a non-finite value".into()));
+    }
+    Ok(Part { path: path.to_owned(), info, image })
+}
+
+/// The [`Error::Part`] that says what is wrong with the part at `path`.
+fn part_error(path: &Path, message: String) -> Error {
+    Error::Part { path: path.to_owned(), message }
+}
+
+/// Ok when no layer in the header of the EXR at `path` is larger than a part cuberay
+/// writes (32768 a side, [`MAX_PART_PIXELS`] in all); the error names the size. Reads the
+/// header only, so that a small file cannot make the reader allocate pixels for a huge data
+/// window.
+fn check_part_size(path: &Path) -> Result<(), Error> {
+    let meta = exr::prelude::MetaData::read_from_file(path, false)
+        .map_err(|e| part_error(path, format!("not a readable RGB EXR file: {e}")))?;
     let too_large = |h: &&exr::meta::header::Header| {
         let (w, ht) = (h.layer_size.width(), h.layer_size.height());
         w > 32768 || ht > 32768 || (w as u64) * (ht as u64) > MAX_PART_PIXELS
     };
     if let Some(h) = meta.headers.iter().find(too_large) {
-        return Err(bad(format!(
-            "its {}x{} pixels are more than any cuberay part holds (at most {MAX_PART_PIXELS} pixels, \
-             32768 a side)",
-            h.layer_size.width(),
-            h.layer_size.height()
-        )));
+        return Err(part_error(
+            path,
+            format!(
+                "its {}x{} pixels are more than any cuberay part holds (at most {MAX_PART_PIXELS} pixels, \
+                 32768 a side)",
+                h.layer_size.width(),
+                h.layer_size.height()
+            ),
+        ));
     }
+    Ok(())
+}
+
+/// The parts of an RGB(A) EXR file that [`read_part`] checks and keeps.
+struct RgbaFile {
+    /// The image's attributes: the display window.
+    image: exr::meta::header::ImageAttributes,
+    /// The first valid layer's attributes: its position and the `cuberay` record.
+    layer: exr::meta::header::LayerAttributes,
+    /// The layer's size in pixels.
+    size: exr::prelude::Vec2<usize>,
+    /// The layer's pixels in row order, RGBA (A is 1 where the file has none).
+    pixels: Vec<[f32; 4]>,
+}
+
+/// The first valid layer of the EXR at `path`, with its R, G, B and (optional) A channels
+/// and all attributes, or the error that it is not a readable RGB EXR file.
+fn read_rgba(path: &Path) -> Result<RgbaFile, Error> {
+    use exr::prelude as x;
+    use x::traits::*;
     let read = x::read()
         .no_deep_data()
         .largest_resolution_level()
@@ -210,9 +253,23 @@ pub fn read_part(path: &Path) -> Result<Part, Error> {
         .first_valid_layer()
         .all_attributes()
         .from_file(path)
-        .map_err(|e| bad(format!("not a readable RGB EXR file: {e}")))?;
-    let layer = &read.layer_data;
-    let text = match layer.attributes.other.get(&x::Text::from(PART_ATTRIBUTE)) {
+        .map_err(|e| part_error(path, format!("not a readable RGB EXR file: {e}")))?;
+    let layer = read.layer_data;
+    Ok(RgbaFile {
+        image: read.attributes,
+        layer: layer.attributes,
+        size: layer.size,
+        pixels: layer.channel_data.pixels.1,
+    })
+}
+
+/// The [`PartInfo`] in the `cuberay` attribute of `layer`, once it is known to be in
+/// [`PART_FORMAT`], to name a non-empty window of its image and to carry a SHA-256 scene
+/// digest; the error says which of these fails first.
+fn part_record(path: &Path, layer: &exr::meta::header::LayerAttributes) -> Result<PartInfo, Error> {
+    use exr::prelude as x;
+    let bad = |m: String| part_error(path, m);
+    let text = match layer.other.get(&x::Text::from(PART_ATTRIBUTE)) {
         Some(x::AttributeValue::Text(t)) => t.to_string(),
         _ => {
             return Err(bad(format!(
@@ -245,7 +302,16 @@ pub fn read_part(path: &Path) -> Result<Part, Error> {
     if info.scene.sha256.len() != 64 || !info.scene.sha256.bytes().all(|b| b.is_ascii_hexdigit()) {
         return Err(bad("its record's scene digest is not a SHA-256".into()));
     }
-    let display = read.attributes.display_window;
+    Ok(info)
+}
+
+/// Ok when `file`'s display window is the whole image `info` names and its pixels fill
+/// exactly the window `info` names; the error says which does not.
+fn check_placement(path: &Path, info: &PartInfo, file: &RgbaFile) -> Result<(), Error> {
+    let bad = |m: String| part_error(path, m);
+    let [full_w, full_h] = info.settings.size;
+    let win = info.region();
+    let display = file.image.display_window;
     if (display.position.x(), display.position.y(), display.size.width(), display.size.height())
         != (0, 0, full_w as usize, full_h as usize)
     {
@@ -257,8 +323,8 @@ pub fn read_part(path: &Path) -> Result<Part, Error> {
             display.position.y()
         )));
     }
-    let pos = layer.attributes.layer_position;
-    let (w, h) = (layer.size.width(), layer.size.height());
+    let pos = file.layer.layer_position;
+    let (w, h) = (file.size.width(), file.size.height());
     if (pos.x(), pos.y()) != (win.x0 as i32, win.y0 as i32)
         || (w, h) != (win.width() as usize, win.height() as usize)
     {
@@ -268,15 +334,7 @@ pub fn read_part(path: &Path) -> Result<Part, Error> {
             pos.y()
         )));
     }
-    let mut image = Image::new(win.width(), win.height(), info.aov.is_some());
-    image.transfer = info.settings.transfer;
-    image.tonemap = info.settings.tonemap;
-    image.exposure = output::exposure_scale(info.settings.exposure);
-    image.pixels = layer.channel_data.pixels.1.clone();
-    if !image.is_finite() {
-        return Err(bad("it holds a non-finite value".into()));
-    }
-    Ok(Part { path: path.to_owned(), info, image })
+    Ok(())
 }
 
 /// The merged image and statistics of `parts`.
@@ -307,81 +365,102 @@ pub fn merge(parts: &[Part]) -> Result<Merged, Error> {
     let Some(first) = parts.first() else {
         return Err(Error::Options("merge needs at least one part".into()));
     };
-    let bad = |p: &Part, m: String| Error::Part { path: p.path.clone(), message: m };
-    let name = |p: &Part| p.path.display().to_string();
     let reference = comparable(&first.info.settings);
     for p in &parts[1..] {
-        if !p.info.scene.same_as(&first.info.scene) {
-            return Err(bad(
-                p,
-                format!(
-                    "it shows {}, but {} shows {}",
-                    p.info.scene.describe(),
-                    name(first),
-                    first.info.scene.describe()
-                ),
-            ));
-        }
-        if p.info.renderer != first.info.renderer {
-            return Err(bad(
-                p,
-                format!(
-                    "it was rendered by {}, but {} by {}",
-                    p.info.renderer,
-                    name(first),
-                    first.info.renderer
-                ),
-            ));
-        }
-        if p.info.aov != first.info.aov {
-            let what = |a: &Option<String>| match a {
-                Some(a) => format!("the {a} AOV"),
-                None => "the image".to_string(),
-            };
-            return Err(bad(
-                p,
-                format!(
-                    "it holds {}, but {} holds {}",
-                    what(&p.info.aov),
-                    name(first),
-                    what(&first.info.aov)
-                ),
-            ));
-        }
-        let theirs = comparable(&p.info.settings);
-        if theirs != reference {
-            let differ: Vec<String> = reference
-                .iter()
-                .filter(|(k, v)| theirs.get(*k) != Some(*v))
-                .map(|(k, v)| {
-                    format!(
-                        "{k} {} (against {v} in {})",
-                        theirs.get(k).cloned().unwrap_or_default(),
-                        name(first)
-                    )
-                })
-                .collect();
-            return Err(bad(p, format!("it was rendered with other settings: {}", differ.join(", "))));
-        }
+        check_same_render(first, &reference, p)?;
     }
+    check_disjoint(parts)?;
     let [w, h] = first.info.settings.size;
+    check_covered(parts, w, h)?;
+    let (image, counters, time) = assemble(parts, w, h);
+    let effects = first
+        .info
+        .effects
+        .iter()
+        .map(|e| {
+            effect_name(e).ok_or_else(|| part_error(&first.path, format!("it names an unknown effect {e:?}")))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let settings = Settings { window: None, ..first.info.settings.clone() };
+    Ok(Merged { image, stats: Stats::new(settings, effects, &counters, time) })
+}
+
+/// Ok when `p` shows the scene of `first`, was rendered by the same renderer, holds the
+/// same image or AOV and was rendered with the same settings (`reference`, those of
+/// `first` as [`comparable`] gives them); the error, about `p`, says the first difference.
+fn check_same_render(
+    first: &Part,
+    reference: &serde_json::Map<String, serde_json::Value>,
+    p: &Part,
+) -> Result<(), Error> {
+    let bad = |m: String| part_error(&p.path, m);
+    let first_name = first.path.display().to_string();
+    if !p.info.scene.same_as(&first.info.scene) {
+        return Err(bad(format!(
+            "it shows {}, but {} shows {}",
+            p.info.scene.describe(),
+            first_name,
+            first.info.scene.describe()
+        )));
+    }
+    if p.info.renderer != first.info.renderer {
+        return Err(bad(format!(
+            "it was rendered by {}, but {} by {}",
+            p.info.renderer, first_name, first.info.renderer
+        )));
+    }
+    if p.info.aov != first.info.aov {
+        let what = |a: &Option<String>| match a {
+            Some(a) => format!("the {a} AOV"),
+            None => "the image".to_string(),
+        };
+        return Err(bad(format!(
+            "it holds {}, but {} holds {}",
+            what(&p.info.aov),
+            first_name,
+            what(&first.info.aov)
+        )));
+    }
+    let theirs = comparable(&p.info.settings);
+    if theirs != *reference {
+        let differ: Vec<String> = reference
+            .iter()
+            .filter(|(k, v)| theirs.get(*k) != Some(*v))
+            .map(|(k, v)| {
+                format!("{k} {} (against {v} in {first_name})", theirs.get(k).cloned().unwrap_or_default())
+            })
+            .collect();
+        return Err(bad(format!("it was rendered with other settings: {}", differ.join(", "))));
+    }
+    Ok(())
+}
+
+/// Ok when no two of `parts` are the same file or overlap; the error is about the later
+/// part of the first such pair.
+fn check_disjoint(parts: &[Part]) -> Result<(), Error> {
     for (i, a) in parts.iter().enumerate() {
         for b in &parts[i + 1..] {
             if a.path == b.path {
-                return Err(bad(b, "it is named twice".into()));
+                return Err(part_error(&b.path, "it is named twice".into()));
             }
             let (wa, wb) = (a.info.region(), b.info.region());
             if wa.overlaps(&wb) {
-                return Err(bad(
-                    b,
+                return Err(part_error(
+                    &b.path,
                     format!(
                         "its pixels ({wb}) overlap those of {} ({wa}); each pixel must come from one part",
-                        name(a)
+                        a.path.display()
                     ),
                 ));
             }
         }
     }
+    Ok(())
+}
+
+/// Ok when `parts` (which do not overlap) cover all of the `w`×`h` image; the error names
+/// the first pixel none of them holds.
+fn check_covered(parts: &[Part], w: u32, h: u32) -> Result<(), Error> {
     let covered: u64 = parts.iter().map(|p| p.info.region().pixels()).sum();
     if covered != w as u64 * h as u64 {
         let (x, y) = first_gap(parts.iter().map(|p| p.info.region()).collect(), w, h);
@@ -391,7 +470,14 @@ pub fn merge(parts: &[Part]) -> Result<Merged, Error> {
             w as u64 * h as u64,
         )));
     }
+    Ok(())
+}
 
+/// The `w`×`h` image with each of `parts` (which tile it) copied into its window, in the
+/// first part's transfer, tone mapping and exposure, and the sums of the parts' counters
+/// and times.
+fn assemble(parts: &[Part], w: u32, h: u32) -> (Image, Counters, Times) {
+    let first = &parts[0];
     let mut image = Image::new(w, h, first.image.has_alpha);
     image.transfer = first.image.transfer;
     image.tonemap = first.image.tonemap;
@@ -408,14 +494,7 @@ pub fn merge(parts: &[Part]) -> Result<Merged, Error> {
         counters += p.info.counters;
         time = add_times(time, &p.info.time);
     }
-    let effects = first
-        .info
-        .effects
-        .iter()
-        .map(|e| effect_name(e).ok_or_else(|| bad(first, format!("it names an unknown effect {e:?}"))))
-        .collect::<Result<Vec<_>, _>>()?;
-    let settings = Settings { window: None, ..first.info.settings.clone() };
-    Ok(Merged { image, stats: Stats::new(settings, effects, &counters, time) })
+    (image, counters, time)
 }
 
 /// The first pixel, in row order, that none of `windows` (which do not overlap and lie in

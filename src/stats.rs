@@ -363,10 +363,18 @@ impl Stats {
 
     /// A human-readable multi-line report.
     pub fn to_text(&self) -> String {
+        let mut o = self.settings_text();
+        o += &self.counts_text();
+        o += &self.time_text();
+        o += &self.lanes_text();
+        o
+    }
+
+    /// The report's lines on what was rendered and how: `render:`, `window:` (for a part),
+    /// `effects:`, `precision:` and `textures:` (when there are any), each ending in a
+    /// newline.
+    fn settings_text(&self) -> String {
         let s = &self.settings;
-        let r = &self.rays;
-        let t = &self.tests;
-        let p = &self.tests_per_ray;
         let effects = if self.effects.is_empty() { "none".to_string() } else { self.effects.join(", ") };
         let mut o = String::new();
         o += &format!(
@@ -395,6 +403,17 @@ impl Stats {
                 self.texture_bytes as f64 / (1u64 << 20) as f64
             );
         }
+        o
+    }
+
+    /// The report's lines on rays and intersection tests: `rays:`, `tests:`, `per ray:` and
+    /// `bounds:` (when there were bound tests), or the one line saying they were not
+    /// counted; each ends in a newline.
+    fn counts_text(&self) -> String {
+        let r = &self.rays;
+        let t = &self.tests;
+        let p = &self.tests_per_ray;
+        let mut o = String::new();
         if self.counted {
             o += &format!(
                 "rays:     {} in all: {} eye ({} hit), {} reflect, {} refract, {} shadow ({} blocked); {} self-hits\n",
@@ -421,10 +440,15 @@ impl Stats {
         } else {
             o += "rays:     not counted (the GPU kernels count for --stats)\n";
         }
-        o += &format!(
-            "time:     preprocess {:.3} s, trace {:.3} s",
-            self.time.preprocess_s, self.time.trace_s
-        );
+        o
+    }
+
+    /// The report's `time:` line (the times that were measured, in one line) and, when the
+    /// GPU kernels were timed at more than one depth, the `by depth:` table; each line ends
+    /// in a newline.
+    fn time_text(&self) -> String {
+        let mut o =
+            format!("time:     preprocess {:.3} s, trace {:.3} s", self.time.preprocess_s, self.time.trace_s);
         if let Some(g) = self.time.gpu_s {
             o += &format!(", GPU kernels {g:.3} s");
             let k = &self.time.gpu_kernel_s;
@@ -463,7 +487,14 @@ impl Stats {
                 );
             }
         }
+        o
+    }
+
+    /// The report's `lanes:` table (a header and a line per kernel that has rows), or
+    /// nothing when no kernel's lanes were measured.
+    fn lanes_text(&self) -> String {
         let l = &self.lanes;
+        let mut o = String::new();
         if !(l.nearest.is_empty() && l.shade.is_empty() && l.shadow.is_empty()) {
             o += "lanes:    mean loop iterations per invocation / per group of 8 / of 32 (its busiest lane), by depth\n";
             for (name, rows) in [("nearest", &l.nearest), ("shade", &l.shade), ("shadow", &l.shadow)] {

@@ -41,22 +41,27 @@ fn draw_error(e: impl std::fmt::Display) -> Error {
     Error::Options(format!("cannot draw the plot: {e}"))
 }
 
-fn draw<DB: DrawingBackend>(
-    area: DrawingArea<DB, Shift>,
-    title: &str,
-    rows: &[Row],
-    summary: &Summary,
-) -> Result<()>
-where
-    DB::ErrorType: 'static,
-{
-    area.fill(&WHITE).map_err(draw_error)?;
-    let ms = |r: &Row| (r.gpu_s * 1e3).max(1e-3);
-    let err = |r: &Row| r.error.flip_mean.max(FLOOR);
+/// The chart [`draw`] plots into: log scales on both axes.
+type Chart<'a, DB> = ChartContext<'a, DB, Cartesian2d<LogCoord<f64>, LogCoord<f64>>>;
+
+/// Where `r` is plotted along the time axis: its GPU kernel time in milliseconds, at least
+/// a microsecond (a log axis has no zero).
+fn time_ms(r: &Row) -> f64 {
+    (r.gpu_s * 1e3).max(1e-3)
+}
+
+/// Where `r` is plotted along the error axis: its FLIP mean, at least [`FLOOR`].
+fn plotted_error(r: &Row) -> f64 {
+    r.error.flip_mean.max(FLOOR)
+}
+
+/// The time and error ranges of the axes: those of `rows` (or a default when there are
+/// none) with a margin of a fifth of a decade either side, and a decade at least.
+fn axis_ranges(rows: &[Row]) -> ((f64, f64), (f64, f64)) {
     let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
     for r in rows {
-        (x0, x1) = (x0.min(ms(r)), x1.max(ms(r)));
-        (y0, y1) = (y0.min(err(r)), y1.max(err(r)));
+        (x0, x1) = (x0.min(time_ms(r)), x1.max(time_ms(r)));
+        (y0, y1) = (y0.min(plotted_error(r)), y1.max(plotted_error(r)));
     }
     if rows.is_empty() {
         (x0, x1, y0, y1) = (1.0, 10.0, 1e-3, 1e-1);
@@ -71,8 +76,21 @@ where
             (lo, hi)
         }
     };
-    let ((x0, x1), (y0, y1)) = (widen(x0, x1), widen(y0, y1));
-    let mut chart = ChartBuilder::on(&area)
+    (widen(x0, x1), widen(y0, y1))
+}
+
+/// The chart on `area`, titled `title`, with log axes over the ranges `x` and `y` and its
+/// mesh, labels and axis descriptions drawn.
+fn chart<'a, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, Shift>,
+    title: &str,
+    (x0, x1): (f64, f64),
+    (y0, y1): (f64, f64),
+) -> Result<Chart<'a, DB>>
+where
+    DB::ErrorType: 'static,
+{
+    let mut chart = ChartBuilder::on(area)
         .caption(title, ("sans-serif", 22))
         .margin(16)
         .x_label_area_size(48)
@@ -94,7 +112,16 @@ where
         .y_label_formatter(&|v| format!("{v:.0e}"))
         .draw()
         .map_err(draw_error)?;
+    Ok(chart)
+}
 
+/// Draws one line per parameter of `rows`, in the order they first appear, through its
+/// values in the order tried: the line (with its legend entry), a marker per value and the
+/// value's text beside it.
+fn draw_parameters<DB: DrawingBackend>(chart: &mut Chart<'_, DB>, rows: &[Row]) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
     let mut parameters: Vec<Parameter> = Vec::new();
     for r in rows {
         if !parameters.contains(&r.parameter) {
@@ -104,7 +131,7 @@ where
     for p in parameters {
         let c = colour(p);
         let pts: Vec<(f64, f64)> =
-            rows.iter().filter(|r| r.parameter == p).map(|r| (ms(r), err(r))).collect();
+            rows.iter().filter(|r| r.parameter == p).map(|r| (time_ms(r), plotted_error(r))).collect();
         chart
             .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
             .map_err(draw_error)?
@@ -114,17 +141,35 @@ where
         // Each point's value beside it, above and to the right of the marker.
         chart
             .draw_series(rows.iter().filter(|r| r.parameter == p).map(|r| {
-                EmptyElement::at((ms(r), err(r)))
+                EmptyElement::at((time_ms(r), plotted_error(r)))
                     + Text::new(r.value.clone(), (6, -16), ("sans-serif", 12).into_font().color(&c))
             }))
             .map_err(draw_error)?;
     }
+    Ok(())
+}
+
+/// Draws the ring around the base setting (if `rows` has one) and the Pareto front of
+/// `summary` as a dashed black line with its legend entry (if it has two points or more).
+fn draw_base_and_front<DB: DrawingBackend>(
+    chart: &mut Chart<'_, DB>,
+    rows: &[Row],
+    summary: &Summary,
+) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
     if let Some(b) = rows.iter().find(|r| r.base) {
         chart
-            .draw_series(std::iter::once(Circle::new((ms(b), err(b)), 9, BLACK.stroke_width(2))))
+            .draw_series(std::iter::once(Circle::new(
+                (time_ms(b), plotted_error(b)),
+                9,
+                BLACK.stroke_width(2),
+            )))
             .map_err(draw_error)?;
     }
-    let mut front: Vec<(f64, f64)> = summary.pareto.iter().map(|&i| (ms(&rows[i]), err(&rows[i]))).collect();
+    let mut front: Vec<(f64, f64)> =
+        summary.pareto.iter().map(|&i| (time_ms(&rows[i]), plotted_error(&rows[i]))).collect();
     front.sort_by(|a, b| a.0.total_cmp(&b.0));
     front.dedup();
     if front.len() > 1 {
@@ -134,6 +179,25 @@ where
             .label("Pareto front")
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(1)));
     }
+    Ok(())
+}
+
+/// Draws the whole plot of `rows` onto `area`: the axes, the parameters' lines, the base
+/// setting and the Pareto front, and the legend.
+fn draw<DB: DrawingBackend>(
+    area: DrawingArea<DB, Shift>,
+    title: &str,
+    rows: &[Row],
+    summary: &Summary,
+) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    area.fill(&WHITE).map_err(draw_error)?;
+    let (x, y) = axis_ranges(rows);
+    let mut chart = chart(&area, title, x, y)?;
+    draw_parameters(&mut chart, rows)?;
+    draw_base_and_front(&mut chart, rows, summary)?;
     chart
         .configure_series_labels()
         .position(SeriesLabelPosition::UpperRight)

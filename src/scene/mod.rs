@@ -475,105 +475,144 @@ impl Scene {
     /// Checks the invariants listed in the module documentation. Loaders call this last;
     /// an error here is a loader bug or an unchecked input, described in words.
     pub fn validate(&self) -> Result<()> {
-        let bad = |m: String| Err(Error::Scene(m));
-        let finite3 = |v: DVec3, what: &str| -> Result<()> {
-            if v.is_finite() {
-                Ok(())
-            } else {
-                bad(format!("{what} is not finite: {v}"))
-            }
-        };
-        self.camera.validate()?;
-        finite3(self.background, "background")?;
-        if !(self.up.is_finite() && (self.up.length() - 1.0).abs() < 1e-9) {
-            return bad(format!("up {} is not a unit vector", self.up));
-        }
-        if let Some(env) = &self.environment {
-            env.validate()?;
-        }
-        finite3(self.ambient, "ambient")?;
+        self.validate_view()?;
         for (i, l) in self.lights.iter().enumerate() {
             l.validate().map_err(|e| e.within(format_args!("light {i}")))?;
         }
         for (i, m) in self.materials.iter().enumerate() {
             m.validate(self.textures.len()).map_err(|e| e.within(format_args!("material {i}")))?;
         }
+        self.validate_textures()?;
+        let nmat = self.materials.len();
+        for (id, p) in self.primitives.iter().enumerate() {
+            validate_primitive(p, nmat).map_err(|e| e.within(format_args!("primitive {id}")))?;
+        }
+        Ok(())
+    }
+
+    /// Ok when the camera, the background, the up vector (a unit vector), the environment
+    /// and the ambient light are valid; the error names the first that is not.
+    fn validate_view(&self) -> Result<()> {
+        self.camera.validate()?;
+        finite3(self.background, "background")?;
+        if !(self.up.is_finite() && (self.up.length() - 1.0).abs() < 1e-9) {
+            return Err(Error::Scene(format!("up {} is not a unit vector", self.up)));
+        }
+        if let Some(env) = &self.environment {
+            env.validate()?;
+        }
+        finite3(self.ambient, "ambient")
+    }
+
+    /// Ok when every texture has a non-empty size and exactly its width × height texels;
+    /// the error names the first that does not.
+    fn validate_textures(&self) -> Result<()> {
         for (i, t) in self.textures.iter().enumerate() {
             if t.width == 0 || t.height == 0 || t.texels.len() != (t.width as usize) * (t.height as usize) {
-                return bad(format!(
+                return Err(Error::Scene(format!(
                     "texture {i}: size {}x{} does not match its {} texels",
                     t.width,
                     t.height,
                     t.texels.len()
-                ));
-            }
-        }
-        let nmat = self.materials.len();
-        for (id, p) in self.primitives.iter().enumerate() {
-            let ctx = |e: Error| e.within(format_args!("primitive {id}"));
-            let bad = |m: String| Err(Error::Scene(format!("primitive {id}: {m}")));
-            if p.material() as usize >= nmat {
-                return bad(format!("material index {} out of range ({} materials)", p.material(), nmat));
-            }
-            match p {
-                Primitive::Sphere(s) => {
-                    finite3(s.center, "sphere centre").map_err(ctx)?;
-                    if !(s.radius.is_finite() && s.radius > 0.0) {
-                        return bad(format!("sphere radius {} is not positive and finite", s.radius));
-                    }
-                }
-                Primitive::Cylinder(c) => {
-                    finite3(c.base, "cylinder base").map_err(ctx)?;
-                    finite3(c.apex, "cylinder apex").map_err(ctx)?;
-                    for r in [c.base_radius, c.apex_radius] {
-                        if !(r.is_finite() && r >= 0.0) {
-                            return bad(format!("cylinder radius {r} is not non-negative and finite"));
-                        }
-                    }
-                    if c.base_radius == 0.0 && c.apex_radius == 0.0 {
-                        return bad("cylinder radii are both zero".into());
-                    }
-                    if c.base == c.apex {
-                        return bad("cylinder base and apex coincide".into());
-                    }
-                }
-                Primitive::Triangle(t) => {
-                    if t.is_degenerate() {
-                        return bad("degenerate or non-finite triangle".into());
-                    }
-                    if let Some(n) = &t.n {
-                        for v in n {
-                            if !v.is_finite() || (v.length() - 1.0).abs() > 1e-6 {
-                                return bad(format!("shading normal {v} is not a finite unit vector"));
-                            }
-                        }
-                    }
-                    if let Some(uv) = &t.uv {
-                        if !uv.iter().all(|u| u.is_finite()) {
-                            return bad("texture coordinate is not finite".into());
-                        }
-                    }
-                    if let Some(uv) = &t.uv1 {
-                        if !uv.iter().all(|u| u.is_finite()) {
-                            return bad("texture coordinate (set 1) is not finite".into());
-                        }
-                    }
-                    if let Some(tg) = &t.tangent {
-                        for v in tg.iter() {
-                            let unit = (v.truncate().length() - 1.0).abs() <= 1e-6;
-                            if !v.is_finite() || !unit || v.w.abs() != 1.0 {
-                                return bad(format!("tangent {v} is not a finite unit vector with sign ±1"));
-                            }
-                        }
-                    }
-                    if let Some(c) = &t.color {
-                        if !c.iter().all(|c| c.is_finite() && c.min_element() >= 0.0) {
-                            return bad("vertex colour is negative or not finite".into());
-                        }
-                    }
-                }
+                )));
             }
         }
         Ok(())
     }
+}
+
+/// Ok when `v` is finite; the error names it as `what`.
+fn finite3(v: DVec3, what: &str) -> Result<()> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(Error::Scene(format!("{what} is not finite: {v}")))
+    }
+}
+
+/// Ok when `p` uses one of the `nmat` materials and its shape is valid; the error says
+/// what is wrong, without naming the primitive.
+fn validate_primitive(p: &Primitive, nmat: usize) -> Result<()> {
+    if p.material() as usize >= nmat {
+        return Err(Error::Scene(format!(
+            "material index {} out of range ({} materials)",
+            p.material(),
+            nmat
+        )));
+    }
+    match p {
+        Primitive::Sphere(s) => validate_sphere(s),
+        Primitive::Cylinder(c) => validate_cylinder(c),
+        Primitive::Triangle(t) => validate_triangle(t),
+    }
+}
+
+/// Ok when the sphere's centre is finite and its radius positive and finite.
+fn validate_sphere(s: &Sphere) -> Result<()> {
+    finite3(s.center, "sphere centre")?;
+    if !(s.radius.is_finite() && s.radius > 0.0) {
+        return Err(Error::Scene(format!("sphere radius {} is not positive and finite", s.radius)));
+    }
+    Ok(())
+}
+
+/// Ok when the cylinder's ends are finite and distinct and its radii non-negative, finite
+/// and not both zero; the error names the first fault.
+fn validate_cylinder(c: &Cylinder) -> Result<()> {
+    finite3(c.base, "cylinder base")?;
+    finite3(c.apex, "cylinder apex")?;
+    for r in [c.base_radius, c.apex_radius] {
+        if !(r.is_finite() && r >= 0.0) {
+            return Err(Error::Scene(format!("cylinder radius {r} is not non-negative and finite")));
+        }
+    }
+    if c.base_radius == 0.0 && c.apex_radius == 0.0 {
+        return Err(Error::Scene("cylinder radii are both zero".into()));
+    }
+    if c.base == c.apex {
+        return Err(Error::Scene("cylinder base and apex coincide".into()));
+    }
+    Ok(())
+}
+
+/// Ok when the triangle is not degenerate and its optional vertex data are valid: shading
+/// normals finite unit vectors, both sets of texture coordinates finite, tangents finite
+/// unit vectors with sign ±1 and colours finite and non-negative; the error names the
+/// first fault.
+fn validate_triangle(t: &Triangle) -> Result<()> {
+    let bad = |m: String| Err(Error::Scene(m));
+    if t.is_degenerate() {
+        return bad("degenerate or non-finite triangle".into());
+    }
+    if let Some(n) = &t.n {
+        for v in n {
+            if !v.is_finite() || (v.length() - 1.0).abs() > 1e-6 {
+                return bad(format!("shading normal {v} is not a finite unit vector"));
+            }
+        }
+    }
+    if let Some(uv) = &t.uv {
+        if !uv.iter().all(|u| u.is_finite()) {
+            return bad("texture coordinate is not finite".into());
+        }
+    }
+    if let Some(uv) = &t.uv1 {
+        if !uv.iter().all(|u| u.is_finite()) {
+            return bad("texture coordinate (set 1) is not finite".into());
+        }
+    }
+    if let Some(tg) = &t.tangent {
+        for v in tg.iter() {
+            let unit = (v.truncate().length() - 1.0).abs() <= 1e-6;
+            if !v.is_finite() || !unit || v.w.abs() != 1.0 {
+                return bad(format!("tangent {v} is not a finite unit vector with sign ±1"));
+            }
+        }
+    }
+    if let Some(c) = &t.color {
+        if !c.iter().all(|c| c.is_finite() && c.min_element() >= 0.0) {
+            return bad("vertex colour is negative or not finite".into());
+        }
+    }
+    Ok(())
 }

@@ -255,16 +255,35 @@ fn fails(args: &[&str], dir: &Path, says: &str) {
     assert!(!err.contains("panicked"), "{err}");
 }
 
+/// The options the command-line renders on the CPU below share.
+const CPU_COMMON: [&str; 8] =
+    ["--backend", "cpu", "--width", "50", "--height", "41", "--sampling", "corners"];
+
+/// The options the command-line renders on the GPU below share.
+const GPU_COMMON: [&str; 6] = ["--width", "50", "--height", "41", "--sampling", "corners"];
+
+/// The arguments of `cuberay render` of `scene` with `common`, then `extra`.
+fn render_args(scene: &str, common: &[&str], extra: &[&str]) -> Vec<String> {
+    ["render", scene].iter().chain(common.iter()).chain(extra.iter()).map(|s| s.to_string()).collect()
+}
+
 #[test]
 fn merged_tiles_are_the_render_byte_for_byte_on_the_command_line() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let scene = shared("spd/nff/rings_s1.nff");
     let scene = scene.to_str().unwrap();
-    let common = ["--backend", "cpu", "--width", "50", "--height", "41", "--sampling", "corners"];
-    let with = |extra: &[&str]| -> Vec<String> {
-        ["render", scene].iter().chain(common.iter()).chain(extra.iter()).map(|s| s.to_string()).collect()
-    };
+    merge_cpu_tiles(d, scene);
+    merge_refuses_bad_parts(d, scene);
+    gpu_tiles_read_stored_tables(d, scene);
+    render_refuses_bad_tiles_and_crops(d, scene);
+}
+
+/// Renders `scene` whole and in three tiles on the CPU (to PNG and EXR, in `d`), merges
+/// the tiles in two orders and checks the merged images are the whole render's byte for
+/// byte, with its statistics, and that a tile is the EXR of its window.
+fn merge_cpu_tiles(d: &Path, scene: &str) {
+    let with = |extra: &[&str]| render_args(scene, &CPU_COMMON, extra);
     let whole = with(&["-o", "whole.png", "--stats", "json"]);
     let whole_stats: serde_json::Value = serde_json::from_str(&ok(&args(&whole), d)).unwrap();
     ok(&args(&with(&["-o", "whole.exr"])), d);
@@ -292,14 +311,20 @@ fn merged_tiles_are_the_render_byte_for_byte_on_the_command_line() {
     assert_eq!(t1.info.settings.size, [50, 41]);
     assert_eq!((t1.image.width, t1.image.height), (50, 14));
     assert!(t1.info.renderer.contains("CPU reference"), "{}", t1.info.renderer);
+}
 
+/// Checks that `cuberay merge` refuses bad parts (a gap, an overlap, other settings, another
+/// scene, a whole render, a missing or unreadable file, an unknown output format) with the
+/// part's name, and writes nothing. Needs the files of [`merge_cpu_tiles`] in `d`.
+fn merge_refuses_bad_parts(d: &Path, scene: &str) {
     // Bad parts: each refused with the part's name, and nothing written.
+    let with = |extra: &[&str]| render_args(scene, &CPU_COMMON, extra);
     ok(&args(&with(&["--crop", "0,0,30,14", "-o", "c0.exr"])), d);
     ok(&args(&with(&["--crop", "0,0,50,14", "--max-depth", "2", "-o", "depth2.exr"])), d);
     let other: Vec<String> = ["render", shared("spd/nff/balls_s1.nff").to_str().unwrap()]
         .iter()
         .map(|s| s.to_string())
-        .chain(common.iter().map(|s| s.to_string()))
+        .chain(CPU_COMMON.iter().map(|s| s.to_string()))
         .chain(["--tile", "0/3", "-o", "other.exr"].iter().map(|s| s.to_string()))
         .collect();
     ok(&args(&other), d);
@@ -323,15 +348,19 @@ fn merged_tiles_are_the_render_byte_for_byte_on_the_command_line() {
         .filter(|p| p.file_name().unwrap().to_str().unwrap().starts_with(".cuberay-"))
         .collect();
     assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
+}
 
+/// Checks that GPU tiles traced with tables built once merge into the whole GPU render,
+/// and that tables built with other options, given to the CPU or not tables at all are
+/// refused. Needs `whole.png` of [`merge_cpu_tiles`] in `d`.
+fn gpu_tiles_read_stored_tables(d: &Path, scene: &str) {
     // Tables built once and read by the tiles (the GPU backend): the same image, and tables
     // built with other options, or given to the CPU, are refused.
-    let gpu_common = ["--width", "50", "--height", "41", "--sampling", "corners"];
-    let gpu_with = |extra: &[&str]| -> Vec<String> {
-        ["render", scene].iter().chain(gpu_common.iter()).chain(extra.iter()).map(|s| s.to_string()).collect()
-    };
+    let with = |extra: &[&str]| render_args(scene, &CPU_COMMON, extra);
+    let gpu_with = |extra: &[&str]| render_args(scene, &GPU_COMMON, extra);
+    let read = |f: &str| std::fs::read(d.join(f)).unwrap();
     let mut build = vec!["tables", scene];
-    build.extend_from_slice(&gpu_common);
+    build.extend_from_slice(&GPU_COMMON);
     build.extend_from_slice(&["-o", "rings.tables"]);
     ok(&build, d);
     ok(&args(&gpu_with(&["-o", "gpu_whole.png"])), d);
@@ -349,8 +378,13 @@ fn merged_tiles_are_the_render_byte_for_byte_on_the_command_line() {
     fails(&args(&with(&["--tables", "rings.tables", "-o", "x.png"])), d, "the CPU reference builds its own");
     fails(&args(&gpu_with(&["--tables", "whole.png", "-o", "x.png"])), d, "not a cuberay tables file");
     assert!(!d.join("x.png").exists());
+}
 
+/// Checks that `cuberay render` refuses a tile index out of range, more tiles than rows and
+/// crops outside the image, empty or malformed, each with its message.
+fn render_refuses_bad_tiles_and_crops(d: &Path, scene: &str) {
     // Bad tile and crop options.
+    let with = |extra: &[&str]| render_args(scene, &CPU_COMMON, extra);
     fails(&args(&with(&["--tile", "3/3", "-o", "x.exr"])), d, "the tile index must be in 0..3");
     fails(
         &args(&with(&["--tile", "0/50", "-o", "x.exr"])),

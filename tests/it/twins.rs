@@ -78,53 +78,66 @@ macro_rules! twin {
 
 /// Every shared struct's Rust twin.
 fn rust_structs() -> BTreeMap<&'static str, Layout> {
-    BTreeMap::from([
-        twin!(Params {
-            cam_forward,
-            cam_scale,
-            cam_right,
-            half_w,
-            cam_up,
-            half_h,
-            background,
-            ortho,
-            ambient,
-            prim_count,
-            grid_w,
-            grid_h,
-            first_point,
-            point_count,
-            spp,
-            lattice_g,
-            seed_hash,
-            corners,
-            max_depth,
-            light_count,
-            aov,
-            sample_first,
-            sample_end,
-            eye_origin,
-            fallback_origin,
-            shadow_inline,
-            spawn_rel,
-            spawn_abs,
-            win_x,
-            win_y,
-            win_w,
-            own_w,
-            own_h,
-            bvh_node_count,
-            ray_queue,
-            shadow_queue,
-            surface_walk,
-            bvh_inline,
-            env_x,
-            env_texture,
-            env_y,
-            env_intensity,
-            env_z,
-            prims_per_binding,
-        }),
+    [params_twin(), scene_record_twins(), wavefront_twins(), table_and_bvh_twins(), preview_twins()]
+        .into_iter()
+        .flatten()
+        .collect()
+}
+
+/// The twin of `Params`, the parameters every kernel reads (`shared/layout.wgsl`).
+fn params_twin() -> Vec<(&'static str, Layout)> {
+    vec![twin!(Params {
+        cam_forward,
+        cam_scale,
+        cam_right,
+        half_w,
+        cam_up,
+        half_h,
+        background,
+        ortho,
+        ambient,
+        prim_count,
+        grid_w,
+        grid_h,
+        first_point,
+        point_count,
+        spp,
+        lattice_g,
+        seed_hash,
+        corners,
+        max_depth,
+        light_count,
+        aov,
+        sample_first,
+        sample_end,
+        eye_origin,
+        fallback_origin,
+        shadow_inline,
+        spawn_rel,
+        spawn_abs,
+        win_x,
+        win_y,
+        win_w,
+        own_w,
+        own_h,
+        bvh_node_count,
+        ray_queue,
+        shadow_queue,
+        surface_walk,
+        bvh_inline,
+        env_x,
+        env_texture,
+        env_y,
+        env_intensity,
+        env_z,
+        env_pad,
+    })]
+}
+
+/// The twins of the scene's records in `shared/layout.wgsl`: primitives, their attributes,
+/// materials, lights and textures.
+fn scene_record_twins() -> Vec<(&'static str, Layout)> {
+    vec![
         twin!(Prim { a, b, c, kind, material, flags, attr }),
         twin!(Prim64 { a, b, c, kind, material, flags, attr, pad }),
         twin!(TriAttr { n0, n1, n2, uv01, uv2_1 }),
@@ -169,19 +182,40 @@ fn rust_structs() -> BTreeMap<&'static str, Layout> {
             pad1
         }),
         twin!(TextureInfo { offset, width, height, flags }),
+    ]
+}
+
+/// The twins of the wavefront's records in `shared/wavefront.wgsl`: pending rays, jobs,
+/// surface walks and pass descriptions.
+fn wavefront_twins() -> Vec<(&'static str, Layout)> {
+    vec![
         twin!(Pending { o, kind, d, spawn, weight, from_prim }),
         twin!(Pending64 { o, kind, pad0, d, spawn, weight, from_prim }),
         twin!(WalkState { i, iend, j, jend, prim, t, b1, b2, window, t_min }),
         twin!(Job { ray, point, walking, walk }),
         twin!(Job64 { ray, point, walking, walk, pad }),
         twin!(PassDesc { src, next, shadow, retry, sample, hit, depth, pad1 }),
+    ]
+}
+
+/// The twins of the tables' records in `shared/tables.wgsl` and of the BVH's wide node in
+/// `shared/bvh.wgsl`.
+fn table_and_bvh_twins() -> Vec<(&'static str, Layout)> {
+    vec![
         twin!(GpuOrigin { n, always_start, always_count, kind }),
         twin!(GpuFace { iu0, iv0, width, height, cell_base, _pad0, _pad1, _pad2 }),
         twin!(GpuEntry { id, d_min }),
         twin!(WideNode { p, e_imask, child_base, prim_base, child_meta, q }),
+    ]
+}
+
+/// The twins of the preview's records: the tile of `accumulate.wgsl` and the view of
+/// `display.wgsl`.
+fn preview_twins() -> Vec<(&'static str, Layout)> {
+    vec![
         twin!(Tile { first_point, point_count, pad0, pad1 }),
         twin!(View { width, height, grid_w, samples, corners, encode, block, tonemap, exposure, pad1 }),
-    ])
+    ]
 }
 
 /// A constant's value.

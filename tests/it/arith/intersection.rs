@@ -18,7 +18,7 @@
 //! computed from. The node test approximates nothing and, on lavapipe, fuses nothing: it agrees bit for bit. A one-sided change of a twin (a term dropped, an operation of another
 //! precision) breaks far more cases than that.
 
-use cuberay::arith::geometry::{make_ray, Prim32, PrimHit};
+use cuberay::arith::geometry::{make_ray, Prim32, PrimHit, Ray};
 use cuberay::gpu::shaders::{compose_root, Accel, Variant};
 use cuberay::gpu::GpuContext;
 use cuberay::layout::bvh::{box_ray, WideNode};
@@ -191,7 +191,7 @@ const ERR_REL: f64 = 5e-2;
 /// The exact root, in f64, of the f32 inputs a test computes `t` from: `c`'s origin and the
 /// ray's f32 unit direction taken as they are, and the primitive's f32 numbers; of two
 /// roots, the one nearer `t`.
-fn exact_root(s: &Shape, c: &Case, ray: &cuberay::arith::geometry::Ray, t: f32) -> f64 {
+fn exact_root(s: &Shape, c: &Case, ray: &Ray, t: f32) -> f64 {
     let o = Vec3::from(c.o).as_dvec3();
     let d = ray.d.as_dvec3();
     let nearer = |a: f64, b: f64, cc: f64| {
@@ -229,99 +229,153 @@ fn exact_root(s: &Shape, c: &Case, ray: &cuberay::arith::geometry::Ray, t: f32) 
     }
 }
 
+/// What the comparison of all cases found: counts, the worst differences within the stated
+/// bounds, and a line per difference beyond them.
+#[derive(Default)]
+struct Tally {
+    /// Cases the CPU twin hits.
+    hits: u32,
+    /// Cases whose primitive's slot the CPU node test hits.
+    boxes: u32,
+    /// Shared hits whose t and barycentrics agree bit for bit.
+    exact: u32,
+    /// Hit-or-miss answers that differ near the boundary.
+    boundary: u32,
+    /// Shared hits near the boundary, left unchecked.
+    ill: u32,
+    /// The largest t difference in ulps, for spheres, triangles and cylinders.
+    worst_t: [u32; 3],
+    /// The largest barycentric difference, in ulps of 1.
+    worst_b: f32,
+    /// The largest relative difference between the twins' error bounds.
+    worst_err_diff: f64,
+    /// The largest distance of a t from the exact root, as a share of its bound.
+    worst_used: f64,
+    /// A line per difference beyond the stated bounds.
+    failures: Vec<String>,
+}
+
+/// Compares the GPU's answer `g` for case `c` (on `s`, its ray `ray`) with the CPU twin's
+/// hit `cpu`: hit or miss must agree away from the boundary, and a shared hit away from it
+/// must agree as [`compare_shared_hit`] says. Counts and failures go to `tally`.
+fn compare_hit(tally: &mut Tally, s: &Shape, c: &Case, ray: &Ray, cpu: &PrimHit, g: &[u32; 7]) {
+    let g_hit = g[0] & 1 != 0;
+    let g_t = f32::from_bits(g[1]);
+    tally.hits += cpu.ok as u32;
+    let near = margin(s, c, if cpu.ok { cpu.t } else { g_t }) < NEAR;
+    if g_hit != cpu.ok {
+        if near {
+            tally.boundary += 1;
+        } else {
+            tally.failures.push(format!("{:?}: GPU hit {g_hit} (t {g_t}), CPU {cpu:?}; {c:?}", s.prim));
+        }
+    } else if cpu.ok && near {
+        tally.ill += 1;
+    } else if cpu.ok {
+        compare_shared_hit(tally, s, c, ray, cpu, g);
+    }
+}
+
+/// Compares a hit both twins find away from the boundary: t and the barycentrics within
+/// [`T_ULPS`] and [`B_ULPS`], the error bounds within [`ERR_REL`] of each other, and each
+/// twin's t within its bound of the exact root. Worst cases and failures go to `tally`.
+fn compare_shared_hit(tally: &mut Tally, s: &Shape, c: &Case, ray: &Ray, cpu: &PrimHit, g: &[u32; 7]) {
+    let g_t = f32::from_bits(g[1]);
+    // t's error scales with the numbers it is computed from: the origin's and the
+    // primitive's coordinates (relative to one another), counted in their ulps.
+    // Both scaled by the cosine between the ray and the surface: a grazing ray's root
+    // moves by its inputs' error over that cosine, whatever computes it.
+    let (cosine, _) = hit_geometry(s, c, cpu.t);
+    let scale = Vec3::from(c.o).abs().max_element().max(s.extent()).max(cpu.t);
+    let t_ulps = ((g_t - cpu.t).abs() as f64 * cosine / (scale * f32::EPSILON) as f64).ceil() as u32;
+    // Barycentrics lie in [0, 1]: their error counts in ulps of 1, and their point
+    // moves with t, over the triangle's size.
+    let size = (s.hi[0] - s.lo[0]).max(s.hi[1] - s.lo[1]).max(s.hi[2] - s.lo[2]);
+    let db = (f32::from_bits(g[2]) - cpu.b1).abs().max((f32::from_bits(g[3]) - cpu.b2).abs()) as f64;
+    let b_err = (db * cosine * (size / scale) as f64 / f32::EPSILON as f64) as f32;
+    let kind = match s.prim {
+        Prim32::Sphere { .. } => 0,
+        Prim32::Triangle { .. } => 1,
+        Prim32::Cylinder { .. } => 2,
+    };
+    tally.exact += (g_t == cpu.t && b_err == 0.0) as u32;
+    tally.worst_t[kind] = tally.worst_t[kind].max(t_ulps);
+    tally.worst_b = tally.worst_b.max(b_err);
+    compare_error_bounds(tally, s, c, ray, cpu, g);
+    if t_ulps > T_ULPS[kind] || b_err > B_ULPS {
+        tally.failures.push(format!(
+            "{:?}: GPU (t, b1, b2) {:?} against CPU {cpu:?}: t {t_ulps} ulps, b {b_err} ulps of 1; {c:?}",
+            s.prim,
+            [1, 2, 3].map(|k| f32::from_bits(g[k]))
+        ));
+    }
+}
+
+/// Compares the twins' error bounds of a shared hit (within [`ERR_REL`] of each other) and
+/// checks what each claims: its twin's t lies within it of the exact root. Worst cases and
+/// failures go to `tally`.
+fn compare_error_bounds(tally: &mut Tally, s: &Shape, c: &Case, ray: &Ray, cpu: &PrimHit, g: &[u32; 7]) {
+    let g_t = f32::from_bits(g[1]);
+    // The tie rule's error bound: the twins compute it alike, and it bounds how far
+    // each t lies from the exact root of the same f32 inputs.
+    let g_err = f32::from_bits(g[4]);
+    let err_diff = ((g_err - cpu.err).abs() / cpu.err) as f64;
+    tally.worst_err_diff = tally.worst_err_diff.max(err_diff);
+    if err_diff > ERR_REL {
+        tally.failures.push(format!("{:?}: GPU err {g_err}, CPU {}; {c:?}", s.prim, cpu.err));
+    }
+    let exact_t = exact_root(s, c, ray, cpu.t);
+    for (who, t, err) in [("GPU", g_t, g_err), ("CPU", cpu.t, cpu.err)] {
+        let used = (t as f64 - exact_t).abs() / err as f64;
+        tally.worst_used = tally.worst_used.max(used);
+        if used > 1.0 {
+            tally.failures.push(format!(
+                "{:?}: {who} t {t} is {} from the exact {exact_t}, over its bound {err}; {c:?}",
+                s.prim,
+                (t as f64 - exact_t).abs()
+            ));
+        }
+    }
+}
+
+/// Compares the GPU's node test for case `c` with the CPU's, bit for bit, and asserts that
+/// the slot of a primitive that is hit (`cpu_hit`) is hit too. Counts and failures go to
+/// `tally`.
+fn compare_node_test(tally: &mut Tally, s: &Shape, c: &Case, ray: &Ray, cpu_hit: bool, g: &[u32; 7]) {
+    // The node test takes differences, products, sums, minima and maxima: nothing is
+    // approximated, and lavapipe fuses no product into a sum, so the answer is the same
+    // bit for bit (a driver that fused would move a few answers at a slab's edge, where
+    // the slabs' margin keeps every box the primitive's hit needs).
+    let r = box_ray(c.o, ray.d.to_array());
+    let (inner, prims) = s.node.hits(&r, c.t_max);
+    let cpu_box = s.slot_hit(inner, prims, r.octant);
+    tally.boxes += cpu_box as u32;
+    if (g[5], g[6]) != (inner, prims) {
+        tally.failures.push(format!(
+            "node {:?}: GPU (inner, prims) ({:#b}, {:#b}), CPU ({inner:#b}, {prims:#b}), ray {c:?}",
+            s.node, g[5], g[6]
+        ));
+    }
+    // Every decoded box holds its primitive: a hit on the primitive is a hit on its slot.
+    if cpu_hit {
+        assert!(cpu_box, "the node test missed the slot of a primitive that is hit: {:?} {c:?}", s.prim);
+    }
+}
+
 #[test]
 fn the_intersection_tests_and_the_box_test_match_their_rust_twins_on_the_gpu() {
     let (shapes, cases) = cases(24_000);
     let gpu = on_the_gpu(&shapes, &cases);
-    let (mut hits, mut boxes, mut exact, mut boundary, mut ill) = (0, 0, 0, 0, 0);
-    let mut worst_t = [0u32; 3];
-    let mut worst_b = 0.0f32;
-    let (mut worst_err_diff, mut worst_used) = (0.0f64, 0.0f64);
-    let mut failures = Vec::new();
+    let mut tally = Tally::default();
     for (c, g) in cases.iter().zip(&gpu) {
         let s = &shapes[c.prim as usize];
         let ray = make_ray(Vec3::from(c.o), Vec3::from(c.d));
         let cpu: PrimHit = s.prim.intersect(&ray, c.t_max);
-        let g_hit = g[0] & 1 != 0;
-        let g_t = f32::from_bits(g[1]);
-        hits += cpu.ok as u32;
-        let near = margin(s, c, if cpu.ok { cpu.t } else { g_t }) < NEAR;
-        if g_hit != cpu.ok {
-            if near {
-                boundary += 1;
-            } else {
-                failures.push(format!("{:?}: GPU hit {g_hit} (t {g_t}), CPU {cpu:?}; {c:?}", s.prim));
-            }
-        } else if cpu.ok && near {
-            ill += 1;
-        } else if cpu.ok {
-            // t's error scales with the numbers it is computed from: the origin's and the
-            // primitive's coordinates (relative to one another), counted in their ulps.
-            // Both scaled by the cosine between the ray and the surface: a grazing ray's root
-            // moves by its inputs' error over that cosine, whatever computes it.
-            let (cosine, _) = hit_geometry(s, c, cpu.t);
-            let scale = Vec3::from(c.o).abs().max_element().max(s.extent()).max(cpu.t);
-            let t_ulps = ((g_t - cpu.t).abs() as f64 * cosine / (scale * f32::EPSILON) as f64).ceil() as u32;
-            // Barycentrics lie in [0, 1]: their error counts in ulps of 1, and their point
-            // moves with t, over the triangle's size.
-            let size = (s.hi[0] - s.lo[0]).max(s.hi[1] - s.lo[1]).max(s.hi[2] - s.lo[2]);
-            let db = (f32::from_bits(g[2]) - cpu.b1).abs().max((f32::from_bits(g[3]) - cpu.b2).abs()) as f64;
-            let b_err = (db * cosine * (size / scale) as f64 / f32::EPSILON as f64) as f32;
-            let kind = match s.prim {
-                Prim32::Sphere { .. } => 0,
-                Prim32::Triangle { .. } => 1,
-                Prim32::Cylinder { .. } => 2,
-            };
-            exact += (g_t == cpu.t && b_err == 0.0) as u32;
-            worst_t[kind] = worst_t[kind].max(t_ulps);
-            worst_b = worst_b.max(b_err);
-            // The tie rule's error bound: the twins compute it alike, and it bounds how far
-            // each t lies from the exact root of the same f32 inputs.
-            let g_err = f32::from_bits(g[4]);
-            let err_diff = ((g_err - cpu.err).abs() / cpu.err) as f64;
-            worst_err_diff = worst_err_diff.max(err_diff);
-            if err_diff > ERR_REL {
-                failures.push(format!("{:?}: GPU err {g_err}, CPU {}; {c:?}", s.prim, cpu.err));
-            }
-            let exact_t = exact_root(s, c, &ray, cpu.t);
-            for (who, t, err) in [("GPU", g_t, g_err), ("CPU", cpu.t, cpu.err)] {
-                let used = (t as f64 - exact_t).abs() / err as f64;
-                worst_used = worst_used.max(used);
-                if used > 1.0 {
-                    failures.push(format!(
-                        "{:?}: {who} t {t} is {} from the exact {exact_t}, over its bound {err}; {c:?}",
-                        s.prim,
-                        (t as f64 - exact_t).abs()
-                    ));
-                }
-            }
-            if t_ulps > T_ULPS[kind] || b_err > B_ULPS {
-                failures.push(format!(
-                    "{:?}: GPU (t, b1, b2) {:?} against CPU {cpu:?}: t {t_ulps} ulps, b {b_err} ulps of 1; {c:?}",
-                    s.prim,
-                    [1, 2, 3].map(|k| f32::from_bits(g[k]))
-                ));
-            }
-        }
-        // The node test takes differences, products, sums, minima and maxima: nothing is
-        // approximated, and lavapipe fuses no product into a sum, so the answer is the same
-        // bit for bit (a driver that fused would move a few answers at a slab's edge, where
-        // the slabs' margin keeps every box the primitive's hit needs).
-        let r = box_ray(c.o, ray.d.to_array());
-        let (inner, prims) = s.node.hits(&r, c.t_max);
-        let cpu_box = s.slot_hit(inner, prims, r.octant);
-        boxes += cpu_box as u32;
-        if (g[5], g[6]) != (inner, prims) {
-            failures.push(format!(
-                "node {:?}: GPU (inner, prims) ({:#b}, {:#b}), CPU ({inner:#b}, {prims:#b}), ray {c:?}",
-                s.node, g[5], g[6]
-            ));
-        }
-        // Every decoded box holds its primitive: a hit on the primitive is a hit on its slot.
-        if cpu.ok {
-            assert!(cpu_box, "the node test missed the slot of a primitive that is hit: {:?} {c:?}", s.prim);
-        }
+        compare_hit(&mut tally, s, c, &ray, &cpu, g);
+        compare_node_test(&mut tally, s, c, &ray, cpu.ok, g);
     }
+    let Tally { hits, boxes, exact, boundary, ill, worst_t, worst_b, worst_err_diff, worst_used, failures } =
+        tally;
     let n = cases.len();
     eprintln!(
         "arith twins: {n} cases, {hits} hits ({exact} bit for bit; t within {worst_t:?} ulps for spheres, triangles, cylinders, barycentrics within {worst_b} ulps of 1), {boxes} boxes hit, all as on the CPU; \
