@@ -130,7 +130,7 @@ fn params_twin() -> Vec<(&'static str, Layout)> {
         env_y,
         env_intensity,
         env_z,
-        env_pad,
+        prims_per_binding,
     })]
 }
 
