@@ -487,6 +487,9 @@ impl Stats {
                 );
             }
         }
+        if self.time.phases.total_s > 0.0 {
+            o += &format!("{}\n", self.time.phases.to_text());
+        }
         o
     }
 

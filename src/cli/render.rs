@@ -427,10 +427,7 @@ fn render_one(
     phases.total_s = since.elapsed().as_secs_f64();
     match args.stats {
         Some(StatsFormat::Json) => println!("{}", rendered.stats.to_json()),
-        Some(StatsFormat::Text) => {
-            print!("{}", rendered.stats.to_text());
-            println!("{}", rendered.stats.time.phases.to_text());
-        }
+        Some(StatsFormat::Text) => print!("{}", rendered.stats.to_text()),
         None => {}
     }
     Ok(())
