@@ -1,10 +1,11 @@
 //! What `cuberay info` reports about a scene: primitive counts, lights, materials, bounds
-//! the effects the scene calls for and the precision it calls for, as text or as one JSON
-//! object.
+//! the effects the scene calls for and the precision it calls for, and a glTF file's
+//! extensions with what the loader does with each, as text or as one JSON object.
 
 use serde::Serialize;
 
 use crate::arith::precision::f32_need;
+use crate::load::gltf::extensions::ExtensionInfo;
 use crate::scene::{Camera, LightSource, Projection, Scene};
 
 /// The scene summary. Serialised as-is by `cuberay info --json`.
@@ -43,6 +44,9 @@ pub struct SceneInfo {
     /// which a render took), while eye rays and shadow rays towards point lights take the
     /// tables.
     pub surface_rays: bool,
+    /// A glTF file's extensions (used or required), each with its status: `read`,
+    /// `approximated`, `ignored` or `refused` ([`SceneInfo::with_extensions`]; empty for NFF).
+    pub extensions: Vec<ExtensionInfo>,
 }
 
 /// The comparison `--precision auto` makes ([`crate::arith::precision::F32Need`]).
@@ -142,7 +146,14 @@ impl SceneInfo {
                 reason: need.reason(),
             },
             surface_rays: crate::coherence::traces_surface_rays(scene, &Default::default()),
+            extensions: Vec::new(),
         }
+    }
+
+    /// The same, with the extensions of the glTF file at `path` listed.
+    pub fn with_extensions(mut self, path: &std::path::Path) -> SceneInfo {
+        self.extensions = crate::load::gltf::extensions::of_file(path);
+        self
     }
 
     /// A human-readable multi-line summary.
@@ -198,6 +209,11 @@ impl SceneInfo {
             s += "; no ray leaves a surface";
         }
         s += "\n";
+        for (i, e) in self.extensions.iter().enumerate() {
+            s += if i == 0 { "extensions: " } else { "            " };
+            let required = if e.required { ", required" } else { "" };
+            s += &format!("{} ({}{required}): {}\n", e.name, e.status.name(), e.how);
+        }
         s
     }
 }

@@ -146,7 +146,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Info { scene, json, camera, tables, scene_args } => {
             let loaded = load_scene(&scene, camera, None, &scene_args.setup())?;
-            let info = SceneInfo::of(&loaded.scene);
+            let info = SceneInfo::of(&loaded.scene).with_extensions(&scene);
             let stats = match tables {
                 true => Some(cuberay::coherence::TableStats::of(&cuberay::coherence::build(
                     &loaded.scene,
