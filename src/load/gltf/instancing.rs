@@ -32,12 +32,12 @@ const FLOATS: &[(DataType, bool)] = &[
 ];
 const ROTATIONS: &[(DataType, bool)] = &[(DataType::F32, false), (DataType::I8, true), (DataType::I16, true)];
 
-/// Replaces every mesh placement whose node has the extension by one placement per instance,
-/// in instance order. Returns the number of instances made.
-pub fn expand(reader: &Reader, doc: &Document, hierarchy: &mut Hierarchy) -> Result<usize, Error> {
+/// `hierarchy` with every mesh placement whose node has the extension replaced by one
+/// placement per instance, in instance order.
+pub fn expand(reader: &Reader, doc: &Document, mut hierarchy: Hierarchy) -> Result<Hierarchy, Error> {
     let nodes: Vec<gltf::Node> = doc.nodes().collect();
     if !nodes.iter().any(|n| n.extension_value(EXTENSION).is_some()) {
-        return Ok(0);
+        return Ok(hierarchy);
     }
     let mut out = Vec::with_capacity(hierarchy.meshes.len());
     let mut made = 0;
@@ -56,7 +56,7 @@ pub fn expand(reader: &Reader, doc: &Document, hierarchy: &mut Hierarchy) -> Res
         out.extend(transforms.into_iter().map(|m| Placed { world: placed.world * m, ..placed }));
     }
     hierarchy.meshes = out;
-    Ok(made)
+    Ok(hierarchy)
 }
 
 /// The T·R·S matrix of every instance of one node's extension object.

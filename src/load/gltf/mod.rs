@@ -241,8 +241,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, Error> {
         }
         Some(t) => animation::pose_at(&reader, &doc, t, &mut warnings)?,
     };
-    let mut hierarchy = geometry::walk(&ctx, &doc, &pose)?;
-    instancing::expand(&reader, &doc, &mut hierarchy)?;
+    let hierarchy = instancing::expand(&reader, &doc, geometry::walk(&ctx, &doc, &pose)?)?;
     let mut table = materials::build(&ctx, &doc, &buffers, &used_materials(&doc, &hierarchy), &mut warnings)?;
     let primitives = geometry::triangles(&reader, &doc, &hierarchy, &table, &mut warnings)?;
     materials::widen_bounds_for_missing_uvs(&mut table.materials, &primitives);
