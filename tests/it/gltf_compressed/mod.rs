@@ -139,9 +139,12 @@ fn converged() -> RenderOptions {
     RenderOptions { spp: SPP_AGAINST_ORIGINAL, ..options() }
 }
 
+/// An original model, set up and rendered on the GPU.
+type Original = Arc<(Loaded, Image)>;
+
 /// The original model loaded and rendered on the GPU, once per model for all its variants.
-fn original(model: &str) -> Arc<(Loaded, Image)> {
-    static CACHE: OnceLock<Mutex<HashMap<String, Arc<OnceLock<Arc<(Loaded, Image)>>>>>> = OnceLock::new();
+fn original(model: &str) -> Original {
+    static CACHE: OnceLock<Mutex<HashMap<String, Arc<OnceLock<Original>>>>> = OnceLock::new();
     let cell = CACHE.get_or_init(Default::default).lock().unwrap().entry(model.into()).or_default().clone();
     cell.get_or_init(|| {
         let loaded = setup(&crate::common::shared(&format!("gltf/{model}")), None);
