@@ -1049,10 +1049,10 @@ fn bad_accessor_out_of_buffer_range() {
 fn bad_component_type() {
     let (doc, rest) = valid_doc();
     let mut d = Doc { bin: doc.bin.clone(), views: doc.views.clone(), accessors: doc.accessors.clone() };
-    d.accessors[0]["componentType"] = json!(5123);
+    d.accessors[0]["componentType"] = json!(5125);
     let dir = TempDir::new();
     let path = d.write(&dir, "t.gltf", rest);
-    assert_error(&load_err(&path), &path, &["POSITION (accessors[0])", "UNSIGNED_SHORT", "FLOAT"]);
+    assert_error(&load_err(&path), &path, &["POSITION (accessors[0])", "UNSIGNED_INT", "FLOAT"]);
 }
 
 #[test]
