@@ -11,7 +11,7 @@ cd "$(dirname "$0")"
 seconds=${1:-720}
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(nff gltf glb part_exr tables env)
+[ ${#targets[@]} -gt 0 ] || targets=(nff gltf glb compressed part_exr tables env)
 shared=../../shared/scenes/gltf
 for t in "${targets[@]}"; do
     corpus=corpus/$t

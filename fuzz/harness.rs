@@ -26,6 +26,9 @@ pub enum Reader {
     Gltf,
     /// A `.glb` file.
     Glb,
+    /// A `.glb` file as the glTF optimizers write it: quantized attributes, meshopt- and
+    /// Draco-compressed geometry, instancing, WebP images (its seeds say which).
+    Compressed,
     /// A part EXR, as `cuberay merge` reads it.
     PartExr,
     /// A tables file whose JSON header is given the key of the tables of [`tables_scene`]
@@ -38,8 +41,15 @@ pub enum Reader {
 }
 
 impl Reader {
-    pub const ALL: [Reader; 6] =
-        [Reader::Nff, Reader::Gltf, Reader::Glb, Reader::PartExr, Reader::Tables, Reader::Env];
+    pub const ALL: [Reader; 7] = [
+        Reader::Nff,
+        Reader::Gltf,
+        Reader::Glb,
+        Reader::Compressed,
+        Reader::PartExr,
+        Reader::Tables,
+        Reader::Env,
+    ];
 
     /// The target's name (its folder under `fuzz/seeds` and `fuzz/regressions`).
     pub fn name(self) -> &'static str {
@@ -47,6 +57,7 @@ impl Reader {
             Reader::Nff => "nff",
             Reader::Gltf => "gltf",
             Reader::Glb => "glb",
+            Reader::Compressed => "compressed",
             Reader::PartExr => "part_exr",
             Reader::Tables => "tables",
             Reader::Env => "env",
@@ -57,7 +68,7 @@ impl Reader {
         match self {
             Reader::Nff => "scene.nff",
             Reader::Gltf => "scene.gltf",
-            Reader::Glb => "scene.glb",
+            Reader::Glb | Reader::Compressed => "scene.glb",
             Reader::PartExr => "part.exr",
             Reader::Tables => "scene.tables",
             Reader::Env => "map.hdr",
@@ -115,7 +126,7 @@ pub fn run(reader: Reader, bytes: &[u8]) -> Result<(), String> {
     };
     std::fs::File::create(&path).and_then(|mut f| f.write_all(&bytes)).expect("the scratch file");
     match reader {
-        Reader::Nff | Reader::Gltf | Reader::Glb => scene(&path),
+        Reader::Nff | Reader::Gltf | Reader::Glb | Reader::Compressed => scene(&path),
         Reader::PartExr => part(&path),
         Reader::Tables => tables(&path),
         Reader::Env => env(&path),

@@ -1,11 +1,13 @@
 //! What `cuberay info` reports about a scene: primitive counts, lights, materials, bounds,
-//! the effects the scene calls for, and what a render of it resolves (the precision, the
+//! the effects the scene calls for, what a render of it resolves (the precision, the
 //! accelerator, what rays leaving surfaces take: the same choices a render makes, handed in
-//! resolved), as text or as one JSON object.
+//! resolved), and a glTF file's extensions with what the loader does with each, as text or
+//! as one JSON object.
 
 use serde::Serialize;
 
 use crate::job::RenderOptions;
+use crate::load::gltf::extensions::ExtensionInfo;
 use crate::scene::{Camera, LightSource, Projection, Scene};
 
 /// The scene summary. Serialised as-is by `cuberay info --json`.
@@ -51,6 +53,9 @@ pub struct SceneInfo {
     pub adapter: Option<String>,
     /// Why a GPU render of the scene would be refused (`null`: it would not be).
     pub gpu_refuses: Option<String>,
+    /// A glTF file's extensions (used or required), each with its status: `read`,
+    /// `approximated`, `ignored` or `refused` ([`SceneInfo::with_extensions`]; empty for NFF).
+    pub extensions: Vec<ExtensionInfo>,
 }
 
 /// The comparison `--precision auto` makes ([`crate::arith::precision::F32Need`]).
@@ -155,7 +160,14 @@ impl SceneInfo {
             surface_walk: resolved.surface.name(),
             adapter,
             gpu_refuses: None,
+            extensions: Vec::new(),
         }
+    }
+
+    /// The same, with the extensions of the glTF file at `path` listed.
+    pub fn with_extensions(mut self, path: &std::path::Path) -> SceneInfo {
+        self.extensions = crate::load::gltf::extensions::of_file(path);
+        self
     }
 
     /// A human-readable multi-line summary.
@@ -222,6 +234,11 @@ impl SceneInfo {
         s += &format!("rays:       {}\n", self.surface_text());
         if let Some(why) = &self.gpu_refuses {
             s += &format!("GPU:        refuses this scene: {why}\n");
+        }
+        for (i, e) in self.extensions.iter().enumerate() {
+            s += if i == 0 { "extensions: " } else { "            " };
+            let required = if e.required { ", required" } else { "" };
+            s += &format!("{} ({}{required}): {}\n", e.name, e.status.name(), e.how);
         }
         s
     }

@@ -155,7 +155,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Info { scene, json, camera, tables, scene_args } => {
             let loaded = load_scene(&scene, camera, None, &scene_args.setup())?;
-            let info = scene_info(&loaded.scene)?;
+            let info = scene_info(&loaded.scene)?.with_extensions(&scene);
             let stats = match tables {
                 true => Some(cuberay::coherence::TableStats::of(&cuberay::coherence::build(
                     &loaded.scene,

@@ -13,6 +13,7 @@ mod coherence;
 mod environment;
 mod fuzz;
 mod gltf;
+mod gltf_compressed;
 mod gpu;
 mod hard;
 mod nff;

@@ -7,6 +7,7 @@
 //! the JSON path of the use, e.g. `meshes[2].primitives[0].attributes.POSITION (accessors[5])`.
 
 use std::borrow::Cow;
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use base64::Engine as _;
@@ -16,18 +17,38 @@ use gltf::Document;
 use super::Ctx;
 use crate::error::Error;
 
-/// The bytes of every buffer of the document, in file order. Each holds at least the
-/// buffer's declared `byteLength`.
-pub struct Buffers(Vec<Vec<u8>>);
+/// The bytes of every buffer of the document, in file order, with what the compression
+/// extensions decoded from them. Each buffer holds at least its declared `byteLength`, except
+/// a meshopt fallback buffer, which holds nothing: only views decoded from compressed data
+/// may lie in it.
+pub struct Buffers {
+    data: Vec<Vec<u8>>,
+    fallback: Vec<bool>,
+    /// Buffer views decoded from EXT/KHR_meshopt_compression, by view index.
+    views: HashMap<usize, Vec<u8>>,
+    /// Accessors decoded from KHR_draco_mesh_compression streams, by accessor index.
+    accessors: HashMap<usize, Decoded>,
+}
+
+/// An accessor's elements decoded from a compressed stream: `count` elements packed in the
+/// accessor's type and component type.
+pub struct Decoded {
+    pub bytes: Vec<u8>,
+    pub count: usize,
+}
 
 impl Buffers {
     /// Loads every buffer: the GLB binary chunk, external files (relative to the glTF file)
-    /// and base64 data URIs.
+    /// and base64 data URIs; then decodes the meshopt-compressed views and the Draco
+    /// streams.
     pub fn load(ctx: &Ctx, doc: &Document, mut blob: Option<Vec<u8>>) -> Result<Buffers, Error> {
-        let mut out = Vec::new();
+        let mut data = Vec::new();
+        let mut fallback = Vec::new();
         for buffer in doc.buffers() {
             let loc = format!("buffers[{}]", buffer.index());
-            let data = match buffer.source() {
+            let is_fallback = super::meshopt::is_fallback(&buffer);
+            let bytes = match buffer.source() {
+                _ if is_fallback => Vec::new(),
                 gltf::buffer::Source::Bin => blob.take().ok_or_else(|| {
                     ctx.err(
                         &loc,
@@ -36,20 +57,40 @@ impl Buffers {
                 })?,
                 gltf::buffer::Source::Uri(uri) => read_uri(ctx, uri, &loc)?.into_owned(),
             };
-            if data.len() < buffer.length() {
+            if !is_fallback && bytes.len() < buffer.length() {
                 return Err(ctx.err(
                     &loc,
-                    format!("holds {} bytes, but its byteLength is {}", data.len(), buffer.length()),
+                    format!("holds {} bytes, but its byteLength is {}", bytes.len(), buffer.length()),
                 ));
             }
-            out.push(data);
+            data.push(bytes);
+            fallback.push(is_fallback);
         }
-        Ok(Buffers(out))
+        let mut buffers = Buffers { data, fallback, views: HashMap::new(), accessors: HashMap::new() };
+        buffers.views = super::meshopt::decode_views(ctx, doc, |i| {
+            buffers.data.get(i).filter(|_| !buffers.fallback[i]).map(|d| &d[..])
+        })?;
+        buffers.accessors = super::draco::decode_primitives(ctx, doc, &buffers)?;
+        Ok(buffers)
     }
 
-    /// The bytes of buffer view `view`, checked against its buffer. `loc` names the use.
+    /// The bytes of buffer view `view` (decoded, where it was compressed), checked against
+    /// its buffer. `loc` names the use.
     pub fn view<'a>(&'a self, ctx: &Ctx, view: &gltf::buffer::View, loc: &str) -> Result<&'a [u8], Error> {
-        let buffer = &self.0[view.buffer().index()];
+        if let Some(decoded) = self.views.get(&view.index()) {
+            return Ok(decoded);
+        }
+        let b = view.buffer().index();
+        if self.fallback[b] {
+            return Err(ctx.err(
+                loc,
+                format!(
+                    "bufferViews[{}] lies in buffers[{b}], a meshopt fallback buffer without data, and is not compressed itself",
+                    view.index()
+                ),
+            ));
+        }
+        let buffer = &self.data[b];
         let start = view.offset();
         match start.checked_add(view.length()).filter(|&end| end <= buffer.len()) {
             Some(end) => Ok(&buffer[start..end]),
@@ -61,7 +102,7 @@ impl Buffers {
                     start,
                     start,
                     view.length(),
-                    view.buffer().index(),
+                    b,
                     buffer.len()
                 ),
             )),
@@ -173,6 +214,25 @@ fn component_name(t: DataType, normalized: bool) -> String {
     }
 }
 
+/// FLOAT, and every 8- and 16-bit type KHR_mesh_quantization allows for POSITION and
+/// TEXCOORD_n: signed or unsigned, normalized or not.
+const QUANTIZED_ANY: &[(DataType, bool)] = &[
+    (DataType::F32, false),
+    (DataType::I8, false),
+    (DataType::I8, true),
+    (DataType::U8, false),
+    (DataType::U8, true),
+    (DataType::I16, false),
+    (DataType::I16, true),
+    (DataType::U16, false),
+    (DataType::U16, true),
+];
+
+/// FLOAT, and the normalized signed types KHR_mesh_quantization allows for unit vectors
+/// (NORMAL, TANGENT).
+const QUANTIZED_UNIT: &[(DataType, bool)] =
+    &[(DataType::F32, false), (DataType::I8, true), (DataType::I16, true)];
+
 /// Reads component `k` of an element as f32, normalising integer types when asked.
 fn component_f32(bytes: &[u8], t: DataType, normalized: bool, k: usize) -> f32 {
     let s = t.size();
@@ -208,6 +268,12 @@ fn span_end(offset: usize, count: usize, stride: usize, size: usize) -> Option<u
 }
 
 impl Reader<'_> {
+    /// The number of elements of `acc`: its `count`, or the number of points of the Draco
+    /// stream it was decoded from.
+    pub fn count(&self, acc: &gltf::Accessor) -> usize {
+        self.buffers.accessors.get(&acc.index()).map_or(acc.count(), |d| d.count)
+    }
+
     fn err(&self, loc: &str, message: impl Into<String>) -> Error {
         self.ctx.err(loc, message)
     }
@@ -241,6 +307,12 @@ impl Reader<'_> {
     /// before anything is allocated or read.
     fn layout<'b>(&'b self, acc: &gltf::Accessor, loc: &str) -> Result<Layout<'b>, Error> {
         let size = acc.size();
+        if let Some(d) = self.buffers.accessors.get(&acc.index()) {
+            // Decoded from a Draco stream, packed as the accessor's elements.
+            debug_assert_eq!(d.bytes.len(), d.count * size);
+            let dense = Dense { data: &d.bytes, offset: 0, stride: size };
+            return Ok(Layout { size, count: d.count, dense: Some(dense), sparse: None });
+        }
         let count = acc.count();
         let dense = match acc.view() {
             Some(view) => {
@@ -376,41 +448,51 @@ impl Reader<'_> {
         Ok(out)
     }
 
-    /// Reads a VEC3 FLOAT accessor (POSITION, NORMAL) without judging its values.
-    pub fn vec3(&self, acc: &gltf::Accessor, loc: &str) -> Result<Vec<[f32; 3]>, Error> {
-        self.check_format(acc, loc, Dimensions::Vec3, &[(DataType::F32, false)])?;
-        self.collect(acc, loc, |b| [0, 1, 2].map(|k| component_f32(b, DataType::F32, false, k)))
+    /// Reads a VEC3 accessor of one of the `allowed` component types as floats, without
+    /// judging its values.
+    fn vec3(
+        &self,
+        acc: &gltf::Accessor,
+        loc: &str,
+        allowed: &[(DataType, bool)],
+    ) -> Result<Vec<[f32; 3]>, Error> {
+        self.check_format(acc, loc, Dimensions::Vec3, allowed)?;
+        let (t, n) = (acc.data_type(), acc.normalized());
+        self.collect(acc, loc, |b| [0, 1, 2].map(|k| component_f32(b, t, n, k)))
     }
 
-    /// Reads POSITION: VEC3 FLOAT, every coordinate finite.
+    /// Reads NORMAL: VEC3 FLOAT, or with KHR_mesh_quantization normalized BYTE or SHORT.
+    pub fn normals(&self, acc: &gltf::Accessor, loc: &str) -> Result<Vec<[f32; 3]>, Error> {
+        self.vec3(acc, loc, QUANTIZED_UNIT)
+    }
+
+    /// Reads POSITION: VEC3 FLOAT, or with KHR_mesh_quantization (unsigned) BYTE or SHORT,
+    /// normalized or not; every coordinate finite.
     pub fn positions(&self, acc: &gltf::Accessor, loc: &str) -> Result<Vec<[f32; 3]>, Error> {
-        let out = self.vec3(acc, loc)?;
+        let out = self.vec3(acc, loc, QUANTIZED_ANY)?;
         if let Some((i, p)) = out.iter().enumerate().find(|(_, p)| !p.iter().all(|c| c.is_finite())) {
             return Err(self.err(loc, format!("position {i} is not finite: {p:?}")));
         }
         Ok(out)
     }
 
-    /// Reads TANGENT: VEC4 FLOAT, w ±1. A zero or non-finite xyz is returned as it is: the
-    /// caller leaves the triangles that use it without a tangent frame.
+    /// Reads TANGENT: VEC4 FLOAT, or with KHR_mesh_quantization normalized BYTE or SHORT;
+    /// w ±1. A zero or non-finite xyz is returned as it is: the caller leaves the triangles
+    /// that use it without a tangent frame.
     pub fn tangents(&self, acc: &gltf::Accessor, loc: &str) -> Result<Vec<[f32; 4]>, Error> {
-        self.check_format(acc, loc, Dimensions::Vec4, &[(DataType::F32, false)])?;
-        let out =
-            self.collect(acc, loc, |b| [0, 1, 2, 3].map(|k| component_f32(b, DataType::F32, false, k)))?;
+        self.check_format(acc, loc, Dimensions::Vec4, QUANTIZED_UNIT)?;
+        let (t, n) = (acc.data_type(), acc.normalized());
+        let out = self.collect(acc, loc, |b| [0, 1, 2, 3].map(|k| component_f32(b, t, n, k)))?;
         if let Some((i, t)) = out.iter().enumerate().find(|(_, t)| !(t[3] == 1.0 || t[3] == -1.0)) {
             return Err(self.err(loc, format!("tangent {i} has w = {}; it must be 1 or -1", t[3])));
         }
         Ok(out)
     }
 
-    /// Reads TEXCOORD_n: VEC2 of FLOAT or normalized UNSIGNED_BYTE/SHORT, every value finite.
+    /// Reads TEXCOORD_n: VEC2 of FLOAT or normalized UNSIGNED_BYTE/SHORT, or with
+    /// KHR_mesh_quantization any (unsigned) BYTE or SHORT; every value finite.
     pub fn texcoords(&self, acc: &gltf::Accessor, loc: &str) -> Result<Vec<[f32; 2]>, Error> {
-        self.check_format(
-            acc,
-            loc,
-            Dimensions::Vec2,
-            &[(DataType::F32, false), (DataType::U8, true), (DataType::U16, true)],
-        )?;
+        self.check_format(acc, loc, Dimensions::Vec2, QUANTIZED_ANY)?;
         let (t, n) = (acc.data_type(), acc.normalized());
         let out = self.collect(acc, loc, |b| [0, 1].map(|k| component_f32(b, t, n, k)))?;
         if let Some((i, uv)) = out.iter().enumerate().find(|(_, uv)| !uv.iter().all(|c| c.is_finite())) {

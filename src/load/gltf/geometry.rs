@@ -208,10 +208,10 @@ impl Cache {
         };
         let n = positions.len();
         let same_count = |acc: &gltf::Accessor, name: &str| -> Result<(), Error> {
-            if acc.count() != n {
+            if reader.count(acc) != n {
                 return Err(ctx.err(
                     attr_loc(&loc, name, acc),
-                    format!("has {} elements, but POSITION has {n}", acc.count()),
+                    format!("has {} elements, but POSITION has {n}", reader.count(acc)),
                 ));
             }
             Ok(())
@@ -225,7 +225,7 @@ impl Cache {
                     Some(v) => v.clone(),
                     None => {
                         let aloc = attr_loc(&loc, "NORMAL", &acc);
-                        let mut v = reader.vec3(&acc, &aloc)?;
+                        let mut v = reader.normals(&acc, &aloc)?;
                         let mut bad = 0;
                         for nrm in &mut v {
                             let len = nrm.iter().map(|c| c * c).sum::<f32>().sqrt();

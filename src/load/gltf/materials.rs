@@ -68,7 +68,8 @@ pub fn uv_transform(offset: [f32; 2], rotation: f32, scale: [f32; 2]) -> DAffine
     DAffine2::from_scale_angle_translation(v(scale), rotation as f64, v(offset))
 }
 
-/// Decodes image `index` (PNG or JPEG, from a file, a data URI or a buffer view) to RGBA8.
+/// Decodes image `index` (PNG, JPEG or WebP, from a file, a data URI or a buffer view) to
+/// RGBA8.
 fn decode_image(ctx: &Ctx, doc: &Document, buffers: &Buffers, index: usize) -> Result<RgbaImage, Error> {
     let loc = format!("images[{index}]");
     let json = &doc.as_json().images[index];
@@ -84,9 +85,9 @@ fn decode_image(ctx: &Ctx, doc: &Document, buffers: &Buffers, index: usize) -> R
         (None, None) => return Err(ctx.err(loc, "has neither a uri nor a bufferView")),
     };
     let format = match image::guess_format(&bytes) {
-        Ok(f @ (ImageFormat::Png | ImageFormat::Jpeg)) => f,
-        Ok(f) => return Err(ctx.err(loc, format!("is {f:?}; only PNG and JPEG images are supported"))),
-        Err(_) => return Err(ctx.err(loc, "is neither a PNG nor a JPEG image")),
+        Ok(f @ (ImageFormat::Png | ImageFormat::Jpeg | ImageFormat::WebP)) => f,
+        Ok(f) => return Err(ctx.err(loc, format!("is {f:?}; only PNG, JPEG and WebP images are supported"))),
+        Err(_) => return Err(ctx.err(loc, "is neither a PNG nor a JPEG nor a WebP image")),
     };
     let img = image::load_from_memory_with_format(&bytes, format)
         .map_err(|e| ctx.err(&loc, format!("cannot decode the {format:?} image: {e}")))?;

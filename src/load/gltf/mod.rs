@@ -21,7 +21,11 @@
 //!   documented default headlight ([`Light::default_for`], with a warning);
 //! - metallic-roughness materials with KHR_materials_transmission, KHR_materials_ior and
 //!   KHR_materials_emissive_strength, mapped as [`crate::scene`] documents; the base colour
-//!   texture's KHR_texture_transform is applied to the UVs of the triangles that use it.
+//!   texture's KHR_texture_transform is applied to the UVs of the triangles that use it;
+//! - glTF as the optimizers write it: quantized attributes (KHR_mesh_quantization),
+//!   meshopt-compressed buffer views (`meshopt`), Draco-compressed primitives (`draco`),
+//!   instanced meshes (`instancing`) and WebP images; [`extensions`] lists what is done with
+//!   every extension.
 //!
 //! glTF has no ambient light or background colour: both are black.
 
@@ -37,19 +41,13 @@ use crate::scene::{Camera, Light, Scene, Transfer};
 
 mod animation;
 mod data;
+mod draco;
+pub mod extensions;
 mod geometry;
+mod instancing;
 mod materials;
+mod meshopt;
 mod view;
-
-/// Extensions the loader implements. Any other required extension is an error; any
-/// other used (optional) extension gets one warning.
-pub const SUPPORTED_EXTENSIONS: &[&str] = &[
-    "KHR_lights_punctual",
-    "KHR_materials_transmission",
-    "KHR_materials_ior",
-    "KHR_materials_emissive_strength",
-    "KHR_texture_transform",
-];
 
 /// The file being loaded, for error messages.
 pub(crate) struct Ctx<'a> {
@@ -91,35 +89,52 @@ fn parse(ctx: &Ctx, bytes: &[u8]) -> Result<gltf::Gltf, Error> {
             e => ctx.err("file", format!("{e}")),
         })?;
     for (i, ext) in document.extensions_required().enumerate() {
-        if !SUPPORTED_EXTENSIONS.contains(&ext) {
-            return Err(ctx.err(
-                format!("extensionsRequired[{i}]"),
-                format!(
-                    "the file requires extension {ext}, which this loader does not support (it supports {})",
-                    SUPPORTED_EXTENSIONS.join(", ")
-                ),
-            ));
+        if !extensions::can_require(ext) {
+            return Err(ctx.err(format!("extensionsRequired[{i}]"), extensions::refusal(ext)));
         }
     }
-    let json = document.into_json();
+    let mut json = document.into_json();
     check_what_validation_indexes(ctx, &json)?;
-    // The crate's validation indexes some references before checking them (a bad POSITION
-    // accessor above): whatever else it might panic on is contained here and reported as
-    // this file's error, not a crash.
-    let validated = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| Document::from_json(json)))
-        .map_err(|_| ctx.err("file", "the glTF validation failed on this file (a malformed reference)"))?;
-    let document = validated.map_err(|e| match e {
-        gltf::Error::Validation(errors) => {
-            let (path, first) = &errors[0];
-            let more = match errors.len() {
-                1 => String::new(),
-                n => format!(" (and {} more problems)", n - 1),
-            };
-            ctx.err(path.to_string(), format!("{first}{more}"))
-        }
-        e => ctx.err("file", format!("{e}")),
-    })?;
+    texture_sources(ctx, &mut json)?;
+    let errors = validate(ctx, &json)?;
+    if let Some((path, first)) = errors.first() {
+        let more = match errors.len() {
+            1 => String::new(),
+            n => format!(" (and {} more problems)", n - 1),
+        };
+        return Err(ctx.err(path.to_string(), format!("{first}{more}")));
+    }
+    let document = Document::from_json_without_validation(json);
     Ok(gltf::Gltf { document, blob })
+}
+
+/// The `gltf` crate's validation of the JSON, less what it reports wrongly here: a required
+/// extension the crate does not know (this loader checked them: [`extensions`]), and an
+/// accessor without a bufferView, which glTF allows (its elements are zeros; a Draco
+/// primitive's accessors have none, their data being in the stream).
+fn validate(
+    ctx: &Ctx,
+    json: &gltf::json::Root,
+) -> Result<Vec<(gltf::json::Path, gltf::json::validation::Error)>, Error> {
+    use gltf::json::validation::{Error as E, Validate};
+    let mut errors = Vec::new();
+    // The crate's validation indexes some references before checking them (a bad POSITION
+    // accessor: `check_what_validation_indexes`): whatever else it might panic on is
+    // contained here and reported as this file's error, not a crash.
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        json.validate(json, gltf::json::Path::new, &mut |path, error| errors.push((path(), error)))
+    }))
+    .map_err(|_| ctx.err("file", "the glTF validation failed on this file (a malformed reference)"))?;
+    errors.retain(|(path, error)| {
+        let p = path.as_str();
+        let checked_here = match error {
+            E::Unsupported => p.starts_with("extensionsRequired["),
+            E::Missing => p.starts_with("accessors[") && p.ends_with("].bufferView"),
+            _ => false,
+        };
+        !checked_here
+    });
+    Ok(errors)
 }
 
 /// The references the `gltf` crate's validation follows before checking them: gltf-json
@@ -144,6 +159,26 @@ fn check_what_validation_indexes(ctx: &Ctx, json: &gltf::json::Root) -> Result<(
                     ));
                 }
             }
+        }
+    }
+    Ok(())
+}
+
+/// Points each texture at the image it is read from: EXT_texture_webp's source where the
+/// texture has one (its `source`, if any, is a fallback for viewers without WebP). A texture
+/// with no source but a KHR_texture_basisu one cannot be read, and is refused by name.
+fn texture_sources(ctx: &Ctx, json: &mut gltf::json::Root) -> Result<(), Error> {
+    for (i, texture) in json.textures.iter_mut().enumerate() {
+        let ext = |name: &str| texture.extensions.as_ref().and_then(|e| e.others.get(name)).cloned();
+        let loc = format!("textures[{i}]");
+        if let Some(webp) = ext("EXT_texture_webp") {
+            let source = webp.get("source").and_then(|s| s.as_u64()).filter(|&s| s < u32::MAX as u64);
+            let source = source.ok_or_else(|| {
+                ctx.err(format!("{loc}.extensions.EXT_texture_webp"), "has no source image index")
+            })?;
+            texture.source = gltf::json::Index::new(source as u32);
+        } else if texture.source.value() == u32::MAX as usize && ext("KHR_texture_basisu").is_some() {
+            return Err(ctx.err(loc, extensions::refusal("KHR_texture_basisu")));
         }
     }
     Ok(())
@@ -192,8 +227,8 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, Error> {
     drop(bytes);
     let mut warnings = Vec::new();
     for ext in doc.extensions_used() {
-        if !SUPPORTED_EXTENSIONS.contains(&ext) {
-            warnings.push(format!("extension {ext} is not supported; ignored"));
+        if extensions::status(ext, false) == extensions::Status::Ignored {
+            warnings.push(extensions::ignored_warning(ext));
         }
     }
 
@@ -206,7 +241,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, Error> {
         }
         Some(t) => animation::pose_at(&reader, &doc, t, &mut warnings)?,
     };
-    let hierarchy = geometry::walk(&ctx, &doc, &pose)?;
+    let hierarchy = instancing::expand(&reader, &doc, geometry::walk(&ctx, &doc, &pose)?)?;
     let mut table = materials::build(&ctx, &doc, &buffers, &used_materials(&doc, &hierarchy), &mut warnings)?;
     let primitives = geometry::triangles(&reader, &doc, &hierarchy, &table, &mut warnings)?;
     materials::widen_bounds_for_missing_uvs(&mut table.materials, &primitives);
