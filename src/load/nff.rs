@@ -49,6 +49,7 @@ use state::State;
 
 mod cursor;
 mod entities;
+mod number;
 mod state;
 
 /// Loads an NFF file.

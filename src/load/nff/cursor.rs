@@ -8,6 +8,8 @@
 //! before it is whitespace anyway). ASCII bytes are classified by a table; only the bytes
 //! of non-ASCII characters are decoded, to ask whether they are whitespace.
 
+use super::number::plain_decimal;
+
 /// A token and where it is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) struct Token<'a> {
@@ -51,6 +53,13 @@ const fn class_table() -> [Class; 256] {
 }
 
 static CLASS: [Class; 256] = class_table();
+
+/// Whether the byte, following ASCII token characters, surely ends the token: ASCII
+/// whitespace or `#`. (A non-ASCII space ends it too; this answers no for it, and a caller
+/// that must know decodes the character.)
+pub(super) fn ends_token(byte: u8) -> bool {
+    CLASS[byte as usize] != Class::Token && CLASS[byte as usize] != Class::Other
+}
 
 /// A position in the text, with its line.
 #[derive(Clone, Copy)]
@@ -135,6 +144,24 @@ impl<'a> Cursor<'a> {
     pub fn next(&mut self) -> Option<Token<'a>> {
         let start = self.skip()?;
         Some(self.take(start, start))
+    }
+
+    /// The next token and, when it is a plain decimal ([`plain_decimal`]), its value: the
+    /// value `str::parse::<f64>` gives, read in the same pass. `None` for the value means
+    /// the caller is to parse the token.
+    #[inline]
+    pub fn next_number(&mut self) -> Option<(Token<'a>, Option<f64>)> {
+        let start = self.skip()?;
+        let bytes = self.text.as_bytes();
+        if let Some((value, len)) = plain_decimal(&bytes[start..]) {
+            let end = start + len;
+            let ends = bytes.get(end).is_none_or(|&b| ends_token(b));
+            if ends {
+                self.pos = end;
+                return Some((Token { text: &self.text[start..end], line: self.line, start }, Some(value)));
+            }
+        }
+        Some((self.take(start, start), None))
     }
 }
 

@@ -74,7 +74,11 @@ impl<'a> Parser<'a> {
     /// A finite number.
     #[inline]
     fn number(&mut self, what: impl Fn() -> String) -> Result<f64, Error> {
-        let token = self.expect(&what)?;
+        let (token, value) = self.cursor.next_number().ok_or_else(|| self.ends_inside(&what))?;
+        self.last = token;
+        if let Some(value) = value {
+            return Ok(value);
+        }
         match token.text.parse::<f64>() {
             Ok(v) if v.is_finite() => Ok(v),
             Ok(_) => Err(self.error_at(token, format!("{} must be a finite number", what()))),
