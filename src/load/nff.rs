@@ -9,6 +9,11 @@
 //! come in any order (`b` before `v`, lights after objects), but there must be exactly one
 //! `v`.
 //!
+//! A large file is parsed in chunks on all cores ([`chunks`]): it is cut where a line
+//! starts with an entity keyword, each chunk is read on its own, and the chunks' states are
+//! joined in file order. The scene, the warnings and the first error are exactly those of
+//! a serial parse.
+//!
 //! # Mapping onto the scene model
 //! - `v`: [`Camera::look_at`] with a perspective projection whose `angle` is the full field
 //!   of view between the centres of the edge pixels ([`FovSpan::EdgePixelCenters`]);
@@ -43,10 +48,8 @@ use std::path::Path;
 
 use super::Loaded;
 use crate::error::Error;
-use cursor::Cursor;
-use entities::Parser;
-use state::State;
 
+mod chunks;
 mod cursor;
 mod entities;
 mod number;
@@ -69,11 +72,17 @@ pub fn load(path: &Path) -> Result<Loaded, Error> {
     }
 }
 
-/// Parses NFF text; `path` is only used in error messages.
+/// Parses NFF text; `path` is only used in error messages. Large texts are parsed in
+/// parallel chunks.
 pub fn parse(text: &str, path: &Path) -> Result<Loaded, Error> {
-    let mut state = State::default();
-    Parser::new(path, Cursor::new(text, 0, 1)).entities(&mut state)?;
-    state.finish(path)
+    chunks::parse(text, path, chunks::chunk_bytes(text.len()))
+}
+
+/// [`parse`] with chunks of about `chunk_bytes` bytes (at least one entity each); `usize::MAX`
+/// parses serially. For tests that compare the chunked parse with the serial one.
+#[doc(hidden)]
+pub fn parse_in_chunks(text: &str, path: &Path, chunk_bytes: usize) -> Result<Loaded, Error> {
+    chunks::parse(text, path, chunk_bytes.max(1))
 }
 
 const KEYWORDS: [&str; 8] = ["v", "b", "l", "f", "c", "s", "p", "pp"];

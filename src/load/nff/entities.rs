@@ -1,12 +1,12 @@
-//! The NFF entity parser: reads entities from a [`Cursor`] into a [`State`]. Every error
-//! names the line and the token.
+//! The NFF entity parser: reads entities from a [`Cursor`] into a [`State`], one chunk of
+//! the file (or all of it) at a time. Every error names the line and the token.
 
 use std::path::Path;
 
 use glam::DVec3;
 
 use super::cursor::{Cursor, Token};
-use super::state::{State, View};
+use super::state::{second_view, State, View};
 use super::{AXES, KEYWORDS, VIEW_KEYWORDS};
 use crate::error::Error;
 use crate::scene::{Camera, Cylinder, FovSpan, Light, Material, Primitive, Projection, Sphere, Triangle};
@@ -14,6 +14,9 @@ use crate::scene::{Camera, Cylinder, FovSpan, Light, Material, Primitive, Projec
 pub(super) struct Parser<'a> {
     path: &'a Path,
     cursor: Cursor<'a>,
+    /// Where the chunk ends: an entity that starts there or later is the next chunk's. An
+    /// entity that starts before it is read to its end, past it if need be.
+    end: usize,
     /// The token most recently consumed.
     last: Token<'a>,
     /// The entity being read: its keyword and the line it starts on.
@@ -21,10 +24,10 @@ pub(super) struct Parser<'a> {
 }
 
 impl<'a> Parser<'a> {
-    /// A parser of the entities from `cursor` on.
-    pub fn new(path: &'a Path, cursor: Cursor<'a>) -> Parser<'a> {
+    /// A parser of the entities that start in `cursor`'s text before byte `end`.
+    pub fn new(path: &'a Path, cursor: Cursor<'a>, end: usize) -> Parser<'a> {
         let last = Token { text: "", line: 0, start: 0 };
-        Parser { path, cursor, last, entity: ("", 0) }
+        Parser { path, cursor, end, last, entity: ("", 0) }
     }
 
     fn error(&self, line: usize, token: Option<&str>, message: String) -> Error {
@@ -108,14 +111,20 @@ impl<'a> Parser<'a> {
         token.text.parse::<usize>().map_err(|_| self.not_a(token, what(), "a whole number"))
     }
 
-    /// Reads the entities to the end of the text.
+    /// Reads the entities that start before the chunk's end.
     pub fn entities(&mut self, state: &mut State) -> Result<(), Error> {
         while let Some(token) = self.cursor.next() {
+            if token.start >= self.end {
+                break;
+            }
             self.last = token;
             let keyword = KEYWORDS.iter().find(|k| **k == token.text).copied();
             self.entity = (keyword.unwrap_or(""), token.line);
             match keyword {
-                Some("v") => self.view(state)?,
+                Some("v") => {
+                    state.first_view.get_or_insert(token.line);
+                    self.view(state)?
+                }
                 Some("b") => state.background = Some(self.colour("the background colour")?),
                 Some("l") => self.light(state)?,
                 Some("f") => self.fill(state)?,
@@ -141,11 +150,7 @@ impl<'a> Parser<'a> {
     fn view(&mut self, state: &mut State) -> Result<(), Error> {
         let line = self.entity.1;
         if let Some(View { line: first, .. }) = &state.view {
-            return Err(self.error(
-                line,
-                Some("v"),
-                format!("a second 'v' entity (the first is on line {first})"),
-            ));
+            return Err(second_view(self.path, line, *first));
         }
         let (mut from, mut at, mut up, mut angle, mut hither, mut resolution) =
             (None, None, None, None, None, None);

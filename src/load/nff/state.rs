@@ -1,5 +1,6 @@
 //! What the NFF parse gathers: the view, background, lights, materials, primitives and the
-//! tallies behind the warnings; and the final checks that make a [`Scene`].
+//! tallies behind the warnings; how the states of consecutive chunks join into the state a
+//! serial parse of the whole file would have; and the final checks that make a [`Scene`].
 
 use std::path::Path;
 
@@ -10,16 +11,28 @@ use super::super::{Loaded, SceneFormat};
 use crate::error::Error;
 use crate::scene::{Camera, Light, Material, Primitive, Scene, Transfer};
 
-/// What the parse has gathered so far.
+/// The material index a chunk after the first gives to primitives before its first `f`:
+/// whatever material is current at the chunk's start, known only when the chunks are joined.
+const INHERITED: u32 = u32::MAX;
+
+/// What the parse has gathered so far (of the whole file, or of one chunk of it).
 #[derive(Default)]
 pub(super) struct State {
     pub view: Option<View>,
+    /// The line of the first `v` keyword met, even one whose entity failed: the joining
+    /// needs it to report a second `v` where a serial parse would.
+    pub first_view: Option<usize>,
     /// The colour of the last `b`.
     pub background: Option<DVec3>,
     pub lights: Vec<Light>,
     pub materials: Vec<Material>,
     /// The material of the last `f`, or the default material once a primitive needed it.
     current: Option<u32>,
+    /// Whether this is a chunk after the first, whose primitives before its first `f` take
+    /// the material current at its start ([`INHERITED`]).
+    inherit: bool,
+    /// Whether some primitive got [`INHERITED`].
+    inherited: bool,
     pub primitives: Vec<Primitive>,
     pub triangulator: Triangulator,
     /// Reused buffers of a polygon's vertices and `pp` normals.
@@ -58,19 +71,80 @@ impl Tally {
     }
 }
 
+/// The error for a `v` on `line` when the file already had one on `first`.
+pub(super) fn second_view(path: &Path, line: usize, first: usize) -> Error {
+    Error::Nff {
+        path: path.to_owned(),
+        line,
+        token: Some("v".into()),
+        message: format!("a second 'v' entity (the first is on line {first})"),
+    }
+}
+
 impl State {
+    /// The state at the start of a chunk; `inherit` for every chunk but the first.
+    pub fn new(inherit: bool) -> State {
+        State { inherit, ..State::default() }
+    }
+
     /// The material index for the next primitive.
     pub fn material(&mut self) -> u32 {
-        *self.current.get_or_insert_with(|| {
+        if let Some(m) = self.current {
+            return m;
+        }
+        let m = if self.inherit {
+            self.inherited = true;
+            INHERITED
+        } else {
             self.materials.push(Material::default());
             (self.materials.len() - 1) as u32
-        })
+        };
+        self.current = Some(m);
+        m
     }
 
     /// Adds a material from an `f`; it is current from now on.
     pub fn push_material(&mut self, material: Material) {
         self.materials.push(material);
         self.current = Some((self.materials.len() - 1) as u32);
+    }
+
+    /// Appends the state of the chunk that follows this one, as if the parse had gone on
+    /// through it. The caller has checked that the two do not both have a `v`. Returns the
+    /// chunk's emptied primitive buffer, for another chunk to reuse.
+    pub fn append(&mut self, mut next: State) -> Vec<Primitive> {
+        // The default material, if the chunk's first primitives need it, comes before the
+        // chunk's own materials, as it would in a serial parse.
+        let inherited = if next.inherited { self.material() } else { INHERITED };
+        let offset = self.materials.len() as u32;
+        if offset > 0 || next.inherited {
+            let remap = |m: &mut u32| *m = if *m == INHERITED { inherited } else { *m + offset };
+            for primitive in &mut next.primitives {
+                match primitive {
+                    Primitive::Sphere(s) => remap(&mut s.material),
+                    Primitive::Triangle(t) => remap(&mut t.material),
+                    Primitive::Cylinder(c) => remap(&mut c.material),
+                }
+            }
+        }
+        match next.current {
+            Some(INHERITED) | None => {}
+            Some(m) => self.current = Some(m + offset),
+        }
+        self.materials.append(&mut next.materials);
+        self.primitives.append(&mut next.primitives);
+        self.lights.append(&mut next.lights);
+        self.background = next.background.or(self.background);
+        self.view = self.view.take().or(next.view);
+        self.first_view = self.first_view.or(next.first_view);
+        for (tally, more) in [
+            (&mut self.dropped, &next.dropped),
+            (&mut self.not_simple, &next.not_simple),
+            (&mut self.fixed_normals, &next.fixed_normals),
+        ] {
+            tally.add(more.count, more.first_line);
+        }
+        next.primitives
     }
 
     /// The warnings about the tallies, in a fixed order.
