@@ -118,21 +118,24 @@ impl State {
         let inherited = if next.inherited { self.material() } else { INHERITED };
         let offset = self.materials.len() as u32;
         if offset > 0 || next.inherited {
+            // Remapped as they are moved: one pass over the chunk's primitives.
             let remap = |m: &mut u32| *m = if *m == INHERITED { inherited } else { *m + offset };
-            for primitive in &mut next.primitives {
-                match primitive {
+            self.primitives.extend(next.primitives.drain(..).map(|mut primitive| {
+                match &mut primitive {
                     Primitive::Sphere(s) => remap(&mut s.material),
                     Primitive::Triangle(t) => remap(&mut t.material),
                     Primitive::Cylinder(c) => remap(&mut c.material),
                 }
-            }
+                primitive
+            }));
+        } else {
+            self.primitives.append(&mut next.primitives);
         }
         match next.current {
             Some(INHERITED) | None => {}
             Some(m) => self.current = Some(m + offset),
         }
         self.materials.append(&mut next.materials);
-        self.primitives.append(&mut next.primitives);
         self.lights.append(&mut next.lights);
         self.background = next.background.or(self.background);
         self.view = self.view.take().or(next.view);
