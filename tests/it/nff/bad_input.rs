@@ -3,11 +3,10 @@
 
 use std::path::Path;
 
-use cuberay::load::nff::parse;
 use cuberay::Error;
 use proptest::prelude::*;
 
-use super::{invalid_error, nff_error, VIEW};
+use super::{invalid_error, nff_error, same_as_serial, VIEW};
 
 #[test]
 fn unknown_keyword() {
@@ -210,9 +209,9 @@ proptest! {
         "x", "1e-320", "1e300", "-1e300", "99999999999999999999",
     ]), 0..80)) {
         let text = format!("{VIEW}{}", words.join(" "));
-        if let Ok(loaded) = parse(&text, Path::new("soup.nff")) {
+        if let Ok(loaded) = same_as_serial(&text, Path::new("soup.nff")) {
             prop_assert!(loaded.scene.validate().is_ok());
         }
-        let _ = parse(&words.join(" "), Path::new("soup.nff"));
+        let _ = same_as_serial(&words.join(" "), Path::new("soup.nff"));
     }
 }

@@ -9,17 +9,22 @@
 //! - `triangulation`: ear clipping of concave, tilted and degenerate polygons, tiled exactly;
 //! - `bad_input`: each kind of bad input, the error naming the line and saying what is
 //!   wrong, and token soup that never panics;
-//! - `spd`: every SPD file of the shared scenes, against an independent scan.
+//! - `spd`: every SPD file of the shared scenes, against an independent scan;
+//! - `chunked`: the chunked parallel parse gives what the serial one gives.
+//!
+//! Every helper below also checks that the chunked parse agrees with the serial one on its
+//! text ([`same_as_serial`]), so every case of every area checks that too.
 
 use std::path::Path;
 
-use cuberay::load::nff::parse;
+use cuberay::load::nff::parse_in_chunks;
 use cuberay::load::Loaded;
 use cuberay::scene::{Primitive, Triangle};
 use cuberay::Error;
 use glam::DVec3;
 
 mod bad_input;
+mod chunked;
 mod entities;
 mod spd;
 mod triangulation;
@@ -31,8 +36,35 @@ mod triangulation;
 /// A view that every small test scene starts with (3 lines).
 const VIEW: &str = "v\nfrom 0 0 10 at 0 0 0 up 0 1 0\nangle 45\n";
 
+/// How a parse ended, in full: the scene and warnings, or the error's message and fields.
+fn outcome(result: &Result<Loaded, Error>) -> String {
+    match result {
+        Ok(loaded) => format!("{loaded:?}"),
+        Err(e) => format!("{e} | {e:?}"),
+    }
+}
+
+/// Parses `text` serially, and checks that the chunked parse gives exactly the same
+/// outcome, with chunks of every entity (1 byte) up to about a kilobyte.
+#[track_caller]
+fn same_as_serial(text: &str, path: &Path) -> Result<Loaded, Error> {
+    let serial = parse_in_chunks(text, path, usize::MAX);
+    let expected = outcome(&serial);
+    for chunk_bytes in [1, 50, 1000] {
+        let chunked = parse_in_chunks(text, path, chunk_bytes);
+        assert!(
+            outcome(&chunked) == expected,
+            "{}: chunks of {chunk_bytes} bytes give\n{}\nthe serial parse\n{}",
+            path.display(),
+            outcome(&chunked).chars().take(2000).collect::<String>(),
+            expected.chars().take(2000).collect::<String>()
+        );
+    }
+    serial
+}
+
 fn parse_ok(text: &str) -> Loaded {
-    match parse(text, Path::new("test.nff")) {
+    match same_as_serial(text, Path::new("test.nff")) {
         Ok(loaded) => loaded,
         Err(e) => panic!("expected the scene to load, got: {e}\n--- input ---\n{text}"),
     }
@@ -42,7 +74,7 @@ fn parse_ok(text: &str) -> Loaded {
 /// `words`, and returns the offending token.
 #[track_caller]
 fn nff_error(text: &str, line: usize, words: &[&str]) -> Option<String> {
-    match parse(text, Path::new("bad.nff")) {
+    match same_as_serial(text, Path::new("bad.nff")) {
         Err(e @ Error::Nff { .. }) => {
             let shown = e.to_string();
             let Error::Nff { line: got, token, message, path } = e else { unreachable!() };
@@ -64,7 +96,7 @@ fn nff_error(text: &str, line: usize, words: &[&str]) -> Option<String> {
 
 #[track_caller]
 fn invalid_error(text: &str, words: &[&str]) {
-    match parse(text, Path::new("bad.nff")) {
+    match same_as_serial(text, Path::new("bad.nff")) {
         Err(e @ Error::Invalid { .. }) => {
             let shown = e.to_string();
             assert!(shown.starts_with("bad.nff: "), "{shown}");
