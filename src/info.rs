@@ -42,6 +42,9 @@ pub struct SceneInfo {
     pub precision_auto: Option<PrecisionInfo>,
     /// The accelerator a render resolves (`--accel auto`).
     pub accel: &'static str,
+    /// Why, where `auto` chose: each origin's predicted build against what its table saves
+    /// ([`crate::cost`]); `null` without an adapter or where the accelerator was given.
+    pub accel_auto: Option<String>,
     /// Whether the scene sends rays from surfaces (mirrors, glass, blended surfaces, shadow
     /// rays towards directional lights): under `--accel cube` they take the BVH or the
     /// platform's ray queries (`surface_walk`), while eye rays and shadow rays towards point
@@ -156,6 +159,7 @@ impl SceneInfo {
                 reason: need.reason(),
             }),
             accel: resolved.accel.name(),
+            accel_auto: resolved.auto_accel.as_ref().map(|a| a.reason()),
             surface_rays: crate::coherence::traces_surface_rays(scene, &Default::default()),
             surface_walk: resolved.surface.name(),
             adapter,
@@ -227,8 +231,12 @@ impl SceneInfo {
             self.adapter.as_deref().unwrap_or("none found (a GPU render would fail)")
         );
         s += &format!("accel:      {}", self.accel);
-        if self.accel == "cube" {
-            s += ": eye rays and shadow rays towards point lights take the candidate tables";
+        match &self.accel_auto {
+            Some(why) => s += &format!(" (auto: {why})"),
+            None if self.accel == "cube" => {
+                s += ": eye rays and shadow rays towards point lights take the candidate tables"
+            }
+            None => {}
         }
         s += "\n";
         s += &format!("rays:       {}\n", self.surface_text());

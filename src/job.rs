@@ -9,6 +9,8 @@ use glam::DVec3;
 
 use crate::arith::precision::F32Need;
 use crate::arith::spawn::SpawnPolicy;
+use crate::coherence::OriginKey;
+use crate::cost::AutoAccel;
 use crate::error::{Error, Result};
 use crate::output::Image;
 pub use crate::region::Region;
@@ -127,6 +129,12 @@ pub struct RenderOptions {
     /// Why [`Precision::Auto`] chose what `precision` now says: set by
     /// `gpu::prepare::resolve`, `None` where the precision was given.
     pub auto_precision: Option<F32Need>,
+    /// What [`Accel::Auto`] weighed and chose (per origin): set by `gpu::prepare::resolve`,
+    /// `None` where the accelerator was given.
+    pub auto_accel: Option<AutoAccel>,
+    /// With `cube`, the origins left without a table, whose rays walk the BVH (`auto`'s
+    /// choice; default none).
+    pub untabled: Vec<OriginKey>,
     /// Cells per face edge of the eye's direction cube; `None`: about two pixels a cell.
     /// Changes the tables' time and memory, never the image.
     pub eye_cells: Option<u32>,
@@ -185,6 +193,8 @@ impl RenderOptions {
             spawn: SpawnPolicy::Scaled,
             precision: Precision::Auto,
             auto_precision: None,
+            auto_accel: None,
+            untabled: Vec::new(),
             eye_cells: None,
             transfer: None,
             exposure: 0.0,
@@ -293,6 +303,7 @@ impl RenderOptions {
             precision_auto: (backend != "cpu")
                 .then(|| self.auto_precision.as_ref().map(|n| n.reason()))
                 .flatten(),
+            accel_auto: (backend != "cpu").then(|| self.auto_accel.as_ref().map(|a| a.reason())).flatten(),
             transfer: self.transfer_for(scene),
             tonemap: self.tonemap_for(scene),
             exposure: self.exposure,

@@ -22,6 +22,7 @@
 //!   baseline the candidate tables are measured against;
 //! - [`arith`]: the kernels' f32 arithmetic on the CPU (twins of the WGSL geometry);
 //! - [`coherence`]: the direction-cube candidate tables, flattened, and their one walker;
+//! - [`cost`]: what `--accel auto` weighs: each origin's table build against what it saves;
 //! - [`layout`]: the `#[repr(C)]` twins of the WGSL structs and constants, the packed scene;
 //! - [`gpu`]: the WGSL kernels through wgpu;
 //! - [`preview`]: the interactive window that refines a render progressively;
@@ -42,6 +43,7 @@ pub mod arith;
 pub mod bvh;
 pub mod coherence;
 pub mod compare;
+pub mod cost;
 pub mod error;
 pub mod gpu;
 pub mod info;

@@ -261,6 +261,10 @@ pub struct Settings {
     /// `crate::arith::precision`); `null` where the precision was given, and on the CPU.
     #[serde(default)]
     pub precision_auto: Option<String>,
+    /// Why `--accel auto` chose `accel` (each origin's predicted table build against what
+    /// the table saves, `crate::cost`); `null` where the accelerator was given, and on the CPU.
+    #[serde(default)]
+    pub accel_auto: Option<String>,
     /// How a PNG encodes the values: `srgb` or `display` (see [`crate::scene::Transfer`]).
     pub transfer: crate::scene::Transfer,
     /// How a PNG brings radiance beyond 1 into range (`--tonemap`).
@@ -396,6 +400,9 @@ impl Stats {
         match &s.precision_auto {
             Some(why) => o += &format!("precision: {} (auto: {why})\n", s.precision),
             None => o += &format!("precision: {}\n", s.precision),
+        }
+        if let Some(why) = &s.accel_auto {
+            o += &format!("accel:    {} (auto: {why})\n", s.accel);
         }
         if self.texture_bytes > 0 {
             o += &format!(

@@ -36,13 +36,13 @@ fn cell_walk(origin: u32, d: vec3<f32>) -> Walk {
 }
 
 // The walk of a ray leaving primitive `from_prim` (NO_ID: the eye) along `d` (not zero): the
-// eye's cell; for a ray leaving a surface, the surface walk (`params.surface_walk`); else the fallback
-// origin (twin of FlatTables::walk_from, where `reference::tables` hands the BVH's rays to
-// the reference's own BVH).
+// eye's cell; for a ray leaving a surface, or from an eye without a table (`--accel auto`
+// built none), the surface walk (`params.surface_walk`); else the fallback origin (twin of
+// FlatTables::walk_from, where `reference::tables` hands the BVH's rays to the reference's
+// own BVH).
 fn walk_from(from_prim: u32, d: vec3<f32>) -> Walk {
-    if from_prim == NO_ID {
-        let o = params.eye_origin;
-        return cell_walk(select(o, params.fallback_origin, o == NO_ORIGIN), d);
+    if from_prim == NO_ID && params.eye_origin != NO_ORIGIN {
+        return cell_walk(params.eye_origin, d);
     }
 #if SURFACE_RAYS
     if params.surface_walk != 0u {
@@ -127,8 +127,8 @@ fn walk_nearest(w: ptr<function, Walk>, best: ptr<function, Closest>, ray: Ray, 
 // Continues the any-hit walk `w` for at most about `budget` loop iterations: ANY_BLOCKED
 // when some primitive other than `skip` is hit at 0 < t < t_max (with its t), ANY_CLEAR
 // when the walk ended without one, ANY_UNFINISHED when the budget ran out first. Only the
-// shadow rays of directional lights, which have no table, walk the BVH (BVH_SHADOWS: in
-// scenes with such a light).
+// shadow rays of lights without a table (directional ones, and those `--accel auto` built
+// none for) walk the BVH (BVH_SHADOWS: in scenes with such a light).
 fn walk_any(w: ptr<function, Walk>, ray: Ray, t_max: f32, skip: u32, budget: u32) -> AnyHit {
 #if BVH_SHADOWS
     if (*w).iend == SURFACE_WALK {
@@ -165,12 +165,12 @@ fn walk_any(w: ptr<function, Walk>, ray: Ray, t_max: f32, skip: u32, budget: u32
 
 // The protocol of query.wgsl for shadow rays: the walk of shadow ray `sr` towards light
 // `light` from a hit on primitive `from_prim`, in the light's table when it is traced from
-// the light, else as a ray leaving the surface (`walk_from`: the BVH, or the fallback
-// origin where there is none).
+// the light and the light has one, else as a ray leaving the surface (`walk_from`: the BVH,
+// or the fallback origin where there is none). The ray is the same either way.
 fn walk_of_shadow(sr: ShadowRay, light: u32, from_prim: u32) -> Walk {
-    if sr.from_light {
-        let lo = light_table(light);
-        return cell_walk(select(lo, params.fallback_origin, lo == NO_ORIGIN), sr.ray.d);
+    let lo = light_table(light);
+    if sr.from_light && lo != NO_ORIGIN {
+        return cell_walk(lo, sr.ray.d);
     }
     return walk_from(from_prim, sr.ray.d);
 }

@@ -83,7 +83,7 @@ pub mod walk;
 pub use flat::{FlatTables, GpuEntry, GpuFace, GpuOrigin, OriginKind};
 pub use params::BuildParams;
 pub use stats::TableStats;
-pub use tables::{build, traces_surface_rays, Tables};
+pub use tables::{build, traces_surface_rays, untabled_lights, Tables};
 pub use walk::{OriginKey, WalkCount};
 
 /// Random numbers and directions for the module's own tests.

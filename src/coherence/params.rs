@@ -1,6 +1,7 @@
 //! What a table build may be told: the resolutions, the spawn-offset policy the tables must
 //! be conservative for, and the effects they serve.
 
+use super::walk::OriginKey;
 use crate::arith::spawn::{offset_bound, SpawnPolicy};
 use crate::scene::{Effects, Scene};
 
@@ -29,6 +30,9 @@ pub struct BuildParams {
     pub light_cells: usize,
     /// The effects the tables serve (`None`: the scene's): light tables only with shadows.
     pub effects: Option<Effects>,
+    /// Origins left without a table (`--accel auto` where one would not pay for its build):
+    /// their rays walk what rays leaving surfaces walk (the BVH). Default: none.
+    pub untabled: Vec<OriginKey>,
 }
 
 impl Default for BuildParams {
@@ -43,6 +47,7 @@ impl Default for BuildParams {
             eye_pixels_per_cell: 2.0,
             light_cells: 1 << 18,
             effects: None,
+            untabled: Vec::new(),
         }
     }
 }
@@ -51,6 +56,11 @@ impl BuildParams {
     /// The image size the eye table is built for.
     pub fn eye_image(&self, scene: &Scene) -> (u32, u32) {
         self.image.or(scene.resolution).unwrap_or_else(|| scene.camera.default_resolution())
+    }
+
+    /// Whether the origin `key` gets a table (if the scene calls for one).
+    pub fn tables(&self, key: OriginKey) -> bool {
+        !self.untabled.contains(&key)
     }
 
     /// The spawn offset the origins are inflated by.

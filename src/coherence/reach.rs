@@ -24,15 +24,16 @@ pub struct WalkBounds {
     pub planned: u64,
     /// Whether some ray of the render walks the fallback origin (every primitive).
     pub fallback_reachable: bool,
+    /// Whether the eye rays walk what rays leaving surfaces walk (the eye has no table and
+    /// the render has a BVH or ray queries: `--accel auto`).
+    pub eye_untabled: bool,
     /// Whether a pass may walk the tables and the BVH (rays leaving surfaces) side by side:
     /// the shadow jobs of a light with a table and of one without.
     pub mixed: bool,
 }
 
-/// Whether a ray of a render can come from an entity without a table: the eye of a
-/// non-empty scene without one. (Rays leaving surfaces, and shadow rays towards lights
-/// without a table, walk the BVH.)
-fn fallback_reachable(scene: &Scene, flat: &FlatTables) -> bool {
+/// Whether the eye of a non-empty scene has no table in `flat`.
+fn eye_untabled(scene: &Scene, flat: &FlatTables) -> bool {
     flat.eye_origin == NO_ORIGIN && !scene.primitives.is_empty()
 }
 
@@ -42,18 +43,26 @@ impl WalkBounds {
     pub fn or(&self, other: &WalkBounds) -> WalkBounds {
         WalkBounds {
             worst_closest: self.worst_closest.max(other.worst_closest),
-            worst_eye: self.worst_eye,
+            worst_eye: if self.eye_untabled { other.worst_eye } else { self.worst_eye },
             worst_shadow: self.worst_shadow.max(other.worst_shadow),
             mean_list: self.mean_list.max(other.mean_list),
             planned: self.planned.max(other.planned),
             fallback_reachable: self.fallback_reachable,
+            eye_untabled: self.eye_untabled,
             mixed: true,
         }
     }
 
-    /// The bounds of `flat`, built for `scene`.
-    pub fn of(scene: &Scene, flat: &FlatTables) -> WalkBounds {
-        let mut b = WalkBounds { fallback_reachable: fallback_reachable(scene, flat), ..Default::default() };
+    /// The bounds of `flat`, built for `scene`, for a render that has a walk for rays
+    /// leaving surfaces (`surface_walk`: the BVH or ray queries, which the eye's rays take
+    /// where it has no table) or not (they walk the fallback origin).
+    pub fn of(scene: &Scene, flat: &FlatTables, surface_walk: bool) -> WalkBounds {
+        let untabled = eye_untabled(scene, flat);
+        let mut b = WalkBounds {
+            fallback_reachable: untabled && !surface_walk,
+            eye_untabled: untabled && surface_walk,
+            ..Default::default()
+        };
         for (o, org) in flat.origins.iter().enumerate() {
             if org.kind == OriginKind::Fallback as u32 {
                 continue;

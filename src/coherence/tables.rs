@@ -18,6 +18,7 @@ use super::origin::build_origin;
 use super::params::BuildParams;
 use super::reach::WalkBounds;
 use super::targets::Target;
+use super::walk::OriginKey;
 use crate::arith::spawn::SpawnPolicy;
 use crate::error::{Error, Result};
 use crate::scene::{LightKind, Scene};
@@ -87,7 +88,7 @@ impl Tables {
         crate::interrupt::check()?;
         self.defs[0] = def;
         self.flat = flat_tables(&self.built, &self.defs, scene, &ctx)?;
-        self.walks = WalkBounds::of(scene, &self.flat);
+        self.walks = WalkBounds::of(scene, &self.flat, traces_surface_rays(scene, params));
         self.eye_image = params.eye_image(scene);
         self.build_s = start.elapsed().as_secs_f64();
         Ok(true)
@@ -96,12 +97,15 @@ impl Tables {
 
 /// Whether a render the tables of `params` are for traces rays leaving surfaces, which the
 /// BVH takes: reflection or refraction rays from mirrors and glass (with the reflection
-/// effect), pass-through rays from blended surfaces (with the blend effect), or shadow rays
-/// towards a directional light, which has no table.
+/// effect), pass-through rays from blended surfaces (with the blend effect), shadow rays
+/// towards a light without a table (a directional one, or one `params` leave untabled), or
+/// eye rays where `params` leave the eye untabled.
 pub fn traces_surface_rays(scene: &Scene, params: &BuildParams) -> bool {
     let effects = params.effects.unwrap_or_else(|| scene.effects());
-    let directional = scene.lights.iter().any(|l| l.kind == LightKind::Directional);
-    if effects.shadows && directional && !scene.primitives.is_empty() {
+    if scene.primitives.is_empty() {
+        return false;
+    }
+    if !params.tables(OriginKey::Eye) || (effects.shadows && untabled_lights(scene, params)) {
         return true;
     }
     let blend = |m: &crate::scene::Material| effects.blend && m.alpha == crate::scene::Alpha::Blend;
@@ -110,6 +114,16 @@ pub fn traces_surface_rays(scene: &Scene, params: &BuildParams) -> bool {
             let m = &scene.materials[p.material() as usize];
             (effects.reflection && (m.reflects() || m.transmits())) || blend(m)
         })
+}
+
+/// Whether some light of `scene` has no table with `params`: a directional light, or one
+/// left untabled; its shadow rays walk the BVH.
+pub fn untabled_lights(scene: &Scene, params: &BuildParams) -> bool {
+    scene
+        .lights
+        .iter()
+        .enumerate()
+        .any(|(i, l)| l.kind == LightKind::Directional || !params.tables(OriginKey::Light(i)))
 }
 
 /// Builds the candidate tables a scene calls for.
@@ -164,12 +178,12 @@ fn build_once(scene: &Scene, params: &BuildParams) -> Result<Tables> {
 
     // The eye and the lights: one direction cube each.
     let mut defs: Vec<OriginDef> = Vec::new();
-    if !targets.is_empty() {
+    if !targets.is_empty() && params.tables(OriginKey::Eye) {
         defs.push(eye_def(scene, params, eps));
     }
     if effects.shadows {
         for (i, l) in scene.lights.iter().enumerate() {
-            if l.kind != LightKind::Directional {
+            if l.kind != LightKind::Directional && params.tables(OriginKey::Light(i)) {
                 defs.push(light_def(i, l.position, params, eps, &ctx));
             }
         }
@@ -178,7 +192,7 @@ fn build_once(scene: &Scene, params: &BuildParams) -> Result<Tables> {
     crate::interrupt::check()?;
     let flat = flat_tables(&built, &defs, scene, &ctx)?;
     Ok(Tables {
-        walks: WalkBounds::of(scene, &flat),
+        walks: WalkBounds::of(scene, &flat, traces_surface_rays(scene, params)),
         flat,
         defs,
         build_s: start.elapsed().as_secs_f64(),

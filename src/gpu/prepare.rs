@@ -14,7 +14,8 @@ use super::buffers::{BufferSizes, QueueSizes};
 use super::shaders::{Depths, Kernel, Stage, Variant};
 use crate::arith::precision::f32_need;
 use crate::coherence::reach::WalkBounds;
-use crate::coherence::{self, BuildParams, FlatTables, Tables};
+use crate::coherence::{self, BuildParams, FlatTables, OriginKey, Tables};
+use crate::cost::AutoAccel;
 use crate::error::{Error, Result};
 use crate::job::{Accel, Precision, RenderOptions, SurfaceWalk};
 use crate::layout::budget::{self, check_loop_budget, MAX_DEPTH, TESTS_PER_DISPATCH};
@@ -138,6 +139,21 @@ pub fn choose(scene: &Scene, opts: &RenderOptions, caps: Option<&Capabilities>) 
     }
     if o.accel == Accel::Auto {
         o.accel = Accel::Cube;
+        // Without an adapter (`cuberay tables`) every origin gets its table: a stored file
+        // is for renders that share one build.
+        if caps.is_some() {
+            let shadows = scene.effects().shadows;
+            let params = table_params(scene, &o, scene.effects());
+            let threads = rayon::current_num_threads();
+            let auto = AutoAccel::predict(scene, eye_rays(&o), shadows, &params, threads);
+            log::info!("accelerator: {}", auto.reason());
+            if auto.any() {
+                o.untabled = auto.untabled();
+            } else {
+                o.accel = Accel::Bvh;
+            }
+            o.auto_accel = Some(auto);
+        }
     }
     let Some(caps) = caps else { return Ok(o) };
     check_f64(caps, &o)?;
@@ -162,6 +178,15 @@ pub fn choose(scene: &Scene, opts: &RenderOptions, caps: Option<&Capabilities>) 
         };
     }
     Ok(o)
+}
+
+/// The eye rays a render with `opts` traces: a ray per grid point of its region and sample.
+fn eye_rays(opts: &RenderOptions) -> u64 {
+    let samples = match opts.sampling {
+        Sampling::Pixels => opts.spp.max(1) as u64,
+        Sampling::Corners => 1,
+    };
+    opts.grid_region().points() * samples
 }
 
 /// Whether rays leaving surfaces go to ray queries by default on an adapter that has them:
@@ -194,8 +219,17 @@ pub fn variant(
         .with_shapes(scene.shapes())
         .with_counters(opts.count);
     let params = table_params(scene, opts, v.effects);
-    let directional = scene.lights.iter().any(|l| l.kind == LightKind::Directional);
-    v.with_surface_rays(coherence::traces_surface_rays(scene, &params)).with_bvh_shadows(directional)
+    let bvh_shadows = coherence::untabled_lights(scene, &params);
+    let v = v.with_surface_rays(coherence::traces_surface_rays(scene, &params)).with_bvh_shadows(bvh_shadows);
+    // An eye without a table sends its rays where rays leaving surfaces go, whatever the
+    // effects.
+    Variant { surface_rays: v.surface_rays || eye_untabled(scene, opts), ..v }
+}
+
+/// Whether the eye of a non-empty `scene` rendered with `opts` has no table (`--accel auto`
+/// left it without), its rays walking the BVH.
+fn eye_untabled(scene: &Scene, opts: &RenderOptions) -> bool {
+    opts.accel == Accel::Cube && opts.untabled.contains(&OriginKey::Eye) && !scene.primitives.is_empty()
 }
 
 /// How the tables of a render with `opts` whose kernels simulate `effects` are built: for
@@ -213,6 +247,7 @@ pub fn table_params(scene: &Scene, opts: &RenderOptions, effects: Effects) -> Bu
         spawn: opts.spawn,
         effects: Some(effects),
         eye_n: opts.eye_cells,
+        untabled: opts.untabled.clone(),
         ..BuildParams::default()
     }
 }
@@ -286,6 +321,7 @@ pub fn plan(scene: &Scene, opts: &RenderOptions, caps: &Capabilities, purpose: P
     };
     let stages = match purpose {
         Purpose::Aov(_) => vec![Stage { kernel: Kernel::Aov, depths: Depths::All }],
+        _ if eye_untabled(scene, &opts) => Kernel::wavefront_untabled_eye(variant),
         _ => Kernel::wavefront(variant),
     };
     Ok(Plan { opts, purpose, variant, stages, serves })
@@ -400,7 +436,7 @@ fn take_tables(
     let set = match stored {
         Some(t) => {
             t.flat.check_scene(scene.primitives.len(), scene.lights.len())?;
-            let walks = WalkBounds::of(scene, &t.flat);
+            let walks = WalkBounds::of(scene, &t.flat, coherence::traces_surface_rays(scene, &params));
             add_surface_walk(packed, scene, &params, serves.surface_rq);
             TableSet::Stored(t, walks)
         }

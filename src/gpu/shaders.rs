@@ -108,6 +108,20 @@ impl Kernel {
         k
     }
 
+    /// [`Kernel::wavefront`] for a render with the tables whose eye has none (`--accel
+    /// auto` left it without): the eye's rays walk what the later depths' rays walk, so one
+    /// `nearest` module, the later depths', serves every depth.
+    pub fn wavefront_untabled_eye(variant: Variant) -> Vec<Stage> {
+        Kernel::wavefront(variant)
+            .into_iter()
+            .filter(|s| s.depths != Depths::Eye)
+            .map(|s| match s.depths {
+                Depths::Later => Stage { depths: Depths::Untabled, ..s },
+                _ => s,
+            })
+            .collect()
+    }
+
     /// The kernel's name: its file stem, entry point (compute kernels) and pipeline label.
     pub fn name(self) -> &'static str {
         match self {
@@ -150,6 +164,9 @@ pub enum Depths {
     /// walk of these rays cost up to 37 % more than the BVH kernel's (mount_s6), and its eye
     /// walks carried the BVH loop.
     Later,
+    /// Every depth, in the module of [`Depths::Later`]: the eye has no table
+    /// ([`Kernel::wavefront_untabled_eye`]).
+    Untabled,
 }
 
 /// A wavefront kernel and the depths it serves ([`Kernel::wavefront`]).
@@ -165,7 +182,7 @@ impl Stage {
         match self.depths {
             Depths::All => self.kernel.variant_of(variant),
             Depths::Eye => variant.with_surface_rays(false),
-            Depths::Later => {
+            Depths::Later | Depths::Untabled => {
                 let accel = if variant.surface_rq { Accel::RayQuery } else { Accel::Bvh };
                 Variant { accel, surface_rays: true, ..variant }
             }
@@ -178,6 +195,7 @@ impl Stage {
             Depths::All => true,
             Depths::Eye => depth <= 1,
             Depths::Later => depth > 1,
+            Depths::Untabled => true,
         }
     }
 }

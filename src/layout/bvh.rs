@@ -229,6 +229,7 @@ impl GpuBvh {
             mean_list,
             planned: worst.min(16 * mean_list as u64),
             fallback_reachable: false,
+            eye_untabled: false,
             mixed: false,
         }
     }

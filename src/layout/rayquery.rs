@@ -75,6 +75,7 @@ pub fn walk_bounds(boxes: &[RqBox]) -> WalkBounds {
         mean_list,
         planned: 1,
         fallback_reachable: false,
+        eye_untabled: false,
         mixed: false,
     }
 }

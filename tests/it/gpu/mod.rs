@@ -18,7 +18,9 @@
 //!   limit;
 //! - `device`: kernels compiled once per effect set, an uncounted render, memory over a long
 //!   render, a lost device, the first dispatch timed apart;
-//! - `commands`: `render` and `compare` on the GPU from the command line.
+//! - `commands`: `render` and `compare` on the GPU from the command line;
+//! - `split`: primitives split over several bindings;
+//! - `untabled`: `--accel auto`'s origins without a table, and what it chooses.
 
 use crate::common::renderer;
 use cuberay::compare::compare;
@@ -35,6 +37,7 @@ mod commands;
 mod device;
 mod gltf_samples;
 mod split;
+mod untabled;
 
 fn hidden() -> ProgressBar {
     ProgressBar::hidden()

@@ -1,0 +1,185 @@
+//! What `--accel auto` weighs, per origin (the eye, each point or spot light): the predicted
+//! time to build the origin's direction-cube table against the kernel time the table saves
+//! the rays traced from it, over the BVH those rays walk otherwise. A table is built only
+//! where it pays; with none, the render is `--accel bvh`.
+//!
+//! The model is linear and deliberately simple (docs/performance.md, "what auto weighs",
+//! has the measurements it is calibrated on, and `cuberay bench` prints the measured build
+//! and kernel times beside its predictions for any scene):
+//! - an origin's build costs [`BUILD_S_PER_PRIM`] of one core per primitive, spread over
+//!   the build's threads;
+//! - an eye ray traced through the eye's table instead of the BVH saves [`SAVED_S_PER_EYE_RAY`],
+//!   a shadow ray through its light's table [`SAVED_S_PER_SHADOW_RAY`]; a render traces one
+//!   eye ray per grid point and sample, and about one shadow ray per light and eye ray.
+//!
+//! The tables' saving per ray shrinks as the scene grows (at a million primitives the
+//! kernels measured the same with either), while the build grows with it: the model keeps
+//! the saving constant, which errs towards the tables only where both are small.
+
+use crate::coherence::{BuildParams, OriginKey};
+use crate::scene::{LightKind, Scene};
+
+/// Seconds of one core an origin's table build costs per primitive and per cell of its
+/// cube (docs/performance.md, "what auto weighs").
+pub const BUILD_S_PER_PRIM: f64 = 1.0e-6;
+pub const BUILD_S_PER_CELL: f64 = 0.5e-6;
+
+/// Kernel seconds an eye ray saves walking the eye's table instead of the wide BVH (the
+/// canonical SPD at 512², Mesa 22.3: 0.06–0.7 µs, median 0.13).
+pub const SAVED_S_PER_EYE_RAY: f64 = 0.1e-6;
+
+/// Kernel seconds a shadow ray saves walking its light's table instead of the wide BVH.
+pub const SAVED_S_PER_SHADOW_RAY: f64 = 0.05e-6;
+
+/// One origin's prediction.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OriginCost {
+    pub key: OriginKey,
+    /// Rays the render traces from it.
+    pub rays: u64,
+    /// Predicted seconds of its table's build, and of kernel time the table saves.
+    pub build_s: f64,
+    pub saved_s: f64,
+}
+
+impl OriginCost {
+    /// Whether the table pays for its build.
+    pub fn pays(&self) -> bool {
+        self.build_s < self.saved_s
+    }
+
+    /// "the eye", "light 2".
+    pub fn name(&self) -> String {
+        match self.key {
+            OriginKey::Eye => "the eye".into(),
+            OriginKey::Light(i) => format!("light {i}"),
+            OriginKey::Surface(_) => "a surface".into(),
+        }
+    }
+}
+
+/// What `--accel auto` chose for a render, and why.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AutoAccel {
+    /// Every origin that could have a table, with its prediction.
+    pub origins: Vec<OriginCost>,
+}
+
+impl AutoAccel {
+    /// Predicts the tables of `scene` for a render tracing `eye_rays` eye rays, with shadow
+    /// rays if `shadows`, built with `params` (the eye's cells from its image, the lights'
+    /// from their budget) on `threads` build threads.
+    pub fn predict(
+        scene: &Scene,
+        eye_rays: u64,
+        shadows: bool,
+        params: &BuildParams,
+        threads: usize,
+    ) -> AutoAccel {
+        let (w, h) = params.eye_image(scene);
+        let eye_cells = (w as f64 * h as f64) / (params.eye_pixels_per_cell * params.eye_pixels_per_cell);
+        let build_s = |cells: f64| {
+            (BUILD_S_PER_PRIM * scene.primitives.len() as f64 + BUILD_S_PER_CELL * cells)
+                / threads.max(1) as f64
+        };
+        let mut origins = Vec::new();
+        if !scene.primitives.is_empty() {
+            origins.push(OriginCost {
+                key: OriginKey::Eye,
+                rays: eye_rays,
+                build_s: build_s(eye_cells),
+                saved_s: eye_rays as f64 * SAVED_S_PER_EYE_RAY,
+            });
+            if shadows {
+                for (i, l) in scene.lights.iter().enumerate() {
+                    if l.kind != LightKind::Directional {
+                        origins.push(OriginCost {
+                            key: OriginKey::Light(i),
+                            rays: eye_rays,
+                            build_s: build_s(params.light_cells as f64),
+                            saved_s: eye_rays as f64 * SAVED_S_PER_SHADOW_RAY,
+                        });
+                    }
+                }
+            }
+        }
+        AutoAccel { origins }
+    }
+
+    /// Whether any table pays: the render is `cube`, else `bvh`.
+    pub fn any(&self) -> bool {
+        self.origins.iter().any(OriginCost::pays)
+    }
+
+    /// The origins left without a table.
+    pub fn untabled(&self) -> Vec<OriginKey> {
+        self.origins.iter().filter(|o| !o.pays()).map(|o| o.key).collect()
+    }
+
+    /// One line for `info` and `--stats`: what was chosen for each origin, with the
+    /// predicted seconds.
+    pub fn reason(&self) -> String {
+        if self.origins.is_empty() {
+            return "no origin to build a table for".into();
+        }
+        let list = |pays: bool| -> Vec<String> {
+            self.origins
+                .iter()
+                .filter(|o| o.pays() == pays)
+                .map(|o| format!("{} ({:.3} s to build, {:.3} s saved)", o.name(), o.build_s, o.saved_s))
+                .collect()
+        };
+        let (tabled, untabled) = (list(true), list(false));
+        match (tabled.is_empty(), untabled.is_empty()) {
+            (true, _) => format!("no table pays for its build: the BVH for all: {}", untabled.join(", ")),
+            (false, true) => format!("every table pays for its build: {}", tabled.join(", ")),
+            (false, false) => {
+                format!("tables for {}; the BVH for {}", tabled.join(", "), untabled.join(", "))
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene_of(prims: usize, lights: usize) -> Scene {
+        crate::load::nff::parse(
+            &format!(
+                "v\nfrom 0 0 -10\nat 0 0 0\nup 0 1 0\nangle 40\nhither 1\nresolution 64 64\n{}f 1 1 1 0.5 0.5 0 0 1\n{}",
+                (0..lights).map(|i| format!("l {i} 5 -5\n")).collect::<String>(),
+                (0..prims).map(|i| format!("s {} 0 0 0.1\n", i as f64 * 0.01)).collect::<String>()
+            ),
+            std::path::Path::new("t.nff"),
+        )
+        .unwrap()
+        .scene
+    }
+
+    /// Small scenes in big images take every table, big scenes in small images none, and
+    /// an eye's table pays before a light's (its rays save more).
+    #[test]
+    fn tables_pay_where_rays_outnumber_primitives() {
+        let (small, big) = (scene_of(100, 2), scene_of(20_000, 2));
+        // No cells to speak of: the primitives decide.
+        let params = BuildParams { image: Some((2, 2)), light_cells: 1, ..BuildParams::default() };
+        let all = AutoAccel::predict(&small, 512 * 512, true, &params, 2);
+        assert_eq!(all.origins.len(), 3);
+        assert!(all.untabled().is_empty(), "{}", all.reason());
+        let none = AutoAccel::predict(&big, 64 * 64, true, &params, 2);
+        assert!(!none.any(), "{}", none.reason());
+        assert!(none.reason().starts_with("no table pays"), "{}", none.reason());
+        // 20,000 primitives on 2 threads cost a table BUILD_S_PER_PRIM·10,000; the eye's
+        // table saves 1.5 times that, a light's 0.75 times.
+        let rays = (1.5 * BUILD_S_PER_PRIM * 10_000.0 / SAVED_S_PER_EYE_RAY) as u64;
+        let eye = AutoAccel::predict(&big, rays, true, &params, 2);
+        assert_eq!(eye.untabled(), vec![OriginKey::Light(0), OriginKey::Light(1)], "{}", eye.reason());
+        assert!(eye.reason().starts_with("tables for the eye"), "{}", eye.reason());
+        let unlit = AutoAccel::predict(&small, 512 * 512, false, &params, 2);
+        assert_eq!(unlit.origins.len(), 1);
+        // A light's cells cost its table too.
+        let cells = BuildParams { light_cells: 1 << 30, ..params };
+        assert_eq!(AutoAccel::predict(&small, 512 * 512, true, &cells, 2).untabled().len(), 2);
+    }
+}
