@@ -148,6 +148,41 @@ struct Report<'a> {
     runs: u32,
     adapter: Option<String>,
     rows: &'a [Row],
+    auto: &'a [AutoCheck],
+}
+
+/// `--accel auto`'s cost model ([`cuberay::cost`]) beside what it predicts, for a scene
+/// benched with both `cube` and `bvh` on the GPU: the tables' build summed over the origins
+/// and the kernel time they save, predicted, and as measured (the `cube` row's tables, the
+/// `bvh` row's kernel time less the `cube` row's). What the constants are calibrated on.
+#[derive(Serialize, Debug)]
+struct AutoCheck {
+    scene: String,
+    /// What auto chose, and why.
+    chose: String,
+    predicted_build_s: f64,
+    predicted_saved_s: f64,
+    measured_build_s: f64,
+    measured_saved_s: f64,
+}
+
+impl AutoCheck {
+    /// The check of `scene` from its GPU rows, if it has a `cube` and a `bvh` row.
+    fn of(scene: &cuberay::scene::Scene, opts: &RenderOptions, gpu: &GpuRenderer, rows: &[Row]) -> Option<AutoCheck> {
+        let row = |a: &str| rows.iter().find(|r| r.backend == "gpu" && r.accel == a);
+        let (cube, bvh) = (row("cube")?, row("bvh")?);
+        let auto_opts = RenderOptions { accel: Accel::Auto, ..opts.clone() };
+        let chosen = cuberay::gpu::choose(scene, &auto_opts, Some(&gpu.caps)).ok()?;
+        let auto = chosen.auto_accel?;
+        Some(AutoCheck {
+            scene: cube.scene.clone(),
+            chose: format!("{}: {}", chosen.accel.name(), auto.reason()),
+            predicted_build_s: auto.origins.iter().map(|o| o.build_s).sum(),
+            predicted_saved_s: auto.origins.iter().map(|o| o.saved_s).sum(),
+            measured_build_s: cube.phases.tables_s,
+            measured_saved_s: bvh.kernel_s - cube.kernel_s,
+        })
+    }
 }
 
 /// What one timed run cost.
@@ -226,7 +261,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     }
     let scenes = scene_paths(&args)?;
     let gpu = if args.backend.contains(&BenchBackend::Gpu) { Some(GpuRenderer::new()?) } else { None };
-    let mut rows = Vec::new();
+    let (mut rows, mut checks) = (Vec::new(), Vec::new());
     let progress = progress_bar("bench");
     for path in &scenes {
         let load_start = std::time::Instant::now();
@@ -237,7 +272,11 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         for &backend in &args.backend {
             let bench =
                 Bench { args: &args, gpu: gpu.as_ref(), scene: &loaded.scene, name: &name, backend, load_s };
-            rows.extend(bench.rows(&progress)?);
+            let scene_rows = bench.rows(&progress)?;
+            if let (BenchBackend::Gpu, Some(g)) = (backend, gpu.as_ref()) {
+                checks.extend(AutoCheck::of(&loaded.scene, &bench.options(Accel::Auto, false), g, &scene_rows));
+            }
+            rows.extend(scene_rows);
         }
         progress.inc(1);
     }
@@ -251,10 +290,17 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             runs: args.runs,
             adapter,
             rows: &rows,
+            auto: &checks,
         };
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
         print!("{}", table(&rows, &args, adapter.as_deref()));
+        for c in &checks {
+            println!(
+                "\nauto on {}: predicted build {:.3} s, saved {:.3} s; measured build {:.3} s, saved {:.3} s; chose {}",
+                c.scene, c.predicted_build_s, c.predicted_saved_s, c.measured_build_s, c.measured_saved_s, c.chose
+            );
+        }
     }
     Ok(())
 }
@@ -285,15 +331,10 @@ struct Bench<'a> {
 }
 
 impl Bench<'_> {
-    /// A render with `accel`, counted or not.
-    fn render(
-        &self,
-        accel: Accel,
-        count: bool,
-        progress: &indicatif::ProgressBar,
-    ) -> anyhow::Result<Rendered> {
+    /// The options of a render with `accel`, counted or not.
+    fn options(&self, accel: Accel, count: bool) -> RenderOptions {
         let args = self.args;
-        let opts = RenderOptions {
+        RenderOptions {
             sampling: args.sampling.into(),
             max_depth: args.max_depth,
             accel,
@@ -301,7 +342,17 @@ impl Bench<'_> {
             count,
             precision: args.precision.into(),
             ..RenderOptions::new(args.width, args.height)
-        };
+        }
+    }
+
+    /// A render with `accel`, counted or not.
+    fn render(
+        &self,
+        accel: Accel,
+        count: bool,
+        progress: &indicatif::ProgressBar,
+    ) -> anyhow::Result<Rendered> {
+        let opts = self.options(accel, count);
         let what =
             format!("{}, --accel {} --backend {:?}", self.name, accel.name(), self.backend).to_lowercase();
         progress.set_message(what.clone());
