@@ -74,8 +74,8 @@ pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
             }
             continue;
         }
-        for &tid in &ctx.bvh.order[node.first as usize..(node.first + node.count) as usize] {
-            let t = &ctx.targets[tid as usize];
+        for pos in node.first as usize..(node.first + node.count) as usize {
+            let (tid, t) = (ctx.bvh.order[pos], &ctx.targets[pos]);
             let p = Pair::new(c, r, t, eps, delta, min_cover);
             if def.kind == OriginKind::Light && is_wide(&p) {
                 // Huge objects (ground polygons) around a light: tested for every shadow ray
