@@ -44,8 +44,11 @@ pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
             break;
         }
         let node = ctx.bvh.nodes[ni as usize];
-        // Skip the subtree when every cell its bound meets is already cut off before it.
-        if let Some(k) = sphere_cone(c, r, node.center, node.radius + eps, delta) {
+        // Skip the subtree when every cell its bound meets is already cut off before it
+        // (which needs some cut: on meshes of tiny triangles there is often none).
+        let cone =
+            if cells.any_cut() { sphere_cone(c, r, node.center, node.radius + eps, delta) } else { None };
+        if let Some(k) = cone {
             if k.theta < CULL_THETA {
                 let hidden = cells.raster(
                     Some(&k),

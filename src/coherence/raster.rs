@@ -36,6 +36,8 @@ pub struct Cells {
     /// Per face and level `k ≥ 1` of the pyramid, the largest cut of each block's cells:
     /// a bound farther than that is hidden in the whole block.
     max_cut: [Vec<Vec<Cell<f64>>>; 6],
+    /// Whether any cut has been lowered: until then nothing is hidden.
+    any_cut: Cell<bool>,
 }
 
 /// The block cones of one face window, level by level from single cells up. Levels below
@@ -105,7 +107,7 @@ impl Cells {
                 .collect()
         });
         let cut = vec![Cell::new(f64::INFINITY); total];
-        Cells { n: def.n, win: def.window, base, total, pyramids, cut, max_cut }
+        Cells { n: def.n, win: def.window, base, total, pyramids, cut, max_cut, any_cut: Cell::new(false) }
     }
 
     /// The cone of window cell `(iu, iv)` of face `f`.
@@ -144,6 +146,12 @@ impl Cells {
         self.cut[i].get()
     }
 
+    /// Whether some cell's cut-off is finite (before that, no bound is hidden anywhere).
+    #[inline]
+    pub fn any_cut(&self) -> bool {
+        self.any_cut.get()
+    }
+
     /// Lowers the cut-off of local cell `i` to `t` (when nearer), keeping the block maxima.
     pub fn lower_cut(&self, i: usize, t: f64) {
         let old = self.cut[i].get();
@@ -151,6 +159,7 @@ impl Cells {
             return;
         }
         self.cut[i].set(t);
+        self.any_cut.set(true);
         let (f, iu, iv) = self.locate(i);
         let w = self.win[f].unwrap();
         let (x, y) = (iu - w[0], iv - w[1]);
