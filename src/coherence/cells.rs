@@ -119,12 +119,19 @@ impl Cone {
     /// which holds whenever the cap meets the cell (conservative).
     #[inline]
     pub fn meets(&self, cell: &CellCone) -> bool {
+        self.meets_axis(cell.m, cell.cos_b, cell.sin_b)
+    }
+
+    /// Test A for a cell given by its cone alone: centre `m` and the cosine and sine of β
+    /// (the test reads nothing else, so a caller need not compute the corners).
+    #[inline]
+    pub fn meets_axis(&self, m: DVec3, cos_b: f64, sin_b: f64) -> bool {
         // θ + β ≥ π, as cosines: cos β ≤ cos(π − θ).
-        if cell.cos_b <= -self.cos_t {
+        if cos_b <= -self.cos_t {
             return true;
         }
         // cos(θ + β) = cosθ·cosβ − sinθ·sinβ
-        self.axis.dot(cell.m) >= self.cos_t * cell.cos_b - self.sin_t * cell.sin_b
+        self.axis.dot(m) >= self.cos_t * cos_b - self.sin_t * sin_b
     }
 
     /// True when the whole cell lies inside the cap (angle(axis, m) + β ≤ θ).

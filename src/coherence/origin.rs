@@ -53,7 +53,7 @@ pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
                 let hidden = cells.raster(
                     Some(&k),
                     node_dmin,
-                    |cell| k.meets(cell),
+                    |_| true,
                     |cell| k.contains(cell),
                     |it, _| {
                         for i in it {
@@ -89,7 +89,7 @@ pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
             cells.raster(
                 p.cone.as_ref(),
                 p.dmin,
-                |cell| p.meets(cell),
+                |cell| p.meets_beyond_cone(cell),
                 |cell| p.inside(cell),
                 |it, cell| {
                     let dm = p.cell_dmin(cell);

@@ -18,9 +18,7 @@ use std::cell::Cell;
 
 use glam::DVec3;
 
-use super::cells::{
-    cell_span, edge_coord, face_dir, region_cone, region_cone_with, region_corners, CellCone, Cone,
-};
+use super::cells::{cell_span, edge_coord, face_dir, region_cone, region_cone_with, CellCone, Cone};
 use super::defs::OriginDef;
 
 /// Cells of an origin's work windows, with the block pyramids of their cones.
@@ -44,7 +42,8 @@ pub struct Cells {
 /// `first` are not stored (their cones are computed when asked), so huge windows keep the
 /// cones' memory bounded (the per-cell cuts and the corner lengths, 16 bytes a cell, are
 /// always kept). A block's corners are grid vertices of the window, so their
-/// lengths are stored once per vertex and the corners themselves recomputed (no root).
+/// lengths are stored once per vertex, and the corners themselves are built from the
+/// stored coordinates of the window's grid lines (no division, no root).
 #[derive(Default)]
 struct Pyramid {
     /// Blocks per row and column at each level.
@@ -54,6 +53,10 @@ struct Pyramid {
     levels: Vec<Vec<Axis>>,
     /// `|face_dir(u, v)|` at the window's `(width + 1) × (height + 1)` cell corners.
     corner_len: Vec<f64>,
+    /// The window's grid lines: `us[k]` is [`edge_coord`] of column boundary `iu0 + k`,
+    /// `vs[k]` of row boundary `iv0 + k`.
+    us: Vec<f64>,
+    vs: Vec<f64>,
 }
 
 /// The part of a block's cone the cone tests read first: its axis and half-angle.
@@ -121,17 +124,30 @@ impl Cells {
     /// ([`Cells::block_rect`], which the caller has at hand).
     #[inline]
     fn block(&self, f: usize, level: usize, bx: u32, by: u32, r: [u32; 4]) -> CellCone {
+        self.with_corners(f, self.block_axis(f, level, bx, by, r), r)
+    }
+
+    /// The axis part of [`Cells::block`]: all that Test A reads.
+    #[inline]
+    fn block_axis(&self, f: usize, level: usize, bx: u32, by: u32, r: [u32; 4]) -> Axis {
         let p = &self.pyramids[f];
         if level < p.first {
-            return region_cone(f, r, self.n);
+            let c = region_cone(f, r, self.n);
+            return Axis { m: c.m, cos_b: c.cos_b, sin_b: c.sin_b };
         }
-        let Axis { m, cos_b, sin_b } = p.levels[level - p.first][(by * p.dims[level][0] + bx) as usize];
+        p.levels[level - p.first][(by * p.dims[level][0] + bx) as usize]
+    }
+
+    /// The whole cone of block `r` of face `f`, from its axis part.
+    #[inline]
+    fn with_corners(&self, f: usize, a: Axis, r: [u32; 4]) -> CellCone {
+        let (p, w) = (&self.pyramids[f], self.win[f].unwrap());
         CellCone {
-            m,
-            cos_b,
-            sin_b,
-            corners: region_corners(f, r, self.n),
-            corner_len: p.lens(self.win[f].unwrap(), r),
+            m: a.m,
+            cos_b: a.cos_b,
+            sin_b: a.sin_b,
+            corners: p.corners(f, w, r),
+            corner_len: p.lens(w, r),
         }
     }
 
@@ -222,6 +238,8 @@ impl Cells {
     /// misses are dropped, blocks of at most `2^BULK_LEVEL` cells a side wholly inside it are
     /// emitted at once (one `d_min` and cover test for the block), others are split into their
     /// four children down to single cells. Only cells inside the bound's rectangle are emitted.
+    /// `meets` is asked only about blocks `cone` meets (Test A), so it need not test the
+    /// cone again.
     /// `emit(cells, block)` receives the local cell indices and the cone of the block they
     /// were emitted from (which may reach past them, and past the rectangle); it
     /// returns false to stop the rasterisation (then `raster` returns false). Cells and blocks
@@ -248,7 +266,12 @@ impl Cells {
                         if self.cut[i].get() < beyond {
                             continue;
                         }
-                        let cell = self.cone(f, iu, iv);
+                        let r = [iu, iv, iu, iv];
+                        let axis = self.block_axis(f, 0, iu - w[0], iv - w[1], r);
+                        if cone.is_some_and(|k| !k.meets_axis(axis.m, axis.cos_b, axis.sin_b)) {
+                            continue;
+                        }
+                        let cell = self.with_corners(f, axis, r);
                         if meets(&cell) && !emit(&mut std::iter::once(i), &cell) {
                             return false;
                         }
@@ -276,7 +299,11 @@ impl Cells {
                 if self.max_cut_at(f, level, bx, by) < beyond {
                     continue;
                 }
-                let region = self.block(f, level, bx, by, b);
+                let axis = self.block_axis(f, level, bx, by, b);
+                if cone.is_some_and(|k| !k.meets_axis(axis.m, axis.cos_b, axis.sin_b)) {
+                    continue;
+                }
+                let region = self.with_corners(f, axis, b);
                 if !meets(&region) {
                     continue;
                 }
@@ -321,8 +348,17 @@ fn block_rect(w: [u32; 4], level: usize, bx: u32, by: u32) -> [u32; 4] {
 }
 
 impl Pyramid {
-    /// The stored lengths of the corners of block `r` (as [`region_corners`] orders them) of
-    /// window `w`.
+    /// The corners of block `r` of window `w` on face `f`, as
+    /// [`region_corners`](super::cells::region_corners) computes them.
+    #[inline]
+    fn corners(&self, f: usize, w: [u32; 4], r: [u32; 4]) -> [DVec3; 4] {
+        let (u0, u1) = (self.us[(r[0] - w[0]) as usize], self.us[(r[2] + 1 - w[0]) as usize]);
+        let (v0, v1) = (self.vs[(r[1] - w[1]) as usize], self.vs[(r[3] + 1 - w[1]) as usize]);
+        [face_dir(f, u0, v0), face_dir(f, u1, v0), face_dir(f, u1, v1), face_dir(f, u0, v1)]
+    }
+
+    /// The stored lengths of the corners of block `r` (as
+    /// [`region_corners`](super::cells::region_corners) orders them) of window `w`.
     #[inline]
     fn lens(&self, w: [u32; 4], r: [u32; 4]) -> [f64; 4] {
         let len = |iu: u32, iv: u32| self.corner_len[((iv - w[1]) * (w[2] + 1) + iu - w[0]) as usize];
@@ -338,13 +374,15 @@ impl Pyramid {
             dims.push([d[0].div_ceil(2), d[1].div_ceil(2)]);
         }
         let first = first.min(dims.len() - 1);
-        let mut corner_len = Vec::with_capacity(((w[2] + 1) * (w[3] + 1)) as usize);
-        for iv in w[1]..=w[1] + w[3] {
-            for iu in w[0]..=w[0] + w[2] {
-                corner_len.push(face_dir(f, edge_coord(iu, n), edge_coord(iv, n)).length());
+        let us: Vec<f64> = (w[0]..=w[0] + w[2]).map(|iu| edge_coord(iu, n)).collect();
+        let vs: Vec<f64> = (w[1]..=w[1] + w[3]).map(|iv| edge_coord(iv, n)).collect();
+        let mut corner_len = Vec::with_capacity(us.len() * vs.len());
+        for &v in &vs {
+            for &u in &us {
+                corner_len.push(face_dir(f, u, v).length());
             }
         }
-        let mut p = Pyramid { dims, first, levels: Vec::new(), corner_len };
+        let mut p = Pyramid { dims, first, levels: Vec::new(), corner_len, us, vs };
         p.levels = (first..p.dims.len())
             .map(|k| {
                 let [bw, bh] = p.dims[k];
