@@ -212,15 +212,21 @@ impl Cone {
     }
 }
 
-/// The cell index range `[lo, hi]` (inclusive) covering coordinates `[a, b]`, widened by one
-/// cell on each side for rounding.
+/// The cell index range `[lo, hi]` (inclusive) covering coordinates `[a, b]`, widened by
+/// [`SPAN_SLACK`] of a cell on each side, so that a bound ending on a cell boundary keeps the
+/// cells on both sides. The rectangles spanned are already conservative in f64 for caps
+/// widened by δ, which covers the f32 lookup; the slack covers only the rounding of this
+/// product. (It was a whole cell: a target under a cell then tested 9–16 cells to emit 1–4.)
 #[inline]
 pub fn cell_span(a: f64, b: f64, n: u32) -> (u32, u32) {
     let nf = n as f64;
-    let lo = (((a + 1.0) * 0.5 * nf).floor() - 1.0).clamp(0.0, nf - 1.0) as u32;
-    let hi = (((b + 1.0) * 0.5 * nf).floor() + 1.0).clamp(0.0, nf - 1.0) as u32;
+    let lo = ((a + 1.0) * 0.5 * nf - SPAN_SLACK).floor().clamp(0.0, nf - 1.0) as u32;
+    let hi = ((b + 1.0) * 0.5 * nf + SPAN_SLACK).floor().clamp(0.0, nf - 1.0) as u32;
     (lo, hi)
 }
+
+/// How far past a rectangle [`cell_span`] reaches, in cells.
+pub const SPAN_SLACK: f64 = 1e-6;
 
 #[cfg(test)]
 mod tests {
@@ -264,6 +270,72 @@ mod tests {
         }
         assert_eq!(b_only, 0, "Test A missed cells Test B found");
         assert!(a_count >= b_count && b_count > 0);
+    }
+
+    /// Caps smaller than a cell, up to a few cells, anywhere on the cube (at cell boundaries
+    /// and cube edges too): every direction sampled in the cap, and every cell near the span
+    /// that the cap meets exactly, lies in the spans of the face rectangles.
+    #[test]
+    fn spans_hold_small_caps() {
+        let mut s = 0x6a09e667u64;
+        for round in 0..3000 {
+            let n = [7, 64, 339, 1024, 16384][round % 5];
+            let cell = 2.0 / n as f64;
+            let mut axis = unit(&mut s);
+            if round % 3 == 0 {
+                // On a cell boundary line of some face, or on a cube edge.
+                let i = (rng(&mut s) * 3.0) as usize % 3;
+                let m = axis.abs().max_element();
+                let k = ((axis[(i + 1) % 3] / m + 1.0) / cell).round();
+                axis[(i + 1) % 3] = (-1.0 + k * cell) * m;
+                if round % 9 == 0 {
+                    axis[(i + 2) % 3] = axis[i].abs().copysign(axis[(i + 2) % 3]);
+                }
+                axis = axis.normalize();
+            }
+            let cone = Cone::new(axis, rng(&mut s) * 3.0 * cell + 1e-9);
+            let rects: Vec<_> = (0..6).map(|f| cone.face_rect(f)).collect();
+            let in_span = |f: usize, iu: u32, iv: u32| {
+                rects[f].is_some_and(|r| {
+                    let (lu, hu) = cell_span(r[0], r[1], n);
+                    let (lv, hv) = cell_span(r[2], r[3], n);
+                    lu <= iu && iu <= hu && lv <= iv && iv <= hv
+                })
+            };
+            for _ in 0..20 {
+                // A direction in the cap, and every cell whose closed square holds it.
+                let t = cone.theta * rng(&mut s).sqrt();
+                let side = cone.axis.any_orthonormal_vector().rotate_axis(cone.axis, rng(&mut s) * 6.3);
+                let w = cone.axis * t.cos() + side * t.sin();
+                for f in 0..6 {
+                    let (ax, sg) = (f / 2, if f % 2 == 1 { -1.0 } else { 1.0 });
+                    let m = sg * w[ax];
+                    if m <= 0.0 || m < w[(ax + 1) % 3].abs() || m < w[(ax + 2) % 3].abs() {
+                        continue;
+                    }
+                    let (u, v) = (w[(ax + 1) % 3] / m, w[(ax + 2) % 3] / m);
+                    let (iu, iv) = (((u + 1.0) / cell).floor(), ((v + 1.0) / cell).floor());
+                    let (iu, iv) =
+                        (iu.clamp(0.0, n as f64 - 1.0) as u32, iv.clamp(0.0, n as f64 - 1.0) as u32);
+                    assert!(in_span(f, iu, iv), "a direction of the cap lies outside the span (n {n})");
+                }
+            }
+            for (f, r) in rects.iter().enumerate() {
+                let Some(r) = r else { continue };
+                let (lu, hu) = cell_span(r[0], r[1], n);
+                let (lv, hv) = cell_span(r[2], r[3], n);
+                for iv in lv.saturating_sub(2)..=(hv + 2).min(n - 1) {
+                    for iu in lu.saturating_sub(2)..=(hu + 2).min(n - 1) {
+                        if cone.meets_exact(&cell_cone(f, iu, iv, n)) {
+                            assert!(
+                                in_span(f, iu, iv),
+                                "cell ({iu}, {iv}) of face {f} meets the cap (n {n})"
+                            );
+                        }
+                    }
+                }
+            }
+        }
     }
 
     #[test]
