@@ -192,14 +192,15 @@ impl Cone {
         let [lo, hi] = self.range[ax];
         // Range of s·w[ax] over the cap.
         let (k_lo, k_hi) = if face % 2 == 1 { (-hi, -lo) } else { (lo, hi) };
-        // The face's pyramid is where s·w[ax] ≥ |w[i1]|, |w[i2]|, so it needs s·w[ax] > 0.
-        if k_hi <= 0.0 {
+        // The face's pyramid is where s·w[ax] ≥ |w[i1]|, |w[i2]|: a unit direction in it has
+        // s·w[ax] ≥ 1/√3. A cap that stays below misses the face (with a margin far above
+        // rounding: the lookup's f32 directions are within δ of the cap, inside it here).
+        if k_hi < PYRAMID_MIN {
             return None;
         }
-        if k_lo <= 1e-9 {
-            // The cap reaches the plane w[ax] = 0: no useful bound on the ratios.
-            return Some([-1.0, 1.0, -1.0, 1.0]);
-        }
+        // The ratios over the cap's directions in the pyramid, where s·w[ax] ≥ 1/√3 even when
+        // the cap reaches the plane w[ax] = 0.
+        let k_lo = k_lo.max(PYRAMID_MIN);
         let [l1, h1] = self.range[i1];
         let [l2, h2] = self.range[i2];
         let lo = |l: f64| if l < 0.0 { l / k_lo } else { l / k_hi };
@@ -211,6 +212,9 @@ impl Cone {
         Some(r)
     }
 }
+
+/// The smallest `s·w[ax]` of a unit direction in face `f`'s pyramid is 1/√3; less a margin.
+const PYRAMID_MIN: f64 = 0.577_350_269_189_625_8 - 1e-6;
 
 /// The cell index range `[lo, hi]` (inclusive) covering coordinates `[a, b]`, widened by
 /// [`SPAN_SLACK`] of a cell on each side, so that a bound ending on a cell boundary keeps the
@@ -270,6 +274,21 @@ mod tests {
         }
         assert_eq!(b_only, 0, "Test A missed cells Test B found");
         assert!(a_count >= b_count && b_count > 0);
+    }
+
+    /// A cap that stays out of a face's pyramid gets no rectangle there, though it reaches
+    /// past the plane 90° from the face's centre; one that enters it gets a rectangle inside
+    /// the face, not the whole face.
+    #[test]
+    fn face_rect_of_caps_beside_a_face() {
+        // 8° around +y: out of the +x and −x pyramids, though w[x] takes both signs.
+        let side = Cone::new(DVec3::Y, 0.14);
+        assert!(side.face_rect(0).is_none() && side.face_rect(1).is_none());
+        assert!(side.face_rect(2).is_some());
+        // 60° around +y reaches into +x's pyramid along its +u edge only.
+        let wide = Cone::new(DVec3::Y, 1.05);
+        let r = wide.face_rect(0).expect("the cap enters +x's pyramid");
+        assert!(r[1] == 1.0 && r[0] > 0.3, "{r:?}");
     }
 
     /// Caps smaller than a cell, up to a few cells, anywhere on the cube (at cell boundaries
@@ -338,12 +357,14 @@ mod tests {
         }
     }
 
+    /// Caps of every size up to nearly the whole sphere: every cell the cap meets lies in the
+    /// span of the face's rectangle.
     #[test]
     fn face_rect_contains_cap_cells() {
         let mut s = 12345u64;
         let n = 16;
-        for _ in 0..300 {
-            let cone = Cone::new(unit(&mut s), rng(&mut s) * 1.5);
+        for round in 0..600 {
+            let cone = Cone::new(unit(&mut s), rng(&mut s) * if round % 2 == 0 { 1.5 } else { 3.1 });
             for face in 0..6 {
                 let rect = cone.face_rect(face);
                 for iv in 0..n {
