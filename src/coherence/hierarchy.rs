@@ -42,6 +42,10 @@ pub struct Node {
 pub struct SphereTree {
     pub nodes: Vec<Node>,
     pub order: Vec<u32>,
+    /// Per node, over the occluders of its subtree (those that may prove a cell covered):
+    /// `[reach, largest]`, a bound on `|target centre − node centre| + target radius` and the
+    /// largest target radius; `[−∞, −∞]` when it holds none.
+    pub occluders: Vec<[f64; 2]>,
 }
 
 impl SphereTree {
@@ -50,7 +54,7 @@ impl SphereTree {
         let mut order: Vec<u32> = (0..targets.len() as u32).collect();
         let mut nodes = Vec::with_capacity(2 * targets.len() / LEAF + 1);
         if targets.is_empty() {
-            return SphereTree { nodes, order };
+            return SphereTree { nodes, order, occluders: Vec::new() };
         }
         nodes.push(Node { center: DVec3::ZERO, radius: 0.0, first: 0, count: 0 });
         // (node index, range start, range end)
@@ -83,8 +87,35 @@ impl SphereTree {
             stack.push((left, a, a + mid));
             stack.push((left + 1, a + mid, b));
         }
-        SphereTree { nodes, order }
+        let occluders = occluder_bounds(&nodes, &order, targets);
+        SphereTree { nodes, order, occluders }
     }
+}
+
+/// [`SphereTree::occluders`], leaves first (children come after their parent in `nodes`).
+fn occluder_bounds(nodes: &[Node], order: &[u32], targets: &[Target]) -> Vec<[f64; 2]> {
+    let none = [f64::NEG_INFINITY; 2];
+    let mut out = vec![none; nodes.len()];
+    for ni in (0..nodes.len()).rev() {
+        let n = nodes[ni];
+        let mut b = none;
+        if n.count == 0 {
+            for ch in [n.first as usize, n.first as usize + 1] {
+                let [reach, largest] = out[ch];
+                // Through the child's centre: a bound, not the exact reach.
+                b = [b[0].max(reach + (nodes[ch].center - n.center).length()), b[1].max(largest)];
+            }
+        } else {
+            for &i in &order[n.first as usize..(n.first + n.count) as usize] {
+                let t = &targets[i as usize];
+                if t.occluder {
+                    b = [b[0].max((t.center - n.center).length() + t.radius), b[1].max(t.radius)];
+                }
+            }
+        }
+        out[ni] = b;
+    }
+    out
 }
 
 #[cfg(test)]

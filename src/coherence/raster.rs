@@ -11,14 +11,14 @@
 //! block emitted whole are those of the whole aligned block, which may reach past the cells
 //! emitted: lower, or less often covering, never wrong.
 //!
-//! The cells also carry the builder's cut-offs, with the largest cut of every pyramid block,
-//! so that a bound lying beyond every cut of a block skips the block without testing it.
-
-use std::cell::Cell;
+//! The cells also carry the builder's cut-offs ([`Cuts`]), with the largest cut of every
+//! pyramid block, so that a bound lying beyond every cut of a block skips the block without
+//! testing it. The threads building one origin share them.
 
 use glam::DVec3;
 
 use super::cells::{cell_span, edge_coord, face_dir, region_cone, region_cone_with, CellCone, Cone};
+use super::cuts::Cuts;
 use super::defs::OriginDef;
 
 /// Cells of an origin's work windows, with the block pyramids of their cones.
@@ -29,13 +29,9 @@ pub struct Cells {
     pub total: usize,
     pyramids: [Pyramid; 6],
     /// Per local cell, the distance beyond which its list is cut off (the builder lowers it
-    /// when a target covers the cell).
-    cut: Vec<Cell<f64>>,
-    /// Per face and level `k ≥ 1` of the pyramid, the largest cut of each block's cells:
-    /// a bound farther than that is hidden in the whole block.
-    max_cut: [Vec<Vec<Cell<f64>>>; 6],
-    /// Whether any cut has been lowered: until then nothing is hidden.
-    any_cut: Cell<bool>,
+    /// when a target covers the cell), with the largest cut of every block: a bound farther
+    /// than that is hidden in the whole block.
+    pub cuts: Cuts,
 }
 
 /// The block cones of one face window, level by level from single cells up. Levels below
@@ -103,14 +99,8 @@ impl Cells {
             Some(w) => Pyramid::new(f, w, def.n, first),
             None => Pyramid::default(),
         });
-        let max_cut = std::array::from_fn(|f| {
-            let dims = &pyramids[f].dims;
-            (1..dims.len())
-                .map(|k| vec![Cell::new(f64::INFINITY); (dims[k][0] * dims[k][1]) as usize])
-                .collect()
-        });
-        let cut = vec![Cell::new(f64::INFINITY); total];
-        Cells { n: def.n, win: def.window, base, total, pyramids, cut, max_cut, any_cut: Cell::new(false) }
+        let cuts = Cuts::new(total, base, std::array::from_fn(|f| pyramids[f].dims.clone()));
+        Cells { n: def.n, win: def.window, base, total, pyramids, cuts }
     }
 
     /// The cone of window cell `(iu, iv)` of face `f`.
@@ -159,56 +149,26 @@ impl Cells {
     /// The cut-off distance of local cell `i`.
     #[inline]
     pub fn cut(&self, i: usize) -> f64 {
-        self.cut[i].get()
+        self.cuts.get(i)
     }
 
     /// Whether some cell's cut-off is finite (before that, no bound is hidden anywhere).
     #[inline]
     pub fn any_cut(&self) -> bool {
-        self.any_cut.get()
+        self.cuts.any()
     }
 
     /// Lowers the cut-off of local cell `i` to `t` (when nearer), keeping the block maxima.
     pub fn lower_cut(&self, i: usize, t: f64) {
-        let old = self.cut[i].get();
-        if t.is_nan() || t >= old {
-            return;
-        }
-        self.cut[i].set(t);
-        self.any_cut.set(true);
         let (f, iu, iv) = self.locate(i);
         let w = self.win[f].unwrap();
-        let (x, y) = (iu - w[0], iv - w[1]);
-        let dims = &self.pyramids[f].dims;
-        for k in 1..dims.len() {
-            let slot = &self.max_cut[f][k - 1][((y >> k) * dims[k][0] + (x >> k)) as usize];
-            // Cuts only fall: the block's maximum changes only if the old cut was it.
-            if old < slot.get() {
-                break;
-            }
-            let (cx, cy) = ((x >> k) << 1, (y >> k) << 1);
-            let mut m = f64::NEG_INFINITY;
-            for yy in cy..(cy + 2).min(dims[k - 1][1]) {
-                for xx in cx..(cx + 2).min(dims[k - 1][0]) {
-                    m = m.max(self.max_cut_at(f, k - 1, xx, yy));
-                }
-            }
-            if m == slot.get() {
-                break;
-            }
-            slot.set(m);
-        }
+        self.cuts.lower(i, f, iu - w[0], iv - w[1], t);
     }
 
     /// The largest cut of block `(bx, by)` at `level` of face `f`'s window.
     #[inline]
     fn max_cut_at(&self, f: usize, level: usize, bx: u32, by: u32) -> f64 {
-        if level == 0 {
-            let w = self.win[f].unwrap();
-            self.cut[self.base[f] + (by * w[2] + bx) as usize].get()
-        } else {
-            self.max_cut[f][level - 1][(by * self.pyramids[f].dims[level][0] + bx) as usize].get()
-        }
+        self.cuts.block_max(f, level, bx, by)
     }
 
     /// The window rectangle `[iu0, iv0, iu1, iv1]` of face `f` inside `cone`'s rectangle (the
@@ -245,6 +205,7 @@ impl Cells {
     /// returns false to stop the rasterisation (then `raster` returns false). Cells and blocks
     /// whose every cut lies nearer than `beyond` are skipped: a bound no nearer than `beyond`
     /// is hidden there.
+    #[inline]
     pub fn raster(
         &self,
         cone: Option<&Cone>,
@@ -263,7 +224,7 @@ impl Cells {
                 for iv in r[1]..=r[3] {
                     for iu in r[0]..=r[2] {
                         let i = self.index(f, iu, iv);
-                        if self.cut[i].get() < beyond {
+                        if self.cut(i) < beyond {
                             continue;
                         }
                         let r = [iu, iv, iu, iv];
