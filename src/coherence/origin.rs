@@ -84,15 +84,10 @@ pub fn build_origin(def: &OriginDef, ctx: &Ctx) -> OriginTable {
     b.cells.cuts.settle();
     parts.extend(b.pass(&tasks, Pass::Rest));
 
-    let cells = &b.cells;
-    let mut recs = Vec::with_capacity(parts.iter().map(|p| p.recs.len()).sum());
-    let mut wide = Vec::new();
-    for p in parts {
-        recs.extend(p.recs.into_iter().filter(|x| x.dmin <= cells.cut(x.cell as usize)));
-        wide.extend(p.wide);
-    }
-    let mut table = finish(def, cells, recs, ctx.eps);
-    table.always.extend(wide);
+    let (recs, wide): (Vec<_>, Vec<_>) = parts.into_iter().map(|p| (p.recs, p.wide)).unzip();
+    let mut table = finish(def, &b.cells, &recs, ctx.eps);
+    drop(recs);
+    table.always.extend(wide.into_iter().flatten());
     table.always.sort_by(|a, b| a.d_min.total_cmp(&b.d_min).then(a.id.cmp(&b.id)));
     table
 }
