@@ -86,8 +86,8 @@ impl Cuts {
         }
         self.any.store(true, Relaxed);
         let dims = &self.dims[f];
-        for k in 1..dims.len() {
-            let slot = &self.max[f][k - 1][((y >> k) * dims[k][0] + (x >> k)) as usize];
+        for (k, dim) in dims.iter().enumerate().skip(1) {
+            let slot = &self.max[f][k - 1][((y >> k) * dim[0] + (x >> k)) as usize];
             // Cuts only fall: the block's maximum changes only if the old cut was it.
             if old < slot.get() {
                 break;

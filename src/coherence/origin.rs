@@ -114,7 +114,11 @@ impl<'a> Builder<'a> {
         t.occluder
             && match t.shape {
                 Shape::Sphere { c: cb, r: rb } => rb > self.min_cover * (cb - c).length(),
-                Shape::Triangle { .. } => !(r + t.radius + eps < self.cover_sin * (t.center - c).length()),
+                // Not "less" (NaN included): a NaN keeps the target, which is conservative.
+                Shape::Triangle { .. } => {
+                    (r + t.radius + eps).partial_cmp(&(self.cover_sin * (t.center - c).length()))
+                        != Some(std::cmp::Ordering::Less)
+                }
                 Shape::Capsule { .. } => false,
             }
     }
@@ -131,7 +135,9 @@ impl<'a> Builder<'a> {
         let node = self.ctx.bvh.nodes[ni as usize];
         let d = (node.center - self.def.center).length() - reach;
         let s = self.cover_sin.min(self.min_cover);
-        !((self.def.radius + largest + self.ctx.eps) * (1.0 + 1e-9) < s * (d + largest))
+        // Not "less" (NaN included): a NaN enters the subtree, which is conservative.
+        ((self.def.radius + largest + self.ctx.eps) * (1.0 + 1e-9)).partial_cmp(&(s * (d + largest)))
+            != Some(std::cmp::Ordering::Less)
     }
 
     /// The distance from the origin sphere to hierarchy node `ni`'s sphere.
