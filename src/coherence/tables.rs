@@ -49,9 +49,9 @@ const EYE_SLACK: f64 = 1.5;
 /// The scene's targets, in their hierarchy's leaf order ([`Ctx::targets`]), and the
 /// hierarchy.
 fn targets(scene: &Scene) -> (Vec<Target>, SphereTree) {
-    let targets: Vec<Target> = scene.primitives.iter().map(|p| Target::of(p, scene)).collect();
+    let targets: Vec<Target> = scene.primitives.par_iter().map(|p| Target::of(p, scene)).collect();
     let bvh = SphereTree::build(&targets);
-    let ordered = bvh.order.iter().map(|&i| targets[i as usize]).collect();
+    let ordered = bvh.order.par_iter().map(|&i| targets[i as usize]).collect();
     (ordered, bvh)
 }
 
