@@ -119,12 +119,19 @@ impl Cone {
     /// which holds whenever the cap meets the cell (conservative).
     #[inline]
     pub fn meets(&self, cell: &CellCone) -> bool {
+        self.meets_axis(cell.m, cell.cos_b, cell.sin_b)
+    }
+
+    /// Test A for a cell given by its cone alone: centre `m` and the cosine and sine of β
+    /// (the test reads nothing else, so a caller need not compute the corners).
+    #[inline]
+    pub fn meets_axis(&self, m: DVec3, cos_b: f64, sin_b: f64) -> bool {
         // θ + β ≥ π, as cosines: cos β ≤ cos(π − θ).
-        if cell.cos_b <= -self.cos_t {
+        if cos_b <= -self.cos_t {
             return true;
         }
         // cos(θ + β) = cosθ·cosβ − sinθ·sinβ
-        self.axis.dot(cell.m) >= self.cos_t * cell.cos_b - self.sin_t * cell.sin_b
+        self.axis.dot(m) >= self.cos_t * cos_b - self.sin_t * sin_b
     }
 
     /// True when the whole cell lies inside the cap (angle(axis, m) + β ≤ θ).
@@ -185,14 +192,15 @@ impl Cone {
         let [lo, hi] = self.range[ax];
         // Range of s·w[ax] over the cap.
         let (k_lo, k_hi) = if face % 2 == 1 { (-hi, -lo) } else { (lo, hi) };
-        // The face's pyramid is where s·w[ax] ≥ |w[i1]|, |w[i2]|, so it needs s·w[ax] > 0.
-        if k_hi <= 0.0 {
+        // The face's pyramid is where s·w[ax] ≥ |w[i1]|, |w[i2]|: a unit direction in it has
+        // s·w[ax] ≥ 1/√3. A cap that stays below misses the face (with a margin far above
+        // rounding: the lookup's f32 directions are within δ of the cap, inside it here).
+        if k_hi < PYRAMID_MIN {
             return None;
         }
-        if k_lo <= 1e-9 {
-            // The cap reaches the plane w[ax] = 0: no useful bound on the ratios.
-            return Some([-1.0, 1.0, -1.0, 1.0]);
-        }
+        // The ratios over the cap's directions in the pyramid, where s·w[ax] ≥ 1/√3 even when
+        // the cap reaches the plane w[ax] = 0.
+        let k_lo = k_lo.max(PYRAMID_MIN);
         let [l1, h1] = self.range[i1];
         let [l2, h2] = self.range[i2];
         let lo = |l: f64| if l < 0.0 { l / k_lo } else { l / k_hi };
@@ -205,15 +213,24 @@ impl Cone {
     }
 }
 
-/// The cell index range `[lo, hi]` (inclusive) covering coordinates `[a, b]`, widened by one
-/// cell on each side for rounding.
+/// The smallest `s·w[ax]` of a unit direction in face `f`'s pyramid is 1/√3; less a margin.
+const PYRAMID_MIN: f64 = 0.577_350_269_189_625_8 - 1e-6;
+
+/// The cell index range `[lo, hi]` (inclusive) covering coordinates `[a, b]`, widened by
+/// [`SPAN_SLACK`] of a cell on each side, so that a bound ending on a cell boundary keeps the
+/// cells on both sides. The rectangles spanned are already conservative in f64 for caps
+/// widened by δ, which covers the f32 lookup; the slack covers only the rounding of this
+/// product. (It was a whole cell: a target under a cell then tested 9–16 cells to emit 1–4.)
 #[inline]
 pub fn cell_span(a: f64, b: f64, n: u32) -> (u32, u32) {
     let nf = n as f64;
-    let lo = (((a + 1.0) * 0.5 * nf).floor() - 1.0).clamp(0.0, nf - 1.0) as u32;
-    let hi = (((b + 1.0) * 0.5 * nf).floor() + 1.0).clamp(0.0, nf - 1.0) as u32;
+    let lo = ((a + 1.0) * 0.5 * nf - SPAN_SLACK).floor().clamp(0.0, nf - 1.0) as u32;
+    let hi = ((b + 1.0) * 0.5 * nf + SPAN_SLACK).floor().clamp(0.0, nf - 1.0) as u32;
     (lo, hi)
 }
+
+/// How far past a rectangle [`cell_span`] reaches, in cells.
+pub const SPAN_SLACK: f64 = 1e-6;
 
 #[cfg(test)]
 mod tests {
@@ -259,12 +276,95 @@ mod tests {
         assert!(a_count >= b_count && b_count > 0);
     }
 
+    /// A cap that stays out of a face's pyramid gets no rectangle there, though it reaches
+    /// past the plane 90° from the face's centre; one that enters it gets a rectangle inside
+    /// the face, not the whole face.
+    #[test]
+    fn face_rect_of_caps_beside_a_face() {
+        // 8° around +y: out of the +x and −x pyramids, though w[x] takes both signs.
+        let side = Cone::new(DVec3::Y, 0.14);
+        assert!(side.face_rect(0).is_none() && side.face_rect(1).is_none());
+        assert!(side.face_rect(2).is_some());
+        // 60° around +y reaches into +x's pyramid along its +u edge only.
+        let wide = Cone::new(DVec3::Y, 1.05);
+        let r = wide.face_rect(0).expect("the cap enters +x's pyramid");
+        assert!(r[1] == 1.0 && r[0] > 0.3, "{r:?}");
+    }
+
+    /// Caps smaller than a cell, up to a few cells, anywhere on the cube (at cell boundaries
+    /// and cube edges too): every direction sampled in the cap, and every cell near the span
+    /// that the cap meets exactly, lies in the spans of the face rectangles.
+    #[test]
+    fn spans_hold_small_caps() {
+        let mut s = 0x6a09e667u64;
+        for round in 0..3000 {
+            let n = [7, 64, 339, 1024, 16384][round % 5];
+            let cell = 2.0 / n as f64;
+            let mut axis = unit(&mut s);
+            if round % 3 == 0 {
+                // On a cell boundary line of some face, or on a cube edge.
+                let i = (rng(&mut s) * 3.0) as usize % 3;
+                let m = axis.abs().max_element();
+                let k = ((axis[(i + 1) % 3] / m + 1.0) / cell).round();
+                axis[(i + 1) % 3] = (-1.0 + k * cell) * m;
+                if round % 9 == 0 {
+                    axis[(i + 2) % 3] = axis[i].abs().copysign(axis[(i + 2) % 3]);
+                }
+                axis = axis.normalize();
+            }
+            let cone = Cone::new(axis, rng(&mut s) * 3.0 * cell + 1e-9);
+            let rects: Vec<_> = (0..6).map(|f| cone.face_rect(f)).collect();
+            let in_span = |f: usize, iu: u32, iv: u32| {
+                rects[f].is_some_and(|r| {
+                    let (lu, hu) = cell_span(r[0], r[1], n);
+                    let (lv, hv) = cell_span(r[2], r[3], n);
+                    lu <= iu && iu <= hu && lv <= iv && iv <= hv
+                })
+            };
+            for _ in 0..20 {
+                // A direction in the cap, and every cell whose closed square holds it.
+                let t = cone.theta * rng(&mut s).sqrt();
+                let side = cone.axis.any_orthonormal_vector().rotate_axis(cone.axis, rng(&mut s) * 6.3);
+                let w = cone.axis * t.cos() + side * t.sin();
+                for f in 0..6 {
+                    let (ax, sg) = (f / 2, if f % 2 == 1 { -1.0 } else { 1.0 });
+                    let m = sg * w[ax];
+                    if m <= 0.0 || m < w[(ax + 1) % 3].abs() || m < w[(ax + 2) % 3].abs() {
+                        continue;
+                    }
+                    let (u, v) = (w[(ax + 1) % 3] / m, w[(ax + 2) % 3] / m);
+                    let (iu, iv) = (((u + 1.0) / cell).floor(), ((v + 1.0) / cell).floor());
+                    let (iu, iv) =
+                        (iu.clamp(0.0, n as f64 - 1.0) as u32, iv.clamp(0.0, n as f64 - 1.0) as u32);
+                    assert!(in_span(f, iu, iv), "a direction of the cap lies outside the span (n {n})");
+                }
+            }
+            for (f, r) in rects.iter().enumerate() {
+                let Some(r) = r else { continue };
+                let (lu, hu) = cell_span(r[0], r[1], n);
+                let (lv, hv) = cell_span(r[2], r[3], n);
+                for iv in lv.saturating_sub(2)..=(hv + 2).min(n - 1) {
+                    for iu in lu.saturating_sub(2)..=(hu + 2).min(n - 1) {
+                        if cone.meets_exact(&cell_cone(f, iu, iv, n)) {
+                            assert!(
+                                in_span(f, iu, iv),
+                                "cell ({iu}, {iv}) of face {f} meets the cap (n {n})"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Caps of every size up to nearly the whole sphere: every cell the cap meets lies in the
+    /// span of the face's rectangle.
     #[test]
     fn face_rect_contains_cap_cells() {
         let mut s = 12345u64;
         let n = 16;
-        for _ in 0..300 {
-            let cone = Cone::new(unit(&mut s), rng(&mut s) * 1.5);
+        for round in 0..600 {
+            let cone = Cone::new(unit(&mut s), rng(&mut s) * if round % 2 == 0 { 1.5 } else { 3.1 });
             for face in 0..6 {
                 let rect = cone.face_rect(face);
                 for iv in 0..n {

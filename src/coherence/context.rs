@@ -7,6 +7,8 @@ use super::targets::Target;
 
 /// Shared, read-only inputs of the per-origin builds.
 pub struct Ctx<'a> {
+    /// The targets in the hierarchy's leaf order: `targets[k]` is primitive `bvh.order[k]`,
+    /// so that a walk of the hierarchy reads them in memory order.
     pub targets: &'a [Target],
     pub bvh: &'a SphereTree,
     pub eps: f64,

@@ -78,8 +78,7 @@ fn object_rects(c: DVec3, r: f64, ctx: &Ctx) -> [Option<[f64; 4]>; 6] {
             stack.push(node.first + 1);
             continue;
         }
-        for &tid in &ctx.bvh.order[node.first as usize..(node.first + node.count) as usize] {
-            let t = &ctx.targets[tid as usize];
+        for t in &ctx.targets[node.first as usize..(node.first + node.count) as usize] {
             let k = sphere_cone(c, r, t.center, t.radius + ctx.eps, ctx.delta);
             // Wide targets go to the always-test list (see `build_origin`).
             if k.is_some_and(|k| k.theta <= WIDE_THETA) {

@@ -1,5 +1,8 @@
-//! Finishing one origin's table: records sorted into per-cell lists by `d_min` (ties by
-//! id), and each face's window cropped to its non-empty cells.
+//! Finishing one origin's table: the records within their cells' final cuts sorted into
+//! per-cell lists by `d_min` (ties by id), written once at their place, and each face's
+//! window cropped to its non-empty cells.
+
+use rayon::prelude::*;
 
 use super::defs::OriginDef;
 use super::flat::{GpuEntry, OriginKind};
@@ -57,33 +60,35 @@ pub fn store_dmin(x: f64, eps: f64) -> f32 {
     }
 }
 
-/// Sorts the records into lists and crops each face's window to its non-empty cells.
-pub fn finish(def: &OriginDef, cells: &Cells, recs: Vec<Rec>, eps: f64) -> OriginTable {
+/// Sorts the records that lie within their cells' final cuts (`parts`, as the threads
+/// gathered them) into lists, and crops each face's window to its non-empty cells. The
+/// records are written once, at their place in the table, and each list is sorted by
+/// `(d_min, id)` (in parallel): the table does not depend on how the records were split.
+pub fn finish(def: &OriginDef, cells: &Cells, parts: &[Vec<Rec>], eps: f64) -> OriginTable {
+    let kept = |x: &&Rec| x.dmin <= cells.cut(x.cell as usize);
     // Bucket the records by cell (a counting sort), then order each short list.
     let mut starts = vec![0u32; cells.total + 1];
-    for x in &recs {
+    for x in parts.iter().flatten().filter(kept) {
         starts[x.cell as usize + 1] += 1;
     }
     for i in 0..cells.total {
         starts[i + 1] += starts[i];
     }
-    let mut sorted = vec![GpuEntry::default(); recs.len()];
+    let mut entries = vec![GpuEntry::default(); starts[cells.total] as usize];
     let mut fill = starts.clone();
-    for x in &recs {
+    for x in parts.iter().flatten().filter(kept) {
         let slot = &mut fill[x.cell as usize];
-        sorted[*slot as usize] = GpuEntry { id: x.id, d_min: store_dmin(x.dmin, eps) };
+        entries[*slot as usize] = GpuEntry { id: x.id, d_min: store_dmin(x.dmin, eps) };
         *slot += 1;
     }
-    for c in 0..cells.total {
-        sorted[starts[c] as usize..starts[c + 1] as usize]
-            .sort_unstable_by(|a, b| a.d_min.total_cmp(&b.d_min).then(a.id.cmp(&b.id)));
-    }
+    drop(fill);
+    sort_lists(&mut entries, &starts);
 
     // Crop each face's window to the bounding box of its non-empty cells, keeping the
-    // row-major cell order.
+    // row-major cell order. The cells cropped away are empty, so the entries stay as they
+    // are and only the list starts of the cells kept are written.
     let mut faces = [[0u32; 4]; 6];
     let mut out_starts = vec![0u32];
-    let mut entries = Vec::with_capacity(sorted.len());
     for (f, face) in faces.iter_mut().enumerate() {
         let Some(w) = cells.win[f] else { continue };
         let local = |iu: u32, iv: u32| cells.base[f] + (iv * w[2] + iu) as usize;
@@ -101,12 +106,30 @@ pub fn finish(def: &OriginDef, cells: &Cells, recs: Vec<Rec>, eps: f64) -> Origi
         }
         *face = [w[0] + b[0], w[1] + b[1], b[2] - b[0] + 1, b[3] - b[1] + 1];
         for iv in b[1]..=b[3] {
-            for iu in b[0]..=b[2] {
-                let c = local(iu, iv);
-                entries.extend_from_slice(&sorted[starts[c] as usize..starts[c + 1] as usize]);
-                out_starts.push(entries.len() as u32);
-            }
+            out_starts.extend((b[0]..=b[2]).map(|iu| starts[local(iu, iv) + 1]));
         }
     }
     OriginTable { kind: Some(def.kind), n: def.n, faces, starts: out_starts, entries, always: Vec::new() }
+}
+
+/// Sorts each list `entries[starts[c]..starts[c + 1]]` by `(d_min, id)`, in parallel over
+/// runs of cells.
+fn sort_lists(entries: &mut [GpuEntry], starts: &[u32]) {
+    const RUN: usize = 4096;
+    let cells = starts.len() - 1;
+    let mut runs = Vec::with_capacity(cells.div_ceil(RUN));
+    let mut rest = entries;
+    for c0 in (0..cells).step_by(RUN) {
+        let c1 = (c0 + RUN).min(cells);
+        let (run, tail) = std::mem::take(&mut rest).split_at_mut((starts[c1] - starts[c0]) as usize);
+        rest = tail;
+        runs.push((run, &starts[c0..=c1]));
+    }
+    runs.into_par_iter().for_each(|(run, st)| {
+        let base = st[0];
+        for w in st.windows(2) {
+            run[(w[0] - base) as usize..(w[1] - base) as usize]
+                .sort_unstable_by(|a, b| a.d_min.total_cmp(&b.d_min).then(a.id.cmp(&b.id)));
+        }
+    });
 }

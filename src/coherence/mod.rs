@@ -10,6 +10,7 @@
 //! - [`defs`]: the direction cubes to build (eye frustum, lights);
 //! - [`context`]: the shared inputs of the builds;
 //! - [`cells`]: direction-cube cells and cones, and the cell tests;
+//! - [`cuts`]: the cells' cut-off distances, shared by the threads building an origin;
 //! - [`bounds`]: direction bounds from an origin sphere to spheres, triangles and capsules;
 //! - [`pair`]: one origin–target bound, its `d_min` and cover test;
 //! - [`raster`]: rasterising a bound into an origin's cells;
@@ -64,6 +65,7 @@ pub mod bounds;
 pub mod cells;
 pub mod context;
 pub mod cube;
+pub mod cuts;
 pub mod defs;
 pub mod flat;
 pub mod flatten;

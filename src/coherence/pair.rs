@@ -71,9 +71,13 @@ impl Pair {
 
     #[inline]
     pub fn meets(&self, cell: &CellCone) -> bool {
-        self.cone.is_none_or(|k| k.meets(cell))
-            && self.edges.as_ref().is_none_or(|e| e.meets(cell))
-            && self.arc.as_ref().is_none_or(|a| a.meets(cell))
+        self.cone.is_none_or(|k| k.meets(cell)) && self.meets_beyond_cone(cell)
+    }
+
+    /// [`Pair::meets`] for a cell its cone already meets: the edge or arc tests alone.
+    #[inline]
+    pub fn meets_beyond_cone(&self, cell: &CellCone) -> bool {
+        self.edges.as_ref().is_none_or(|e| e.meets(cell)) && self.arc.as_ref().is_none_or(|a| a.meets(cell))
     }
 
     /// True when every cell of the block meets the bound (sufficient test).

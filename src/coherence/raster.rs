@@ -11,16 +11,14 @@
 //! block emitted whole are those of the whole aligned block, which may reach past the cells
 //! emitted: lower, or less often covering, never wrong.
 //!
-//! The cells also carry the builder's cut-offs, with the largest cut of every pyramid block,
-//! so that a bound lying beyond every cut of a block skips the block without testing it.
-
-use std::cell::Cell;
+//! The cells also carry the builder's cut-offs ([`Cuts`]), with the largest cut of every
+//! pyramid block, so that a bound lying beyond every cut of a block skips the block without
+//! testing it. The threads building one origin share them.
 
 use glam::DVec3;
 
-use super::cells::{
-    cell_span, edge_coord, face_dir, region_cone, region_cone_with, region_corners, CellCone, Cone,
-};
+use super::cells::{cell_span, edge_coord, face_dir, region_cone, region_cone_with, CellCone, Cone};
+use super::cuts::Cuts;
 use super::defs::OriginDef;
 
 /// Cells of an origin's work windows, with the block pyramids of their cones.
@@ -31,18 +29,17 @@ pub struct Cells {
     pub total: usize,
     pyramids: [Pyramid; 6],
     /// Per local cell, the distance beyond which its list is cut off (the builder lowers it
-    /// when a target covers the cell).
-    cut: Vec<Cell<f64>>,
-    /// Per face and level `k ≥ 1` of the pyramid, the largest cut of each block's cells:
-    /// a bound farther than that is hidden in the whole block.
-    max_cut: [Vec<Vec<Cell<f64>>>; 6],
+    /// when a target covers the cell), with the largest cut of every block: a bound farther
+    /// than that is hidden in the whole block.
+    pub cuts: Cuts,
 }
 
 /// The block cones of one face window, level by level from single cells up. Levels below
 /// `first` are not stored (their cones are computed when asked), so huge windows keep the
 /// cones' memory bounded (the per-cell cuts and the corner lengths, 16 bytes a cell, are
 /// always kept). A block's corners are grid vertices of the window, so their
-/// lengths are stored once per vertex and the corners themselves recomputed (no root).
+/// lengths are stored once per vertex, and the corners themselves are built from the
+/// stored coordinates of the window's grid lines (no division, no root).
 #[derive(Default)]
 struct Pyramid {
     /// Blocks per row and column at each level.
@@ -52,6 +49,10 @@ struct Pyramid {
     levels: Vec<Vec<Axis>>,
     /// `|face_dir(u, v)|` at the window's `(width + 1) × (height + 1)` cell corners.
     corner_len: Vec<f64>,
+    /// The window's grid lines: `us[k]` is [`edge_coord`] of column boundary `iu0 + k`,
+    /// `vs[k]` of row boundary `iv0 + k`.
+    us: Vec<f64>,
+    vs: Vec<f64>,
 }
 
 /// The part of a block's cone the cone tests read first: its axis and half-angle.
@@ -98,14 +99,8 @@ impl Cells {
             Some(w) => Pyramid::new(f, w, def.n, first),
             None => Pyramid::default(),
         });
-        let max_cut = std::array::from_fn(|f| {
-            let dims = &pyramids[f].dims;
-            (1..dims.len())
-                .map(|k| vec![Cell::new(f64::INFINITY); (dims[k][0] * dims[k][1]) as usize])
-                .collect()
-        });
-        let cut = vec![Cell::new(f64::INFINITY); total];
-        Cells { n: def.n, win: def.window, base, total, pyramids, cut, max_cut }
+        let cuts = Cuts::new(total, base, std::array::from_fn(|f| pyramids[f].dims.clone()));
+        Cells { n: def.n, win: def.window, base, total, pyramids, cuts }
     }
 
     /// The cone of window cell `(iu, iv)` of face `f`.
@@ -119,17 +114,30 @@ impl Cells {
     /// ([`Cells::block_rect`], which the caller has at hand).
     #[inline]
     fn block(&self, f: usize, level: usize, bx: u32, by: u32, r: [u32; 4]) -> CellCone {
+        self.with_corners(f, self.block_axis(f, level, bx, by, r), r)
+    }
+
+    /// The axis part of [`Cells::block`]: all that Test A reads.
+    #[inline]
+    fn block_axis(&self, f: usize, level: usize, bx: u32, by: u32, r: [u32; 4]) -> Axis {
         let p = &self.pyramids[f];
         if level < p.first {
-            return region_cone(f, r, self.n);
+            let c = region_cone(f, r, self.n);
+            return Axis { m: c.m, cos_b: c.cos_b, sin_b: c.sin_b };
         }
-        let Axis { m, cos_b, sin_b } = p.levels[level - p.first][(by * p.dims[level][0] + bx) as usize];
+        p.levels[level - p.first][(by * p.dims[level][0] + bx) as usize]
+    }
+
+    /// The whole cone of block `r` of face `f`, from its axis part.
+    #[inline]
+    fn with_corners(&self, f: usize, a: Axis, r: [u32; 4]) -> CellCone {
+        let (p, w) = (&self.pyramids[f], self.win[f].unwrap());
         CellCone {
-            m,
-            cos_b,
-            sin_b,
-            corners: region_corners(f, r, self.n),
-            corner_len: p.lens(self.win[f].unwrap(), r),
+            m: a.m,
+            cos_b: a.cos_b,
+            sin_b: a.sin_b,
+            corners: p.corners(f, w, r),
+            corner_len: p.lens(w, r),
         }
     }
 
@@ -141,49 +149,26 @@ impl Cells {
     /// The cut-off distance of local cell `i`.
     #[inline]
     pub fn cut(&self, i: usize) -> f64 {
-        self.cut[i].get()
+        self.cuts.get(i)
+    }
+
+    /// Whether some cell's cut-off is finite (before that, no bound is hidden anywhere).
+    #[inline]
+    pub fn any_cut(&self) -> bool {
+        self.cuts.any()
     }
 
     /// Lowers the cut-off of local cell `i` to `t` (when nearer), keeping the block maxima.
     pub fn lower_cut(&self, i: usize, t: f64) {
-        let old = self.cut[i].get();
-        if t.is_nan() || t >= old {
-            return;
-        }
-        self.cut[i].set(t);
         let (f, iu, iv) = self.locate(i);
         let w = self.win[f].unwrap();
-        let (x, y) = (iu - w[0], iv - w[1]);
-        let dims = &self.pyramids[f].dims;
-        for k in 1..dims.len() {
-            let slot = &self.max_cut[f][k - 1][((y >> k) * dims[k][0] + (x >> k)) as usize];
-            // Cuts only fall: the block's maximum changes only if the old cut was it.
-            if old < slot.get() {
-                break;
-            }
-            let (cx, cy) = ((x >> k) << 1, (y >> k) << 1);
-            let mut m = f64::NEG_INFINITY;
-            for yy in cy..(cy + 2).min(dims[k - 1][1]) {
-                for xx in cx..(cx + 2).min(dims[k - 1][0]) {
-                    m = m.max(self.max_cut_at(f, k - 1, xx, yy));
-                }
-            }
-            if m == slot.get() {
-                break;
-            }
-            slot.set(m);
-        }
+        self.cuts.lower(i, f, iu - w[0], iv - w[1], t);
     }
 
     /// The largest cut of block `(bx, by)` at `level` of face `f`'s window.
     #[inline]
     fn max_cut_at(&self, f: usize, level: usize, bx: u32, by: u32) -> f64 {
-        if level == 0 {
-            let w = self.win[f].unwrap();
-            self.cut[self.base[f] + (by * w[2] + bx) as usize].get()
-        } else {
-            self.max_cut[f][level - 1][(by * self.pyramids[f].dims[level][0] + bx) as usize].get()
-        }
+        self.cuts.block_max(f, level, bx, by)
     }
 
     /// The window rectangle `[iu0, iv0, iu1, iv1]` of face `f` inside `cone`'s rectangle (the
@@ -213,11 +198,14 @@ impl Cells {
     /// misses are dropped, blocks of at most `2^BULK_LEVEL` cells a side wholly inside it are
     /// emitted at once (one `d_min` and cover test for the block), others are split into their
     /// four children down to single cells. Only cells inside the bound's rectangle are emitted.
+    /// `meets` is asked only about blocks `cone` meets (Test A), so it need not test the
+    /// cone again.
     /// `emit(cells, block)` receives the local cell indices and the cone of the block they
     /// were emitted from (which may reach past them, and past the rectangle); it
     /// returns false to stop the rasterisation (then `raster` returns false). Cells and blocks
     /// whose every cut lies nearer than `beyond` are skipped: a bound no nearer than `beyond`
     /// is hidden there.
+    #[inline]
     pub fn raster(
         &self,
         cone: Option<&Cone>,
@@ -236,10 +224,15 @@ impl Cells {
                 for iv in r[1]..=r[3] {
                     for iu in r[0]..=r[2] {
                         let i = self.index(f, iu, iv);
-                        if self.cut[i].get() < beyond {
+                        if self.cut(i) < beyond {
                             continue;
                         }
-                        let cell = self.cone(f, iu, iv);
+                        let r = [iu, iv, iu, iv];
+                        let axis = self.block_axis(f, 0, iu - w[0], iv - w[1], r);
+                        if cone.is_some_and(|k| !k.meets_axis(axis.m, axis.cos_b, axis.sin_b)) {
+                            continue;
+                        }
+                        let cell = self.with_corners(f, axis, r);
                         if meets(&cell) && !emit(&mut std::iter::once(i), &cell) {
                             return false;
                         }
@@ -267,7 +260,11 @@ impl Cells {
                 if self.max_cut_at(f, level, bx, by) < beyond {
                     continue;
                 }
-                let region = self.block(f, level, bx, by, b);
+                let axis = self.block_axis(f, level, bx, by, b);
+                if cone.is_some_and(|k| !k.meets_axis(axis.m, axis.cos_b, axis.sin_b)) {
+                    continue;
+                }
+                let region = self.with_corners(f, axis, b);
                 if !meets(&region) {
                     continue;
                 }
@@ -312,8 +309,17 @@ fn block_rect(w: [u32; 4], level: usize, bx: u32, by: u32) -> [u32; 4] {
 }
 
 impl Pyramid {
-    /// The stored lengths of the corners of block `r` (as [`region_corners`] orders them) of
-    /// window `w`.
+    /// The corners of block `r` of window `w` on face `f`, as
+    /// [`region_corners`](super::cells::region_corners) computes them.
+    #[inline]
+    fn corners(&self, f: usize, w: [u32; 4], r: [u32; 4]) -> [DVec3; 4] {
+        let (u0, u1) = (self.us[(r[0] - w[0]) as usize], self.us[(r[2] + 1 - w[0]) as usize]);
+        let (v0, v1) = (self.vs[(r[1] - w[1]) as usize], self.vs[(r[3] + 1 - w[1]) as usize]);
+        [face_dir(f, u0, v0), face_dir(f, u1, v0), face_dir(f, u1, v1), face_dir(f, u0, v1)]
+    }
+
+    /// The stored lengths of the corners of block `r` (as
+    /// [`region_corners`](super::cells::region_corners) orders them) of window `w`.
     #[inline]
     fn lens(&self, w: [u32; 4], r: [u32; 4]) -> [f64; 4] {
         let len = |iu: u32, iv: u32| self.corner_len[((iv - w[1]) * (w[2] + 1) + iu - w[0]) as usize];
@@ -329,13 +335,15 @@ impl Pyramid {
             dims.push([d[0].div_ceil(2), d[1].div_ceil(2)]);
         }
         let first = first.min(dims.len() - 1);
-        let mut corner_len = Vec::with_capacity(((w[2] + 1) * (w[3] + 1)) as usize);
-        for iv in w[1]..=w[1] + w[3] {
-            for iu in w[0]..=w[0] + w[2] {
-                corner_len.push(face_dir(f, edge_coord(iu, n), edge_coord(iv, n)).length());
+        let us: Vec<f64> = (w[0]..=w[0] + w[2]).map(|iu| edge_coord(iu, n)).collect();
+        let vs: Vec<f64> = (w[1]..=w[1] + w[3]).map(|iv| edge_coord(iv, n)).collect();
+        let mut corner_len = Vec::with_capacity(us.len() * vs.len());
+        for &v in &vs {
+            for &u in &us {
+                corner_len.push(face_dir(f, u, v).length());
             }
         }
-        let mut p = Pyramid { dims, first, levels: Vec::new(), corner_len };
+        let mut p = Pyramid { dims, first, levels: Vec::new(), corner_len, us, vs };
         p.levels = (first..p.dims.len())
             .map(|k| {
                 let [bw, bh] = p.dims[k];

@@ -47,11 +47,13 @@ pub struct Tables {
 /// A full rebuild for a moved eye inflates the origins by this much more than needed.
 const EYE_SLACK: f64 = 1.5;
 
-/// The scene's targets and their hierarchy.
+/// The scene's targets, in their hierarchy's leaf order ([`Ctx::targets`]), and the
+/// hierarchy.
 fn targets(scene: &Scene) -> (Vec<Target>, SphereTree) {
-    let targets: Vec<Target> = scene.primitives.iter().map(|p| Target::of(p, scene)).collect();
+    let targets: Vec<Target> = scene.primitives.par_iter().map(|p| Target::of(p, scene)).collect();
     let bvh = SphereTree::build(&targets);
-    (targets, bvh)
+    let ordered = bvh.order.par_iter().map(|&i| targets[i as usize]).collect();
+    (ordered, bvh)
 }
 
 /// Flattens `built` (origins `defs`) for the scene's camera, and checks every buffer
