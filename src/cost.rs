@@ -10,7 +10,8 @@
 //!   the build's threads;
 //! - an eye ray traced through the eye's table instead of the BVH saves [`SAVED_S_PER_EYE_RAY`],
 //!   a shadow ray through its light's table [`SAVED_S_PER_SHADOW_RAY`]; a render traces one
-//!   eye ray per grid point and sample, and about one shadow ray per light and eye ray.
+//!   eye ray per grid point and sample, and a shadow ray per light and hit of its tree
+//!   (more where mirrors and glass make the trees deeper).
 //!
 //! The tables' saving per ray shrinks as the scene grows (at a million primitives the
 //! kernels measured the same with either), while the build grows with it: the model keeps
@@ -20,16 +21,36 @@ use crate::coherence::{BuildParams, OriginKey};
 use crate::scene::{LightKind, Scene};
 
 /// Seconds of one core an origin's table build costs per primitive and per cell of its
-/// cube (docs/performance.md, "what auto weighs").
+/// cube (docs/performance.md, "what auto weighs": fitted on the SPD at 512², 4k–1M
+/// primitives, 2 cores; gears_s4's large polygons cost 4× more a cell).
 pub const BUILD_S_PER_PRIM: f64 = 1.0e-6;
-pub const BUILD_S_PER_CELL: f64 = 0.5e-6;
+pub const BUILD_S_PER_CELL: f64 = 0.3e-6;
 
 /// Kernel seconds an eye ray saves walking the eye's table instead of the wide BVH (the
-/// canonical SPD at 512², Mesa 22.3: 0.06–0.7 µs, median 0.13).
+/// canonical SPD at 512², Mesa 22.3: 0.08–0.14 µs).
 pub const SAVED_S_PER_EYE_RAY: f64 = 0.1e-6;
 
-/// Kernel seconds a shadow ray saves walking its light's table instead of the wide BVH.
+/// Kernel seconds a shadow ray saves walking its light's table instead of the wide BVH (the
+/// same scenes: 0.03–0.17 µs).
 pub const SAVED_S_PER_SHADOW_RAY: f64 = 0.05e-6;
+
+/// The hits an eye ray's tree makes, each of which traces a shadow ray to every light: one,
+/// and where a share `r` of the primitives reflects or transmits, `r` more at each further
+/// depth (the SPD's mirrored scenes: 2–5 at depth 5).
+fn hits_per_eye_ray(scene: &Scene, max_depth: u32) -> f64 {
+    if scene.primitives.is_empty() || !scene.effects().reflection {
+        return 1.0;
+    }
+    let spawning = scene
+        .primitives
+        .iter()
+        .filter(|p| {
+            let m = &scene.materials[p.material() as usize];
+            m.reflects() || m.transmits()
+        })
+        .count();
+    1.0 + (spawning as f64 / scene.primitives.len() as f64) * max_depth.saturating_sub(1) as f64
+}
 
 /// One origin's prediction.
 #[derive(Clone, Debug, PartialEq)]
@@ -66,12 +87,13 @@ pub struct AutoAccel {
 }
 
 impl AutoAccel {
-    /// Predicts the tables of `scene` for a render tracing `eye_rays` eye rays, with shadow
-    /// rays if `shadows`, built with `params` (the eye's cells from its image, the lights'
-    /// from their budget) on `threads` build threads.
+    /// Predicts the tables of `scene` for a render tracing `eye_rays` eye rays to
+    /// `max_depth`, with shadow rays if `shadows`, built with `params` (the eye's cells from
+    /// its image, the lights' from their budget) on `threads` build threads.
     pub fn predict(
         scene: &Scene,
         eye_rays: u64,
+        max_depth: u32,
         shadows: bool,
         params: &BuildParams,
         threads: usize,
@@ -82,6 +104,7 @@ impl AutoAccel {
             (BUILD_S_PER_PRIM * scene.primitives.len() as f64 + BUILD_S_PER_CELL * cells)
                 / threads.max(1) as f64
         };
+        let shadow_rays = (eye_rays as f64 * hits_per_eye_ray(scene, max_depth)) as u64;
         let mut origins = Vec::new();
         if !scene.primitives.is_empty() {
             origins.push(OriginCost {
@@ -95,9 +118,9 @@ impl AutoAccel {
                     if l.kind != LightKind::Directional {
                         origins.push(OriginCost {
                             key: OriginKey::Light(i),
-                            rays: eye_rays,
+                            rays: shadow_rays,
                             build_s: build_s(params.light_cells as f64),
-                            saved_s: eye_rays as f64 * SAVED_S_PER_SHADOW_RAY,
+                            saved_s: shadow_rays as f64 * SAVED_S_PER_SHADOW_RAY,
                         });
                     }
                 }
@@ -147,7 +170,7 @@ mod tests {
     fn scene_of(prims: usize, lights: usize) -> Scene {
         crate::load::nff::parse(
             &format!(
-                "v\nfrom 0 0 -10\nat 0 0 0\nup 0 1 0\nangle 40\nhither 1\nresolution 64 64\n{}f 1 1 1 0.5 0.5 0 0 1\n{}",
+                "v\nfrom 0 0 -10\nat 0 0 0\nup 0 1 0\nangle 40\nhither 1\nresolution 64 64\n{}f 1 1 1 0.5 0 0 0 1\n{}",
                 (0..lights).map(|i| format!("l {i} 5 -5\n")).collect::<String>(),
                 (0..prims).map(|i| format!("s {} 0 0 0.1\n", i as f64 * 0.01)).collect::<String>()
             ),
@@ -164,22 +187,22 @@ mod tests {
         let (small, big) = (scene_of(100, 2), scene_of(20_000, 2));
         // No cells to speak of: the primitives decide.
         let params = BuildParams { image: Some((2, 2)), light_cells: 1, ..BuildParams::default() };
-        let all = AutoAccel::predict(&small, 512 * 512, true, &params, 2);
+        let all = AutoAccel::predict(&small, 512 * 512, 5, true, &params, 2);
         assert_eq!(all.origins.len(), 3);
         assert!(all.untabled().is_empty(), "{}", all.reason());
-        let none = AutoAccel::predict(&big, 64 * 64, true, &params, 2);
+        let none = AutoAccel::predict(&big, 64 * 64, 5, true, &params, 2);
         assert!(!none.any(), "{}", none.reason());
         assert!(none.reason().starts_with("no table pays"), "{}", none.reason());
         // 20,000 primitives on 2 threads cost a table BUILD_S_PER_PRIM·10,000; the eye's
         // table saves 1.5 times that, a light's 0.75 times.
         let rays = (1.5 * BUILD_S_PER_PRIM * 10_000.0 / SAVED_S_PER_EYE_RAY) as u64;
-        let eye = AutoAccel::predict(&big, rays, true, &params, 2);
+        let eye = AutoAccel::predict(&big, rays, 5, true, &params, 2);
         assert_eq!(eye.untabled(), vec![OriginKey::Light(0), OriginKey::Light(1)], "{}", eye.reason());
         assert!(eye.reason().starts_with("tables for the eye"), "{}", eye.reason());
-        let unlit = AutoAccel::predict(&small, 512 * 512, false, &params, 2);
+        let unlit = AutoAccel::predict(&small, 512 * 512, 5, false, &params, 2);
         assert_eq!(unlit.origins.len(), 1);
         // A light's cells cost its table too.
         let cells = BuildParams { light_cells: 1 << 30, ..params };
-        assert_eq!(AutoAccel::predict(&small, 512 * 512, true, &cells, 2).untabled().len(), 2);
+        assert_eq!(AutoAccel::predict(&small, 512 * 512, 5, true, &cells, 2).untabled().len(), 2);
     }
 }

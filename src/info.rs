@@ -110,7 +110,7 @@ pub struct CameraInfo {
 
 impl SceneInfo {
     /// The summary of `scene`, with what a render of it with `resolved` options (resolved by
-    /// `gpu::prepare::resolve` on `adapter`, or without one) does.
+    /// `gpu::choose::resolve` on `adapter`, or without one) does.
     pub fn of(scene: &Scene, resolved: &RenderOptions, adapter: Option<String>) -> SceneInfo {
         let counts = scene.counts();
         let height = resolved.height;

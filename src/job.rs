@@ -59,7 +59,7 @@ impl Accel {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum SurfaceWalk {
     /// The platform's ray queries where the adapter has them, except lavapipe, whose
-    /// software ones measured slower than the BVH (`gpu::prepare::resolve`); else the
+    /// software ones measured slower than the BVH (`gpu::choose::resolve`); else the
     /// BVH.
     #[default]
     Auto,
@@ -87,7 +87,7 @@ impl SurfaceWalk {
 #[serde(rename_all = "lowercase")]
 pub enum Precision {
     /// f64 where f32 cannot resolve the scene as the image shows it, else f32
-    /// (`gpu::prepare::resolve`).
+    /// (`gpu::choose::resolve`).
     #[default]
     Auto,
     F32,
@@ -127,9 +127,9 @@ pub struct RenderOptions {
     /// The GPU kernels' intersection arithmetic ([`Precision`]).
     pub precision: Precision,
     /// Why [`Precision::Auto`] chose what `precision` now says: set by
-    /// `gpu::prepare::resolve`, `None` where the precision was given.
+    /// `gpu::choose::resolve`, `None` where the precision was given.
     pub auto_precision: Option<F32Need>,
-    /// What [`Accel::Auto`] weighed and chose (per origin): set by `gpu::prepare::resolve`,
+    /// What [`Accel::Auto`] weighed and chose (per origin): set by `gpu::choose::resolve`,
     /// `None` where the accelerator was given.
     pub auto_accel: Option<AutoAccel>,
     /// With `cube`, the origins left without a table, whose rays walk the BVH (`auto`'s

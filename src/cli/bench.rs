@@ -168,7 +168,12 @@ struct AutoCheck {
 
 impl AutoCheck {
     /// The check of `scene` from its GPU rows, if it has a `cube` and a `bvh` row.
-    fn of(scene: &cuberay::scene::Scene, opts: &RenderOptions, gpu: &GpuRenderer, rows: &[Row]) -> Option<AutoCheck> {
+    fn of(
+        scene: &cuberay::scene::Scene,
+        opts: &RenderOptions,
+        gpu: &GpuRenderer,
+        rows: &[Row],
+    ) -> Option<AutoCheck> {
         let row = |a: &str| rows.iter().find(|r| r.backend == "gpu" && r.accel == a);
         let (cube, bvh) = (row("cube")?, row("bvh")?);
         let auto_opts = RenderOptions { accel: Accel::Auto, ..opts.clone() };
@@ -274,7 +279,12 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
                 Bench { args: &args, gpu: gpu.as_ref(), scene: &loaded.scene, name: &name, backend, load_s };
             let scene_rows = bench.rows(&progress)?;
             if let (BenchBackend::Gpu, Some(g)) = (backend, gpu.as_ref()) {
-                checks.extend(AutoCheck::of(&loaded.scene, &bench.options(Accel::Auto, false), g, &scene_rows));
+                checks.extend(AutoCheck::of(
+                    &loaded.scene,
+                    &bench.options(Accel::Auto, false),
+                    g,
+                    &scene_rows,
+                ));
             }
             rows.extend(scene_rows);
         }

@@ -8,6 +8,7 @@
 
 pub mod bindings;
 pub mod buffers;
+pub mod choose;
 mod context;
 pub mod kernels;
 pub mod plan;
@@ -18,6 +19,7 @@ pub mod shaders;
 mod variant;
 
 pub use buffers::SceneBuffers;
+pub use choose::{check, choose, resolve, Capabilities, F32_REACH};
 pub use context::GpuContext;
-pub use prepare::{check, choose, prepare, resolve, Capabilities, Prepared, Purpose, F32_REACH};
+pub use prepare::{prepare, Prepared, Purpose};
 pub use render::GpuRenderer;

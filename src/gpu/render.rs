@@ -9,8 +9,9 @@ use indicatif::ProgressBar;
 
 use super::bindings::SceneBinding;
 use super::buffers::{upload, BufferSizes, SceneBuffers};
+use super::choose::Capabilities;
 use super::kernels::{first_compile_marker, mark_compiled, Kernels, StagePipeline};
-use super::prepare::{self, Capabilities, Prepared, Purpose, TableSet};
+use super::prepare::{self, Prepared, Purpose, TableSet};
 use super::schedule::{self, Pacing, Pipelines, Progress, Schedule, WavePlan};
 use super::shaders::{Kernel, Stage, Variant};
 use super::GpuContext;

@@ -39,7 +39,7 @@ pub struct Variant {
     pub bvh_shadows: bool,
     /// With the tables, whether the rays leaving surfaces take the platform's ray queries
     /// (`SURFACE_RQ`) instead of the BVH walk: the default where the adapter offers them and
-    /// its measurements favour them (`gpu::prepare::resolve`).
+    /// its measurements favour them (`gpu::choose::resolve`).
     pub surface_rq: bool,
     /// Whether the primitives are split over several bindings (`SPLIT_PRIMS`): more than one
     /// binding holds (lavapipe: 128 MiB, two million primitives in f32). Every read of a

@@ -410,7 +410,7 @@ impl Session {
     pub fn set_effects(&mut self, toggles: Toggles, max_depth: u32) -> Result<()> {
         let mut opts = self.opts.clone();
         opts.max_depth = max_depth;
-        prepare::check(&self.scene, &opts)?;
+        crate::gpu::check(&self.scene, &opts)?;
         let v = variant(&self.scene, &opts, toggles, max_depth, self.accel);
         self.use_kernel(v)?;
         self.toggles = toggles;
