@@ -18,7 +18,7 @@ use cuberay::scene::{Tonemap, Transfer, ViewOverride};
 /// `--accel`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum AccelArg {
-    /// GPU: the candidate tables; CPU: brute force for tiny scenes, a BVH above.
+    /// GPU: the candidate table of each origin (eye, light) whose build pays for this render, the BVH for the rest; CPU: brute force for tiny scenes, a BVH above.
     Auto,
     /// Test every primitive for every ray.
     Brute,

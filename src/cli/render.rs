@@ -132,7 +132,8 @@ pub struct TraceArgs {
     /// Maximum ray-tree depth, the eye ray being depth 1.
     #[arg(long, default_value_t = 5)]
     pub max_depth: u32,
-    /// Acceleration structure. auto: the candidate tables (cube) on the GPU; on the CPU brute
+    /// Acceleration structure. auto: on the GPU the candidate table of each origin (eye,
+    /// light) whose build pays for this render, the BVH for the rest; on the CPU brute
     /// force for tiny scenes, else a BVH. cube: the direction-cube candidate tables for eye and
     /// light rays, for rays leaving surfaces the BVH or ray queries (--surface-walk); bvh: a
     /// bounding volume hierarchy (the baseline); brute: every primitive for every ray;

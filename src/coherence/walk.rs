@@ -36,18 +36,7 @@ pub const UNBOUNDED: u32 = u32::MAX;
 /// (`shaders/shared/rayquery.wgsl`); the CPU reference walks its own BVH instead.
 pub const SURFACE_WALK: u32 = u32::MAX;
 
-/// A ray's origin entity: what its table is keyed by.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum OriginKey {
-    /// Primary rays from the camera.
-    Eye,
-    /// Shadow rays traced from light `i` (index into `Scene::lights`) toward a point.
-    Light(usize),
-    /// Secondary rays leaving primitive `id` (reflection, refraction, and shadow rays towards
-    /// lights without a table): no table; the GPU walks the BVH for them, the tables'
-    /// walker the fallback origin.
-    Surface(u32),
-}
+pub use crate::scene::OriginKey;
 
 /// The answer of a bounded any-hit walk (WGSL `ANY_CLEAR`, `ANY_BLOCKED`, `ANY_UNFINISHED`).
 #[repr(u32)]

@@ -96,13 +96,16 @@ pub fn choose(scene: &Scene, opts: &RenderOptions, caps: Option<&Capabilities>) 
     Ok(o)
 }
 
-/// The eye rays a render with `opts` traces: a ray per grid point of its region and sample.
+/// The eye rays a render with `opts` traces over its whole image (a ray per grid point and
+/// sample): a part (`--tile`, `--crop`) chooses as the whole does, so that every part of an
+/// image is traced alike.
 fn eye_rays(opts: &RenderOptions) -> u64 {
     let samples = match opts.sampling {
         Sampling::Pixels => opts.spp.max(1) as u64,
         Sampling::Corners => 1,
     };
-    opts.grid_region().points() * samples
+    let (w, h) = opts.grid();
+    w as u64 * h as u64 * samples
 }
 
 /// Whether rays leaving surfaces go to ray queries by default on an adapter that has them:

@@ -369,25 +369,7 @@ impl Schedule {
         let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
         let mut tile = match self.current {
             Some(t) => t,
-            None => {
-                let count = self.tile_size.min(self.total - self.next_point) as u32;
-                let p = Params { first_point: self.next_point as u32, point_count: count, ..*base };
-                queue.write_buffer(&buffers[SceneBinding::Params], 0, bytemuck::bytes_of(&p));
-                queue.write_buffer(&buffers[SceneBinding::Queues], 0, bytemuck::cast_slice(&fresh_queues()));
-                if self.plan.is_some() {
-                    enc.clear_buffer(&buffers[SceneBinding::Accum], 0, Some(count as u64 * 24));
-                }
-                let bytes = crate::layout::counters::COUNTER_BYTES;
-                enc.copy_buffer_to_buffer(
-                    &buffers[SceneBinding::Counters],
-                    0,
-                    &self.counters_saved,
-                    0,
-                    bytes,
-                );
-                let samples = (base.sample_first, base.sample_end.max(base.sample_first + 1));
-                Tile { first: self.next_point, count, samples, wave: 0, longest_pass: 0.0 }
-            }
+            None => self.start_tile(queue, &mut enc, buffers, base),
         };
         let sample = tile.samples.0 + tile.wave;
         let passes = self.plan.map_or_else(Vec::new, |p| p.passes(sample));
@@ -461,22 +443,7 @@ impl Schedule {
         ctx.wait()?;
         self.last_submit = start.elapsed();
         self.longest_submit = self.longest_submit.max(self.last_submit);
-        if let Some(t) = &self.timer {
-            let n = 2 * kernels.len() as u64;
-            let ts = ctx.read(&t.read, 8 * n)?;
-            let ts: &[u64] = bytemuck::cast_slice(&ts);
-            for (&(k, depth), pair) in kernels.iter().zip(ts.chunks_exact(2)) {
-                let s = pair[1].saturating_sub(pair[0]) as f64 * t.period_s;
-                self.gpu_s += s;
-                let slot = kernel_slot(k);
-                self.kernel_s[slot] += s;
-                if depth >= 1 && slot < 3 {
-                    self.depth_s[depth as usize - 1][slot] += s;
-                }
-                tile.longest_pass = tile.longest_pass.max(s);
-                self.longest_pass = self.longest_pass.max(s);
-            }
-        }
+        self.read_timestamps(ctx, &kernels, &mut tile)?;
         log::trace!(
             "wave {} of {} points: {} passes, {:.1} ms",
             tile.wave,
@@ -504,6 +471,54 @@ impl Schedule {
             self.next_point = 0;
         }
         Ok(Progress::TileDone { first: tile.first, count: tile.count, pass_done })
+    }
+
+    /// Starts the next tile: its params and fresh queues written, its radiance sums cleared
+    /// (wavefront), the counters saved for a redo.
+    fn start_tile(
+        &mut self,
+        queue: &wgpu::Queue,
+        enc: &mut wgpu::CommandEncoder,
+        buffers: &SceneBuffers,
+        base: &Params,
+    ) -> Tile {
+        let count = self.tile_size.min(self.total - self.next_point) as u32;
+        let p = Params { first_point: self.next_point as u32, point_count: count, ..*base };
+        queue.write_buffer(&buffers[SceneBinding::Params], 0, bytemuck::bytes_of(&p));
+        queue.write_buffer(&buffers[SceneBinding::Queues], 0, bytemuck::cast_slice(&fresh_queues()));
+        if self.plan.is_some() {
+            enc.clear_buffer(&buffers[SceneBinding::Accum], 0, Some(count as u64 * 24));
+        }
+        let bytes = crate::layout::counters::COUNTER_BYTES;
+        enc.copy_buffer_to_buffer(&buffers[SceneBinding::Counters], 0, &self.counters_saved, 0, bytes);
+        let samples = (base.sample_first, base.sample_end.max(base.sample_first + 1));
+        Tile { first: self.next_point, count, samples, wave: 0, longest_pass: 0.0 }
+    }
+
+    /// Adds the timed passes of a wave (`kernels`: each dispatch's kernel and depth) to the
+    /// kernel times, by kernel and depth, and to the longest pass, when timed.
+    fn read_timestamps(
+        &mut self,
+        ctx: &GpuContext,
+        kernels: &[(Kernel, u32)],
+        tile: &mut Tile,
+    ) -> Result<()> {
+        let Some(t) = &self.timer else { return Ok(()) };
+        let n = 2 * kernels.len() as u64;
+        let (ts, period_s) = (ctx.read(&t.read, 8 * n)?, t.period_s);
+        let ts: &[u64] = bytemuck::cast_slice(&ts);
+        for (&(k, depth), pair) in kernels.iter().zip(ts.chunks_exact(2)) {
+            let s = pair[1].saturating_sub(pair[0]) as f64 * period_s;
+            self.gpu_s += s;
+            let slot = kernel_slot(k);
+            self.kernel_s[slot] += s;
+            if depth >= 1 && slot < 3 {
+                self.depth_s[depth as usize - 1][slot] += s;
+            }
+            tile.longest_pass = tile.longest_pass.max(s);
+            self.longest_pass = self.longest_pass.max(s);
+        }
+        Ok(())
     }
 
     /// The timestamp writes of pass `i` of a wave, when timed.

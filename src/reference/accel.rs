@@ -13,16 +13,9 @@ use crate::arith::closest::{consider, no_closest, Closest, TestHit};
 use crate::scene::{Primitive, Scene};
 use crate::stats::TestCounts;
 
-/// The entity a ray starts from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum OriginKey {
-    /// A primary ray from the camera.
-    Eye,
-    /// A ray from light `i` (index into [`Scene::lights`](crate::scene::Scene::lights)).
-    Light(u32),
-    /// A ray leaving the surface of primitive `id`.
-    Surface(u32),
-}
+/// The entity a ray starts from: the tables' key, which the reference's accelerators take
+/// whether they use tables or not.
+pub use crate::scene::OriginKey;
 
 /// A nearest-hit answer: the primitive and where it was hit.
 #[derive(Clone, Copy, Debug, PartialEq)]

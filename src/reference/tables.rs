@@ -52,15 +52,6 @@ impl<'a> TableAccel<'a> {
         &self.tables.flat
     }
 
-    /// The table key of a ray from `origin`.
-    fn key(origin: OriginKey) -> coherence::OriginKey {
-        match origin {
-            OriginKey::Eye => coherence::OriginKey::Eye,
-            OriginKey::Light(i) => coherence::OriginKey::Light(i as usize),
-            OriginKey::Surface(id) => coherence::OriginKey::Surface(id),
-        }
-    }
-
     /// Whether something in the list of the ray from `key` along `d` lies before `reach`,
     /// each candidate tested with the reference's shadow ray `test_ray`.
     fn any_hit(
@@ -115,7 +106,7 @@ impl Intersector for TableAccel<'_> {
         };
         nearest_by_rule(|best| {
             // In steps, as the GPU walks, each resuming where the last stopped.
-            let mut w = flat.walk_from(Self::key(origin), d);
+            let mut w = flat.walk_from(origin, d);
             while !walk_nearest(flat, &mut w, best, t_max, u32::MAX, WALK_CHUNK, &mut walked, &mut test) {}
         })
     }

@@ -221,31 +221,7 @@ impl Cache {
             None => None,
             Some(acc) => {
                 same_count(&acc, "NORMAL")?;
-                Some(match self.normals.get(&acc.index()) {
-                    Some(v) => v.clone(),
-                    None => {
-                        let aloc = attr_loc(&loc, "NORMAL", &acc);
-                        let mut v = reader.normals(&acc, &aloc)?;
-                        let mut bad = 0;
-                        for nrm in &mut v {
-                            let len = nrm.iter().map(|c| c * c).sum::<f32>().sqrt();
-                            if len.is_finite() && len > 0.0 {
-                                *nrm = nrm.map(|c| c / len);
-                            } else {
-                                *nrm = [0.0; 3];
-                                bad += 1;
-                            }
-                        }
-                        if bad > 0 {
-                            warnings.push(format!(
-                                "{aloc}: {bad} normals are zero or not finite; their vertices use the triangle's geometric normal"
-                            ));
-                        }
-                        let v = Arc::new(v);
-                        self.normals.insert(acc.index(), v.clone());
-                        v
-                    }
-                })
+                Some(self.normals(reader, &acc, &attr_loc(&loc, "NORMAL", &acc), warnings)?)
             }
         };
 
@@ -285,39 +261,7 @@ impl Cache {
             }
         };
 
-        let idx_acc = prim.indices();
-        let key = (idx_acc.as_ref().map(|a| a.index()), mode.as_gl_enum(), n);
-        let tris = match self.tris.get(&key) {
-            Some(t) => t.clone(),
-            None => {
-                let (idx, idx_loc) = match &idx_acc {
-                    None => {
-                        (Arc::new((0..n as u32).collect::<Vec<u32>>()), attr_loc(&loc, "POSITION", &pos_acc))
-                    }
-                    Some(acc) => {
-                        let iloc = format!("{loc}.indices (accessors[{}])", acc.index());
-                        let idx = match self.indices.get(&acc.index()) {
-                            Some(v) => v.clone(),
-                            None => {
-                                let v = Arc::new(reader.indices(acc, &iloc)?);
-                                self.indices.insert(acc.index(), v.clone());
-                                v
-                            }
-                        };
-                        if let Some((k, &v)) = idx.iter().enumerate().find(|(_, &v)| v as usize >= n) {
-                            return Err(ctx.err(
-                                iloc,
-                                format!("index {v} (element {k}) is out of range: POSITION has {n} vertices"),
-                            ));
-                        }
-                        (idx, iloc)
-                    }
-                };
-                let t = Arc::new(assemble(&idx, mode).map_err(|m| ctx.err(idx_loc, m))?);
-                self.tris.insert(key, t.clone());
-                t
-            }
-        };
+        let tris = self.triangles(reader, prim, &loc, n, &attr_loc(&loc, "POSITION", &pos_acc))?;
         let tangents = match needs.tangents.and_then(|set| uvs[set as usize].as_ref()) {
             None => None,
             // glTF: without NORMAL, TANGENT is ignored (the normals are the flat ones).
@@ -331,6 +275,82 @@ impl Cache {
             })),
         };
         Ok(Some(PrimGeom { positions, normals, uvs, colors, tris, tangents, material }))
+    }
+
+    /// The unit normals of accessor `acc` (at `aloc`), decoded once; zero or non-finite ones
+    /// become zero (their vertices take the triangle's geometric normal), with a warning.
+    fn normals(
+        &mut self,
+        reader: &Reader,
+        acc: &gltf::Accessor,
+        aloc: &str,
+        warnings: &mut Vec<String>,
+    ) -> Result<Arc<Vec<[f32; 3]>>, Error> {
+        if let Some(v) = self.normals.get(&acc.index()) {
+            return Ok(v.clone());
+        }
+        let mut v = reader.normals(acc, aloc)?;
+        let mut bad = 0;
+        for nrm in &mut v {
+            let len = nrm.iter().map(|c| c * c).sum::<f32>().sqrt();
+            if len.is_finite() && len > 0.0 {
+                *nrm = nrm.map(|c| c / len);
+            } else {
+                *nrm = [0.0; 3];
+                bad += 1;
+            }
+        }
+        if bad > 0 {
+            warnings.push(format!(
+                "{aloc}: {bad} normals are zero or not finite; their vertices use the triangle's geometric normal"
+            ));
+        }
+        let v = Arc::new(v);
+        self.normals.insert(acc.index(), v.clone());
+        Ok(v)
+    }
+
+    /// The triangles of `prim` (at `loc`) over its `n` vertices, from its indices (checked
+    /// in range) or, without any, the vertices in order (`pos_loc`: the positions'
+    /// accessor), assembled by its mode; decoded once per indices, mode and count.
+    fn triangles(
+        &mut self,
+        reader: &Reader,
+        prim: &gltf::Primitive,
+        loc: &str,
+        n: usize,
+        pos_loc: &str,
+    ) -> Result<Arc<Vec<[u32; 3]>>, Error> {
+        let ctx = reader.ctx;
+        let (idx_acc, mode) = (prim.indices(), prim.mode());
+        let key = (idx_acc.as_ref().map(|a| a.index()), mode.as_gl_enum(), n);
+        if let Some(t) = self.tris.get(&key) {
+            return Ok(t.clone());
+        }
+        let (idx, idx_loc) = match &idx_acc {
+            None => (Arc::new((0..n as u32).collect::<Vec<u32>>()), pos_loc.to_string()),
+            Some(acc) => {
+                let iloc = format!("{loc}.indices (accessors[{}])", acc.index());
+                let idx = match self.indices.get(&acc.index()) {
+                    Some(v) => v.clone(),
+                    None => {
+                        let v = Arc::new(reader.indices(acc, &iloc)?);
+                        self.indices.insert(acc.index(), v.clone());
+                        v
+                    }
+                };
+                if let Some((k, &v)) = idx.iter().enumerate().find(|(_, &v)| v as usize >= n) {
+                    return Err(ctx.err(
+                        iloc,
+                        format!("index {v} (element {k}) is out of range: POSITION has {n} vertices"),
+                    ));
+                }
+                (idx, iloc)
+            }
+        };
+        let t = Arc::new(assemble(&idx, mode).map_err(|m| ctx.err(idx_loc, m))?);
+        self.tris.insert(key, t.clone());
+        Ok(t)
     }
 }
 

@@ -248,36 +248,7 @@ pub fn build(
     // Every texture slot of every used material; then the images they need, decoded at once.
     let mut slots: Vec<MaterialSlots> = Vec::new();
     for &i in &used_gltf {
-        let m = &materials[i];
-        let loc = format!("materials[{i}]");
-        let pbr = m.pbr_metallic_roughness();
-        let emits =
-            m.emissive_factor().iter().any(|&c| c != 0.0) && m.emissive_strength().unwrap_or(1.0) != 0.0;
-        let transmission = m.transmission().filter(|t| t.transmission_factor() > 0.0);
-        let pbr_loc = format!("{loc}.pbrMetallicRoughness");
-        slots.push(MaterialSlots {
-            base: pbr.base_color_texture().map(|t| Slot::of(t, format!("{pbr_loc}.baseColorTexture"), true)),
-            metallic_roughness: pbr
-                .metallic_roughness_texture()
-                .map(|t| Slot::of(t, format!("{pbr_loc}.metallicRoughnessTexture"), false)),
-            emissive: m
-                .emissive_texture()
-                .filter(|_| emits)
-                .map(|t| Slot::of(t, format!("{loc}.emissiveTexture"), true)),
-            transmission: transmission.and_then(|t| t.transmission_texture()).map(|t| {
-                Slot::of(t, format!("{loc}.extensions.KHR_materials_transmission.transmissionTexture"), false)
-            }),
-            normal: match m.normal_texture() {
-                None => None,
-                Some(n) => {
-                    let nloc = format!("{loc}.normalTexture");
-                    Some(
-                        Slot::normal(&n, nloc.clone())
-                            .map_err(|e| ctx.err(format!("{nloc}.extensions.KHR_texture_transform"), e))?,
-                    )
-                }
-            },
-        });
+        slots.push(slots_of(ctx, &materials[i], i)?);
     }
     let needed: BTreeSet<usize> = slots.iter().flat_map(|s| s.all().map(Slot::image)).collect();
     let needed: Vec<usize> = needed.into_iter().collect();
@@ -291,90 +262,11 @@ pub fn build(
     let mut occlusion_maps = Vec::new();
     for (&i, slots) in used_gltf.iter().zip(&slots) {
         let m = &materials[i];
-        let loc = format!("materials[{i}]");
         if m.occlusion_texture().is_some() {
             occlusion_maps.push(i);
         }
-        let pbr = m.pbr_metallic_roughness();
-        let f3 = |v: [f32; 3]| DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64);
-        let bc = pbr.base_color_factor();
-        let factors = Pbr {
-            base: f3([bc[0], bc[1], bc[2]]),
-            metallic: pbr.metallic_factor() as f64,
-            roughness: pbr.roughness_factor() as f64,
-            transmission: m.transmission().map_or(0.0, |t| t.transmission_factor() as f64),
-            ior: m.ior().map_or(1.5, f64::from),
-            emission: f3(m.emissive_factor()) * m.emissive_strength().map_or(1.0, f64::from),
-        };
-        if factors.ior.is_nan() || factors.ior < 1.0 {
-            return Err(ctx.err(loc, format!("KHR_materials_ior: ior {} is not at least 1", factors.ior)));
-        }
-        if !(factors.base.is_finite() && factors.emission.is_finite()) {
-            return Err(ctx.err(loc, "baseColorFactor and emissiveFactor must be finite"));
-        }
-        let mut add = |slot: &Option<Slot>| -> Result<Option<TextureRef>, Error> {
-            match slot {
-                None => Ok(None),
-                Some(s) => textures.add(ctx, s, warnings),
-            }
-        };
-        let base_color_texture = add(&slots.base)?;
-        let maps = PbrMaps {
-            metallic: factors.metallic,
-            roughness: factors.roughness,
-            transmission: factors.transmission,
-            emission: factors.emission,
-            metallic_roughness: add(&slots.metallic_roughness)?,
-            emissive: add(&slots.emissive)?,
-            transmission_texture: add(&slots.transmission)?,
-            ranges: MapRanges::ONES,
-        };
-        let normal_map = add(&slots.normal)?.map(|texture| NormalMap {
-            texture,
-            scale: m.normal_texture().map_or(1.0, |n| n.scale() as f64),
-        });
-        // The scalar terms: the factors' where no map varies them; else bounds over the maps
-        // ([`PbrMaps::bounds`]), from the extremes of their texels.
-        let mut maps = maps;
-        let image = |r: Option<TextureRef>| r.map(|r| &textures.out[r.texture as usize]);
-        if let Some(t) = image(maps.metallic_roughness) {
-            let (m, rough) = (channel_range(t, 2), channel_range(t, 1));
-            (maps.ranges.metallic, maps.ranges.roughness_min) = ([m.0, m.1], rough.0);
-        }
-        if let Some(t) = image(maps.transmission_texture) {
-            maps.ranges.transmission_max = channel_range(t, 0).1;
-        }
-        if let Some(t) = image(maps.emissive) {
-            maps.ranges.emission_max = max_srgb(t);
-        }
-        let has_maps = maps.metallic_roughness.is_some()
-            || maps.emissive.is_some()
-            || maps.transmission_texture.is_some();
-        let sh = if has_maps { maps.bounds(factors.base, factors.ior) } else { factors.whitted() };
-        let alpha = match m.alpha_mode() {
-            AlphaMode::Opaque => Alpha::Opaque,
-            AlphaMode::Mask => Alpha::Mask { cutoff: m.alpha_cutoff().unwrap_or(0.5) as f64 },
-            AlphaMode::Blend => Alpha::Blend,
-        };
-        let mat = Material {
-            name: m.name().map(String::from),
-            color: sh.color,
-            kd: sh.kd,
-            ks: sh.ks,
-            shine: sh.shine,
-            mirror: sh.mirror,
-            transmittance: sh.transmittance,
-            tinted_transmission: true,
-            ior: factors.ior,
-            emission: sh.emission,
-            base_color_texture,
-            maps: has_maps.then(|| Box::new(maps)),
-            normal_map,
-            alpha,
-            opacity: (bc[3] as f64).clamp(0.0, 1.0),
-            double_sided: m.double_sided(),
-        };
-        mat.validate(textures.out.len()).map_err(|e| ctx.err(&loc, e.into_message()))?;
+        let mat = material(ctx, m, i, slots, &mut textures, warnings)?;
+        mat.validate(textures.out.len()).map_err(|e| ctx.err(format!("materials[{i}]"), e.into_message()))?;
         table.by_gltf.insert(Some(i), table.materials.len() as u32);
         table.materials.push(mat);
     }
@@ -390,6 +282,128 @@ pub fn build(
         table.materials.push(Material { name: Some("default".into()), ..Material::default() });
     }
     Ok(table)
+}
+
+/// The texture slots of glTF material `m` (`materials[i]`): the maps it reads, before any
+/// image is decoded.
+fn slots_of<'d>(ctx: &Ctx, m: &gltf::Material<'d>, i: usize) -> Result<MaterialSlots<'d>, Error> {
+    let loc = format!("materials[{i}]");
+    let pbr = m.pbr_metallic_roughness();
+    let emits = m.emissive_factor().iter().any(|&c| c != 0.0) && m.emissive_strength().unwrap_or(1.0) != 0.0;
+    let transmission = m.transmission().filter(|t| t.transmission_factor() > 0.0);
+    let pbr_loc = format!("{loc}.pbrMetallicRoughness");
+    Ok(MaterialSlots {
+        base: pbr.base_color_texture().map(|t| Slot::of(t, format!("{pbr_loc}.baseColorTexture"), true)),
+        metallic_roughness: pbr
+            .metallic_roughness_texture()
+            .map(|t| Slot::of(t, format!("{pbr_loc}.metallicRoughnessTexture"), false)),
+        emissive: m
+            .emissive_texture()
+            .filter(|_| emits)
+            .map(|t| Slot::of(t, format!("{loc}.emissiveTexture"), true)),
+        transmission: transmission.and_then(|t| t.transmission_texture()).map(|t| {
+            Slot::of(t, format!("{loc}.extensions.KHR_materials_transmission.transmissionTexture"), false)
+        }),
+        normal: match m.normal_texture() {
+            None => None,
+            Some(n) => {
+                let nloc = format!("{loc}.normalTexture");
+                Some(
+                    Slot::normal(&n, nloc.clone())
+                        .map_err(|e| ctx.err(format!("{nloc}.extensions.KHR_texture_transform"), e))?,
+                )
+            }
+        },
+    })
+}
+
+/// The scene material of glTF material `m` (`materials[i]`) with its texture `slots`, its
+/// maps added to `textures`.
+fn material(
+    ctx: &Ctx,
+    m: &gltf::Material,
+    i: usize,
+    slots: &MaterialSlots,
+    textures: &mut Textures,
+    warnings: &mut Vec<String>,
+) -> Result<Material, Error> {
+    let loc = format!("materials[{i}]");
+    let pbr = m.pbr_metallic_roughness();
+    let f3 = |v: [f32; 3]| DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64);
+    let bc = pbr.base_color_factor();
+    let factors = Pbr {
+        base: f3([bc[0], bc[1], bc[2]]),
+        metallic: pbr.metallic_factor() as f64,
+        roughness: pbr.roughness_factor() as f64,
+        transmission: m.transmission().map_or(0.0, |t| t.transmission_factor() as f64),
+        ior: m.ior().map_or(1.5, f64::from),
+        emission: f3(m.emissive_factor()) * m.emissive_strength().map_or(1.0, f64::from),
+    };
+    if factors.ior.is_nan() || factors.ior < 1.0 {
+        return Err(ctx.err(loc, format!("KHR_materials_ior: ior {} is not at least 1", factors.ior)));
+    }
+    if !(factors.base.is_finite() && factors.emission.is_finite()) {
+        return Err(ctx.err(loc, "baseColorFactor and emissiveFactor must be finite"));
+    }
+    let mut add = |slot: &Option<Slot>| -> Result<Option<TextureRef>, Error> {
+        match slot {
+            None => Ok(None),
+            Some(s) => textures.add(ctx, s, warnings),
+        }
+    };
+    let base_color_texture = add(&slots.base)?;
+    let maps = PbrMaps {
+        metallic: factors.metallic,
+        roughness: factors.roughness,
+        transmission: factors.transmission,
+        emission: factors.emission,
+        metallic_roughness: add(&slots.metallic_roughness)?,
+        emissive: add(&slots.emissive)?,
+        transmission_texture: add(&slots.transmission)?,
+        ranges: MapRanges::ONES,
+    };
+    let normal_map = add(&slots.normal)?
+        .map(|texture| NormalMap { texture, scale: m.normal_texture().map_or(1.0, |n| n.scale() as f64) });
+    // The scalar terms: the factors' where no map varies them; else bounds over the maps
+    // ([`PbrMaps::bounds`]), from the extremes of their texels.
+    let mut maps = maps;
+    let image = |r: Option<TextureRef>| r.map(|r| &textures.out[r.texture as usize]);
+    if let Some(t) = image(maps.metallic_roughness) {
+        let (m, rough) = (channel_range(t, 2), channel_range(t, 1));
+        (maps.ranges.metallic, maps.ranges.roughness_min) = ([m.0, m.1], rough.0);
+    }
+    if let Some(t) = image(maps.transmission_texture) {
+        maps.ranges.transmission_max = channel_range(t, 0).1;
+    }
+    if let Some(t) = image(maps.emissive) {
+        maps.ranges.emission_max = max_srgb(t);
+    }
+    let has_maps =
+        maps.metallic_roughness.is_some() || maps.emissive.is_some() || maps.transmission_texture.is_some();
+    let sh = if has_maps { maps.bounds(factors.base, factors.ior) } else { factors.whitted() };
+    let alpha = match m.alpha_mode() {
+        AlphaMode::Opaque => Alpha::Opaque,
+        AlphaMode::Mask => Alpha::Mask { cutoff: m.alpha_cutoff().unwrap_or(0.5) as f64 },
+        AlphaMode::Blend => Alpha::Blend,
+    };
+    Ok(Material {
+        name: m.name().map(String::from),
+        color: sh.color,
+        kd: sh.kd,
+        ks: sh.ks,
+        shine: sh.shine,
+        mirror: sh.mirror,
+        transmittance: sh.transmittance,
+        tinted_transmission: true,
+        ior: factors.ior,
+        emission: sh.emission,
+        base_color_texture,
+        maps: has_maps.then(|| Box::new(maps)),
+        normal_map,
+        alpha,
+        opacity: (bc[3] as f64).clamp(0.0, 1.0),
+        double_sided: m.double_sided(),
+    })
 }
 
 /// Widens the map bounds of every material some of whose triangles lack a UV set its maps

@@ -14,7 +14,8 @@ use super::{hidden, showcase};
 fn kernels_are_compiled_once_per_effect_set() {
     let r = GpuRenderer::new().unwrap_or_else(|e| panic!("{e}"));
     let scene = showcase();
-    let opts = RenderOptions::new(8, 6);
+    // The tables, whatever `auto` would choose for so small an image.
+    let opts = RenderOptions { accel: cuberay::job::Accel::Cube, ..RenderOptions::new(8, 6) };
     r.render(&scene, &opts, &hidden()).unwrap();
     r.render(&scene, &opts, &hidden()).unwrap();
     // The wavefront's kernels: nearest for the eye's depth and for the later ones (whose
