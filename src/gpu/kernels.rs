@@ -183,3 +183,25 @@ pub fn shader_module(ctx: &GpuContext, kernel: Kernel, variant: Variant) -> Resu
         source: wgpu::ShaderSource::Wgsl(source.into()),
     }))
 }
+
+/// The pipelines a schedule dispatches: the wavefront kernels of a render's variant, each
+/// with the depths it serves ([`Kernel::wavefront`]), or one kernel run once over each tile
+/// (the `aov` kernel).
+pub enum Pipelines<'a> {
+    Wavefront(&'a [StagePipeline]),
+    Single(&'a wgpu::ComputePipeline),
+}
+
+impl Pipelines<'_> {
+    /// The pipeline of `kernel` for the passes of depth `depth`.
+    pub fn of(&self, k: Kernel, depth: u32) -> &wgpu::ComputePipeline {
+        match self {
+            Pipelines::Single(p) => p,
+            Pipelines::Wavefront(all) => all
+                .iter()
+                .find(|p| p.0.kernel == k && p.0.serves(depth))
+                .map(|p| p.1.as_ref())
+                .unwrap_or_else(|| panic!("a pass of the {} kernel, which this variant lacks", k.name())),
+        }
+    }
+}

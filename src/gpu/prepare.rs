@@ -12,6 +12,7 @@ use std::time::Instant;
 
 use super::buffers::{BufferSizes, QueueSizes};
 use super::choose::{resolve, table_params, Capabilities};
+use super::schedule::whole_groups;
 use super::shaders::{Depths, Kernel, Stage, Variant};
 use crate::coherence::reach::WalkBounds;
 use crate::coherence::{self, BuildParams, FlatTables, OriginKey, Tables};
@@ -418,10 +419,4 @@ fn prims_per_binding(scene: &Scene, opts: &RenderOptions, caps: &Capabilities) -
         )));
     }
     Ok(Some(per.min(u32::MAX as u64) as u32))
-}
-
-/// `points` rounded up to whole workgroups, at least one.
-fn whole_groups(points: u64) -> u64 {
-    let group = crate::layout::WORKGROUP as u64;
-    points.div_ceil(group).max(1) * group
 }

@@ -10,9 +10,10 @@ use indicatif::ProgressBar;
 use super::bindings::SceneBinding;
 use super::buffers::{upload, BufferSizes, SceneBuffers};
 use super::choose::Capabilities;
-use super::kernels::{first_compile_marker, mark_compiled, Kernels, StagePipeline};
+use super::kernels::{first_compile_marker, mark_compiled, Kernels, Pipelines, StagePipeline};
 use super::prepare::{self, Prepared, Purpose, TableSet};
-use super::schedule::{self, Pacing, Pipelines, Progress, Schedule, WavePlan};
+
+use super::schedule::{self, Pacing, Progress, Schedule, WavePlan};
 use super::shaders::{Kernel, Stage, Variant};
 use super::GpuContext;
 use crate::coherence::FlatTables;

@@ -31,14 +31,14 @@ use std::time::{Duration, Instant};
 
 use super::bindings::SceneBinding;
 use super::buffers::SceneBuffers;
-use super::kernels::StagePipeline;
+use super::kernels::Pipelines;
 pub use super::plan::{Pass, WavePlan};
 use super::shaders::Kernel;
 use super::GpuContext;
 use crate::error::{Error, Result};
 use crate::layout::{
-    Params, PassDesc, MAX_DEPTH, OVERFLOW_FULL, OVERFLOW_UNFINISHED, QUEUE_ARGS, QUEUE_COUNT, QUEUE_OVERFLOW,
-    QUEUE_WORDS, WORKGROUP,
+    fresh_queues, Params, PassDesc, MAX_DEPTH, OVERFLOW_FULL, OVERFLOW_UNFINISHED, QUEUE_ARGS,
+    QUEUE_OVERFLOW, QUEUE_WORDS, WORKGROUP,
 };
 
 /// How tiles are sized.
@@ -73,7 +73,7 @@ const MIN_RATE_TILE: u64 = 512;
 const FIRST_TILE: u64 = 1024;
 
 /// `points` rounded up to whole workgroups, at least one.
-fn whole_groups(points: u64) -> u64 {
+pub fn whole_groups(points: u64) -> u64 {
     points.div_ceil(MIN_TILE).max(1) * MIN_TILE
 }
 
@@ -149,39 +149,6 @@ fn kernel_slot(k: Kernel) -> usize {
         Kernel::Shadow => 2,
         _ => 3,
     }
-}
-
-/// The pipelines a schedule dispatches: the wavefront kernels of a render's variant, each
-/// with the depths it serves ([`Kernel::wavefront`]), or one kernel run once over each tile
-/// (the `aov` kernel).
-pub enum Pipelines<'a> {
-    Wavefront(&'a [StagePipeline]),
-    Single(&'a wgpu::ComputePipeline),
-}
-
-impl Pipelines<'_> {
-    /// The pipeline of `kernel` for the passes of depth `depth`.
-    fn of(&self, k: Kernel, depth: u32) -> &wgpu::ComputePipeline {
-        match self {
-            Pipelines::Single(p) => p,
-            Pipelines::Wavefront(all) => all
-                .iter()
-                .find(|p| p.0.kernel == k && p.0.serves(depth))
-                .map(|p| p.1.as_ref())
-                .unwrap_or_else(|| panic!("a pass of the {} kernel, which this variant lacks", k.name())),
-        }
-    }
-}
-
-/// The `queues` words a tile starts from: every queue empty, dispatch arguments (0, 1, 1).
-fn fresh_queues() -> [u32; QUEUE_WORDS as usize] {
-    let mut w = [0u32; QUEUE_WORDS as usize];
-    for q in 0..QUEUE_COUNT {
-        let a = (QUEUE_ARGS + 3 * q) as usize;
-        w[a + 1] = 1;
-        w[a + 2] = 1;
-    }
-    w
 }
 
 /// Dispatches `pipeline` once over no points (it writes nothing: empty queues, no tile
@@ -373,47 +340,12 @@ impl Schedule {
         };
         let sample = tile.samples.0 + tile.wave;
         let passes = self.plan.map_or_else(Vec::new, |p| p.passes(sample));
-        let desc_bytes = std::mem::size_of::<PassDesc>() as u64;
         let descs: Vec<PassDesc> = passes.iter().map(|p| p.desc).collect();
         queue.write_buffer(&self.table, 0, bytemuck::cast_slice(&descs));
         let last_wave = self.plan.is_none() || sample + 1 >= tile.samples.1;
         let groups = tile.count.div_ceil(WORKGROUP);
         // Each dispatch's kernel and depth (0: none, the resolve pass).
-        let mut kernels: Vec<(Kernel, u32)> = Vec::with_capacity(passes.len() + 1);
-        for (i, p) in passes.iter().enumerate() {
-            enc.copy_buffer_to_buffer(
-                &self.table,
-                i as u64 * desc_bytes,
-                &buffers[SceneBinding::PassDesc],
-                0,
-                desc_bytes,
-            );
-            for &q in &p.resets {
-                enc.clear_buffer(&buffers[SceneBinding::Queues], 4 * q as u64, Some(4));
-                enc.clear_buffer(&buffers[SceneBinding::Queues], 4 * (QUEUE_ARGS + 3 * q) as u64, Some(4));
-            }
-            if let Some(q) = p.over {
-                enc.copy_buffer_to_buffer(
-                    &buffers[SceneBinding::Queues],
-                    4 * (QUEUE_ARGS + 3 * q) as u64,
-                    &buffers.indirect,
-                    0,
-                    12,
-                );
-            }
-            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some(p.kernel.name()),
-                timestamp_writes: self.timestamps(kernels.len()),
-            });
-            pass.set_pipeline(pipelines.of(p.kernel, p.desc.depth));
-            pass.set_bind_group(0, &buffers.bind, &[]);
-            match p.over {
-                Some(_) => pass.dispatch_workgroups_indirect(&buffers.indirect, 0),
-                None => pass.dispatch_workgroups(groups, 1, 1),
-            }
-            drop(pass);
-            kernels.push((p.kernel, p.desc.depth));
-        }
+        let mut kernels = self.encode_passes(&mut enc, &passes, pipelines, buffers, groups);
         if last_wave {
             // The tile's colours (`resolve`), or the single kernel's pass.
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -471,6 +403,56 @@ impl Schedule {
             self.next_point = 0;
         }
         Ok(Progress::TileDone { first: tile.first, count: tile.count, pass_done })
+    }
+
+    /// Encodes a wave's `passes` over `groups` workgroups (indirect where a pass's queue may
+    /// have overflowed the tile), each after copying its descriptor and resetting its
+    /// queues; returns each dispatch's kernel and depth.
+    fn encode_passes(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        passes: &[Pass],
+        pipelines: &Pipelines,
+        buffers: &SceneBuffers,
+        groups: u32,
+    ) -> Vec<(Kernel, u32)> {
+        let desc_bytes = std::mem::size_of::<PassDesc>() as u64;
+        let mut kernels: Vec<(Kernel, u32)> = Vec::with_capacity(passes.len() + 1);
+        for (i, p) in passes.iter().enumerate() {
+            enc.copy_buffer_to_buffer(
+                &self.table,
+                i as u64 * desc_bytes,
+                &buffers[SceneBinding::PassDesc],
+                0,
+                desc_bytes,
+            );
+            for &q in &p.resets {
+                enc.clear_buffer(&buffers[SceneBinding::Queues], 4 * q as u64, Some(4));
+                enc.clear_buffer(&buffers[SceneBinding::Queues], 4 * (QUEUE_ARGS + 3 * q) as u64, Some(4));
+            }
+            if let Some(q) = p.over {
+                enc.copy_buffer_to_buffer(
+                    &buffers[SceneBinding::Queues],
+                    4 * (QUEUE_ARGS + 3 * q) as u64,
+                    &buffers.indirect,
+                    0,
+                    12,
+                );
+            }
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(p.kernel.name()),
+                timestamp_writes: self.timestamps(kernels.len()),
+            });
+            pass.set_pipeline(pipelines.of(p.kernel, p.desc.depth));
+            pass.set_bind_group(0, &buffers.bind, &[]);
+            match p.over {
+                Some(_) => pass.dispatch_workgroups_indirect(&buffers.indirect, 0),
+                None => pass.dispatch_workgroups(groups, 1, 1),
+            }
+            drop(pass);
+            kernels.push((p.kernel, p.desc.depth));
+        }
+        kernels
     }
 
     /// Starts the next tile: its params and fresh queues written, its radiance sums cleared
@@ -589,22 +571,5 @@ impl Schedule {
         } else if took < target / 2 {
             self.tile_size = (self.tile_size * 2).min(self.capacity);
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn fresh_queues_are_empty_with_dispatch_arguments_x_1_1() {
-        let w = fresh_queues();
-        for q in 0..QUEUE_COUNT {
-            assert_eq!(w[q as usize], 0);
-            let a = (QUEUE_ARGS + 3 * q) as usize;
-            assert_eq!(&w[a..a + 3], &[0, 1, 1]);
-        }
-        assert_eq!(w[QUEUE_OVERFLOW as usize], 0);
-        const { assert!(QUEUE_ARGS + 3 * QUEUE_COUNT <= QUEUE_OVERFLOW) };
     }
 }

@@ -404,3 +404,31 @@ pub const RAY_DEPTH_SHIFT: u32 = 8;
 /// A spawned ray whose nearest hit (a shadow ray: the blocker that answered it) lies within
 /// this many spawn offsets of its origin is a self-hit (`rays.self_hits`).
 pub const SELF_HIT_SPAWNS: f32 = 4.0;
+
+/// The `queues` words a tile starts from: every queue empty, dispatch arguments (0, 1, 1).
+pub fn fresh_queues() -> [u32; QUEUE_WORDS as usize] {
+    let mut w = [0u32; QUEUE_WORDS as usize];
+    for q in 0..QUEUE_COUNT {
+        let a = (QUEUE_ARGS + 3 * q) as usize;
+        w[a + 1] = 1;
+        w[a + 2] = 1;
+    }
+    w
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fresh_queues_are_empty_with_dispatch_arguments_x_1_1() {
+        let w = fresh_queues();
+        for q in 0..QUEUE_COUNT {
+            assert_eq!(w[q as usize], 0);
+            let a = (QUEUE_ARGS + 3 * q) as usize;
+            assert_eq!(&w[a..a + 3], &[0, 1, 1]);
+        }
+        assert_eq!(w[QUEUE_OVERFLOW as usize], 0);
+        const { assert!(QUEUE_ARGS + 3 * QUEUE_COUNT <= QUEUE_OVERFLOW) };
+    }
+}

@@ -39,8 +39,8 @@ pub struct Decoded {
 
 impl Buffers {
     /// Loads every buffer: the GLB binary chunk, external files (relative to the glTF file)
-    /// and base64 data URIs; then decodes the meshopt-compressed views and the Draco
-    /// streams.
+    /// and base64 data URIs; then decodes the meshopt-compressed views (the Draco streams
+    /// are decoded over these buffers and added with [`Buffers::with_decoded`]).
     pub fn load(ctx: &Ctx, doc: &Document, mut blob: Option<Vec<u8>>) -> Result<Buffers, Error> {
         let mut data = Vec::new();
         let mut fallback = Vec::new();
@@ -70,8 +70,13 @@ impl Buffers {
         buffers.views = super::meshopt::decode_views(ctx, doc, |i| {
             buffers.data.get(i).filter(|_| !buffers.fallback[i]).map(|d| &d[..])
         })?;
-        buffers.accessors = super::draco::decode_primitives(ctx, doc, &buffers)?;
         Ok(buffers)
+    }
+
+    /// These buffers with the accessors a compressed stream decoded (by accessor index):
+    /// reads of those accessors take the decoded elements.
+    pub fn with_decoded(self, accessors: HashMap<usize, Decoded>) -> Buffers {
+        Buffers { accessors, ..self }
     }
 
     /// The bytes of buffer view `view` (decoded, where it was compressed), checked against

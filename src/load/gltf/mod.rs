@@ -219,6 +219,14 @@ fn used_materials(doc: &Document, hierarchy: &geometry::Hierarchy) -> BTreeSet<O
     used
 }
 
+/// Every buffer of `doc` (with `blob`, a GLB's binary chunk), the meshopt views and the
+/// Draco streams decoded.
+fn buffers(ctx: &Ctx, doc: &Document, blob: Option<Vec<u8>>) -> Result<data::Buffers, Error> {
+    let buffers = data::Buffers::load(ctx, doc, blob)?;
+    let decoded = draco::decode_primitives(ctx, doc, &buffers)?;
+    Ok(buffers.with_decoded(decoded))
+}
+
 /// Loads a .gltf or .glb file into a validated scene.
 pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, Error> {
     let ctx = Ctx { path };
@@ -232,7 +240,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, Error> {
         }
     }
 
-    let buffers = data::Buffers::load(&ctx, &doc, blob)?;
+    let buffers = buffers(&ctx, &doc, blob)?;
     let reader = data::Reader { ctx: &ctx, buffers: &buffers };
     let pose = match options.time {
         None => animation::Pose::default(),
