@@ -52,6 +52,12 @@ fn hits_per_eye_ray(scene: &Scene, max_depth: u32) -> f64 {
     1.0 + (spawning as f64 / scene.primitives.len() as f64) * max_depth.saturating_sub(1) as f64
 }
 
+/// Seconds a render that mixes origins with and without tables pays over one that does not
+/// (lavapipe, Mesa 22.3: the kernels of both walks compiled at first dispatch, and a shadow
+/// kernel that carries both; measured as the whole `render` command on the canonical SPD at
+/// 512², docs/performance.md, "what auto weighs").
+pub const MIXED_S: f64 = 0.08;
+
 /// One origin's prediction.
 #[derive(Clone, Debug, PartialEq)]
 pub struct OriginCost {
@@ -84,6 +90,9 @@ impl OriginCost {
 pub struct AutoAccel {
     /// Every origin that could have a table, with its prediction.
     pub origins: Vec<OriginCost>,
+    /// Whether each origin gets its table: every one, none, or those that pay, whichever is
+    /// predicted fastest, a mix paying [`MIXED_S`].
+    pub tables: Vec<bool>,
 }
 
 impl AutoAccel {
@@ -126,17 +135,35 @@ impl AutoAccel {
                 }
             }
         }
-        AutoAccel { origins }
+        let tables = Self::cheapest(&origins);
+        AutoAccel { origins, tables }
+    }
+
+    /// Which origins get a table: every one, none, or those whose table pays (plus
+    /// [`MIXED_S`]), whichever has the least predicted build less saving.
+    fn cheapest(origins: &[OriginCost]) -> Vec<bool> {
+        let net = |o: &OriginCost| o.build_s - o.saved_s;
+        let all: f64 = origins.iter().map(net).sum();
+        let paying: f64 = origins.iter().filter(|o| o.pays()).map(net).sum();
+        let mixed = origins.iter().any(OriginCost::pays) && !origins.iter().all(OriginCost::pays);
+        let some = paying + if mixed { MIXED_S } else { 0.0 };
+        if all <= some.min(0.0) {
+            vec![true; origins.len()]
+        } else if some < 0.0 {
+            origins.iter().map(OriginCost::pays).collect()
+        } else {
+            vec![false; origins.len()]
+        }
     }
 
     /// Whether any table pays: the render is `cube`, else `bvh`.
     pub fn any(&self) -> bool {
-        self.origins.iter().any(OriginCost::pays)
+        self.tables.iter().any(|&t| t)
     }
 
     /// The origins left without a table.
     pub fn untabled(&self) -> Vec<OriginKey> {
-        self.origins.iter().filter(|o| !o.pays()).map(|o| o.key).collect()
+        self.origins.iter().zip(&self.tables).filter(|(_, &t)| !t).map(|(o, _)| o.key).collect()
     }
 
     /// One line for `info` and `--stats`: what was chosen for each origin, with the
@@ -145,16 +172,17 @@ impl AutoAccel {
         if self.origins.is_empty() {
             return "no origin to build a table for".into();
         }
-        let list = |pays: bool| -> Vec<String> {
+        let list = |tabled: bool| -> Vec<String> {
             self.origins
                 .iter()
-                .filter(|o| o.pays() == pays)
-                .map(|o| format!("{} ({:.3} s to build, {:.3} s saved)", o.name(), o.build_s, o.saved_s))
+                .zip(&self.tables)
+                .filter(|(_, &t)| t == tabled)
+                .map(|(o, _)| format!("{} ({:.3} s to build, {:.3} s saved)", o.name(), o.build_s, o.saved_s))
                 .collect()
         };
         let (tabled, untabled) = (list(true), list(false));
         match (tabled.is_empty(), untabled.is_empty()) {
-            (true, _) => format!("no table pays for its build: the BVH for all: {}", untabled.join(", ")),
+            (true, _) => format!("no tables: they would cost more than they save: {}", untabled.join(", ")),
             (false, true) => format!("every table pays for its build: {}", tabled.join(", ")),
             (false, false) => {
                 format!("tables for {}; the BVH for {}", tabled.join(", "), untabled.join(", "))
@@ -192,17 +220,23 @@ mod tests {
         assert!(all.untabled().is_empty(), "{}", all.reason());
         let none = AutoAccel::predict(&big, 64 * 64, 5, true, &params, 2);
         assert!(!none.any(), "{}", none.reason());
-        assert!(none.reason().starts_with("no table pays"), "{}", none.reason());
-        // 20,000 primitives on 2 threads cost a table BUILD_S_PER_PRIM·10,000; the eye's
-        // table saves 1.5 times that, a light's 0.75 times.
-        let rays = (1.5 * BUILD_S_PER_PRIM * 10_000.0 / SAVED_S_PER_EYE_RAY) as u64;
-        let eye = AutoAccel::predict(&big, rays, 5, true, &params, 2);
+        assert!(none.reason().starts_with("no tables"), "{}", none.reason());
+        // The eye's table saves 0.2 s more than its build, which outweighs a mix's cost; the
+        // lights' cells make theirs cost more than they save.
+        let rays = ((BUILD_S_PER_PRIM * 10_000.0 + 0.2) / SAVED_S_PER_EYE_RAY) as u64;
+        let costly = BuildParams { light_cells: 1 << 24, ..params.clone() };
+        let eye = AutoAccel::predict(&big, rays, 5, true, &costly, 2);
         assert_eq!(eye.untabled(), vec![OriginKey::Light(0), OriginKey::Light(1)], "{}", eye.reason());
         assert!(eye.reason().starts_with("tables for the eye"), "{}", eye.reason());
+        // Where the eye's gain is smaller than a mix's cost, no table at all.
+        let rays = ((BUILD_S_PER_PRIM * 10_000.0 + MIXED_S / 2.0) / SAVED_S_PER_EYE_RAY) as u64;
+        let small_gain = AutoAccel::predict(&big, rays, 5, true, &costly, 2);
+        assert!(small_gain.origins[0].pays() && !small_gain.any(), "{}", small_gain.reason());
         let unlit = AutoAccel::predict(&small, 512 * 512, 5, false, &params, 2);
         assert_eq!(unlit.origins.len(), 1);
         // A light's cells cost its table too.
         let cells = BuildParams { light_cells: 1 << 30, ..params };
-        assert_eq!(AutoAccel::predict(&small, 512 * 512, 5, true, &cells, 2).untabled().len(), 2);
+        let lit = AutoAccel::predict(&small, 512 * 512, 5, true, &cells, 2);
+        assert!(lit.origins[0].pays() && lit.origins[1..].iter().all(|o| !o.pays()), "{}", lit.reason());
     }
 }

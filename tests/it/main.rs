@@ -16,6 +16,7 @@ mod gltf;
 mod gltf_compressed;
 mod gpu;
 mod hard;
+mod matrix;
 mod nff;
 mod parts;
 mod precision;

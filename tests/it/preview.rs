@@ -168,13 +168,13 @@ fn session_toggles_and_depth_restart_and_change_the_picture() {
 }
 
 /// An Xvfb server on a display number it picks itself (`-displayfd`), killed on drop.
-struct Xvfb {
+pub struct Xvfb {
     child: Child,
-    display: String,
+    pub display: String,
 }
 
 impl Xvfb {
-    fn start() -> Xvfb {
+    pub fn start() -> Xvfb {
         let mut child = Command::new("Xvfb")
             .args(["-displayfd", "1", "-screen", "0", "640x480x24", "-nolisten", "tcp"])
             .stdout(Stdio::piped())

@@ -25,16 +25,10 @@ use crate::common::{first_difference, hard, save_failure, shared};
 /// (`target/lavapipe-rq/env`, or the file `$CUBERAY_RQ_ENV` names), and fails with its
 /// output unless it ran and passed.
 fn in_ray_query_process(name: &str) {
-    let env = std::env::var_os("CUBERAY_RQ_ENV")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("target/lavapipe-rq/env"));
+    let (env, vars) = ray_query_driver();
     let mut c = std::process::Command::new(std::env::current_exe().expect("the test binary"));
     c.args([&format!("rayquery::child::{name}"), "--exact", "--ignored", "--nocapture", "--test-threads=1"]);
-    if let Ok(text) = std::fs::read_to_string(&env) {
-        for (k, v) in text.lines().filter_map(|l| l.split_once('=')) {
-            c.env(k, v);
-        }
-    }
+    c.envs(vars);
     let out = c.output().expect("the test binary runs");
     let stdout = String::from_utf8_lossy(&out.stdout);
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -49,6 +43,17 @@ fn in_ray_query_process(name: &str) {
         tail(&stdout),
         tail(&stderr)
     );
+}
+
+/// The file of the ray-query lavapipe's variables (`target/lavapipe-rq/env`, or the file
+/// `$CUBERAY_RQ_ENV` names) and its variables (none where it is absent: the system's driver).
+pub fn ray_query_driver() -> (PathBuf, Vec<(String, String)>) {
+    let env = std::env::var_os("CUBERAY_RQ_ENV")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("target/lavapipe-rq/env"));
+    let text = std::fs::read_to_string(&env).unwrap_or_default();
+    let vars = text.lines().filter_map(|l| l.split_once('=')).map(|(k, v)| (k.into(), v.into())).collect();
+    (env, vars)
 }
 
 /// This process's adapter, which must have ray queries.
