@@ -9,13 +9,12 @@ use glam::DVec3;
 
 use crate::arith::precision::F32Need;
 use crate::arith::spawn::SpawnPolicy;
-use crate::coherence::OriginKey;
 use crate::cost::AutoAccel;
 use crate::error::{Error, Result};
 use crate::output::Image;
 pub use crate::region::Region;
 use crate::sampling::Sampling;
-use crate::scene::{Scene, Tonemap, Transfer};
+use crate::scene::{OriginKey, Scene, Tonemap, Transfer};
 use crate::stats::{self, Stats};
 
 /// Which acceleration structure finds a ray's candidates (`--accel`): on the GPU the
