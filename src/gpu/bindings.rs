@@ -103,32 +103,18 @@ impl SceneBinding {
     ];
 
     /// The bindings that hold buffers: all but the ray queries' structure.
-    pub const BUFFERS: [SceneBinding; 24] = [
-        SceneBinding::Params,
-        SceneBinding::Prims,
-        SceneBinding::Materials,
-        SceneBinding::Lights,
-        SceneBinding::TriAttrs,
-        SceneBinding::TextureInfos,
-        SceneBinding::Texels,
-        SceneBinding::OutColor,
-        SceneBinding::Counters,
-        SceneBinding::Jobs,
-        SceneBinding::Queues,
-        SceneBinding::Origins,
-        SceneBinding::Faces,
-        SceneBinding::CellStart,
-        SceneBinding::Entries,
-        SceneBinding::LightOrigin,
-        SceneBinding::BvhNodes,
-        SceneBinding::BvhPrims,
-        SceneBinding::PassDesc,
-        SceneBinding::Accum,
-        SceneBinding::BvhParents,
-        SceneBinding::Prims1,
-        SceneBinding::Prims2,
-        SceneBinding::Prims3,
-    ];
+    pub const BUFFERS: [SceneBinding; 24] = {
+        let mut out = [SceneBinding::Params; 24];
+        let (mut i, mut j) = (0, 0);
+        while i < SceneBinding::ALL.len() {
+            if !matches!(SceneBinding::ALL[i], SceneBinding::RqScene) {
+                out[j] = SceneBinding::ALL[i];
+                j += 1;
+            }
+            i += 1;
+        }
+        out
+    };
 
     /// The bindings the primitives are split over, in order (`SPLIT_PRIMS`).
     pub const PRIMS: [SceneBinding; 4] =

@@ -221,7 +221,7 @@ fn component_name(t: DataType, normalized: bool) -> String {
 
 /// FLOAT, and every 8- and 16-bit type KHR_mesh_quantization allows for POSITION and
 /// TEXCOORD_n: signed or unsigned, normalized or not.
-const QUANTIZED_ANY: &[(DataType, bool)] = &[
+pub(super) const QUANTIZED_ANY: &[(DataType, bool)] = &[
     (DataType::F32, false),
     (DataType::I8, false),
     (DataType::I8, true),

@@ -19,17 +19,8 @@ pub const EXTENSION: &str = "EXT_mesh_gpu_instancing";
 /// limit is checked only once they are placed.
 pub const MAX_INSTANCES: usize = 1 << 20;
 
-const FLOATS: &[(DataType, bool)] = &[
-    (DataType::F32, false),
-    (DataType::I8, false),
-    (DataType::I8, true),
-    (DataType::U8, false),
-    (DataType::U8, true),
-    (DataType::I16, false),
-    (DataType::I16, true),
-    (DataType::U16, false),
-    (DataType::U16, true),
-];
+/// FLOAT and every 8- and 16-bit type, as KHR_mesh_quantization allows for positions.
+const FLOATS: &[(DataType, bool)] = super::data::QUANTIZED_ANY;
 const ROTATIONS: &[(DataType, bool)] = &[(DataType::F32, false), (DataType::I8, true), (DataType::I16, true)];
 
 /// `hierarchy` with every mesh placement whose node has the extension replaced by one
