@@ -94,7 +94,11 @@ const KNOWN: &[Known] = &[
     Known { name: "KHR_materials_sheen", status: Status::Ignored, how: "no sheen lobe" },
     Known { name: "KHR_materials_specular", status: Status::Ignored, how: "the default dielectric F0 of 0.04" },
     Known { name: "KHR_materials_volume", status: Status::Ignored, how: "refraction without attenuation" },
-    Known { name: "KHR_materials_unlit", status: Status::Ignored, how: "shaded as a lit material" },
+    Known {
+        name: "KHR_materials_unlit",
+        status: Status::Approximated,
+        how: "the base colour (factor × texture) emitted as is, unlit; vertex colours are not applied to it",
+    },
 ];
 
 fn known(name: &str) -> Option<&'static Known> {

@@ -292,8 +292,21 @@ fn slots_of<'d>(ctx: &Ctx, m: &gltf::Material<'d>, i: usize) -> Result<MaterialS
     let emits = m.emissive_factor().iter().any(|&c| c != 0.0) && m.emissive_strength().unwrap_or(1.0) != 0.0;
     let transmission = m.transmission().filter(|t| t.transmission_factor() > 0.0);
     let pbr_loc = format!("{loc}.pbrMetallicRoughness");
+    let base = || pbr.base_color_texture().map(|t| Slot::of(t, format!("{pbr_loc}.baseColorTexture"), true));
+    if m.unlit() {
+        // KHR_materials_unlit: the base colour's texture is what it emits (and its alpha the
+        // coverage); no other map applies.
+        let none = || None;
+        return Ok(MaterialSlots {
+            base: base(),
+            metallic_roughness: none(),
+            emissive: base(),
+            transmission: none(),
+            normal: none(),
+        });
+    }
     Ok(MaterialSlots {
-        base: pbr.base_color_texture().map(|t| Slot::of(t, format!("{pbr_loc}.baseColorTexture"), true)),
+        base: base(),
         metallic_roughness: pbr
             .metallic_roughness_texture()
             .map(|t| Slot::of(t, format!("{pbr_loc}.metallicRoughnessTexture"), false)),
@@ -331,13 +344,19 @@ fn material(
     let pbr = m.pbr_metallic_roughness();
     let f3 = |v: [f32; 3]| DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64);
     let bc = pbr.base_color_factor();
-    let factors = Pbr {
-        base: f3([bc[0], bc[1], bc[2]]),
-        metallic: pbr.metallic_factor() as f64,
-        roughness: pbr.roughness_factor() as f64,
-        transmission: m.transmission().map_or(0.0, |t| t.transmission_factor() as f64),
-        ior: m.ior().map_or(1.5, f64::from),
-        emission: f3(m.emissive_factor()) * m.emissive_strength().map_or(1.0, f64::from),
+    let base = f3([bc[0], bc[1], bc[2]]);
+    let factors = match m.unlit() {
+        // KHR_materials_unlit: no diffuse, specular, mirror or transmission (metallic 1 at
+        // roughness 1 has none, whatever the maps), the base colour emitted.
+        true => Pbr { base, metallic: 1.0, roughness: 1.0, transmission: 0.0, ior: 1.5, emission: base },
+        false => Pbr {
+            base,
+            metallic: pbr.metallic_factor() as f64,
+            roughness: pbr.roughness_factor() as f64,
+            transmission: m.transmission().map_or(0.0, |t| t.transmission_factor() as f64),
+            ior: m.ior().map_or(1.5, f64::from),
+            emission: f3(m.emissive_factor()) * m.emissive_strength().map_or(1.0, f64::from),
+        },
     };
     if factors.ior.is_nan() || factors.ior < 1.0 {
         return Err(ctx.err(loc, format!("KHR_materials_ior: ior {} is not at least 1", factors.ior)));

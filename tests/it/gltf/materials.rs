@@ -236,3 +236,43 @@ fn texture_transforms_move_the_uvs() {
         assert!((got - want).length() < 1e-6, "{got} for {want}");
     }
 }
+
+/// KHR_materials_unlit: the base colour is emitted as is, with no light, specular, mirror or
+/// transmission, so every pixel that sees the surface shows the base colour exactly, on both
+/// backends (before the tone map, which a PNG then applies to it as to any radiance).
+#[test]
+fn unlit_shows_its_base_colour() {
+    let dir = TempDir::new();
+    let mut doc = Doc::new();
+    let mesh = super::tetrahedron(&mut doc);
+    let base = [0.2f32, 0.5, 0.8];
+    let material = json!({
+        "pbrMetallicRoughness": {"baseColorFactor": [base[0], base[1], base[2], 1.0], "metallicFactor": 0.0},
+        "extensions": {"KHR_materials_unlit": {}}
+    });
+    let mut mesh: Value = mesh;
+    mesh["primitives"][0]["material"] = json!(0);
+    let rest = json!({"meshes": [mesh], "materials": [material], "nodes": [{"mesh": 0}],
+                      "scenes": [{"nodes": [0]}], "scene": 0, "extensionsUsed": ["KHR_materials_unlit"]});
+    let path = doc.write(&dir, "unlit.gltf", rest);
+    let loaded = load(&path);
+    assert!(!loaded.warnings.iter().any(|w| w.contains("KHR_materials_unlit")), "{:?}", loaded.warnings);
+    let scene = loaded.scene;
+    let m = &scene.materials[0];
+    let want = DVec3::new(base[0] as f64, base[1] as f64, base[2] as f64);
+    assert_eq!((m.kd, m.ks, m.mirror, m.transmittance), (0.0, 0.0, DVec3::ZERO, 0.0), "{m:?}");
+    assert_eq!(m.emission, want);
+    let opts = cuberay::job::RenderOptions::new(16, 16);
+    let hidden = indicatif::ProgressBar::hidden();
+    let gpu = crate::common::renderer().render(&scene, &opts, &hidden).unwrap();
+    let cpu = cuberay::reference::render(&scene, &opts, &hidden).unwrap();
+    for (name, image) in [("gpu", &gpu.image), ("cpu", &cpu.image)] {
+        let centre = image.pixels[8 * 16 + 8];
+        for k in 0..3 {
+            assert!(
+                (centre[k] as f64 - want[k]).abs() < 1e-6,
+                "{name}: the centre shows {centre:?}, not {want}"
+            );
+        }
+    }
+}
