@@ -37,7 +37,7 @@ use crate::error::{Error, Result};
 use crate::gpu::bindings::SceneBinding;
 use crate::gpu::buffers::BufferSizes;
 use crate::gpu::kernels::StagePipeline;
-use crate::gpu::prepare::{self, queue_sizes, Purpose, TableSet};
+use crate::gpu::prepare::{self, queue_sizes, Prepared, Purpose, TableSet};
 use crate::gpu::schedule::{Pacing, Schedule, WavePlan};
 use crate::gpu::shaders::{Accel, Kernel, Variant};
 use crate::gpu::{GpuRenderer, SceneBuffers};
@@ -170,6 +170,28 @@ fn pack_scene(scene: &Scene, opts: &RenderOptions, w: u32, h: u32, fixed: bool) 
     packed
 }
 
+/// How the preview paces its passes: each step near [`STEP_TARGET`].
+const PACING: Pacing = Pacing::Adaptive { target: STEP_TARGET };
+
+/// Uploads what `p` prepared for `scene`, with room for what a camera move rewrites in place
+/// (the BVH's boxes, the eye's table), and returns the buffers and the tables kept for the
+/// eye's rebuilds (`None`: the session traces none).
+fn upload_with_room(
+    gpu: &GpuRenderer,
+    p: &mut Prepared,
+    scene: &Scene,
+) -> Result<(SceneBuffers, Option<Tables>)> {
+    let mut tables = p.tables.take().and_then(TableSet::built);
+    if tables.is_some() || p.variant.accel == Accel::Bvh {
+        make_room_for_moves(&mut p.packed, scene);
+    }
+    if let Some(t) = tables.as_mut() {
+        make_room_for_eye_tables(&mut t.flat, gpu.caps.max_binding);
+    }
+    let buffers = gpu.upload(&p.packed, tables.as_ref().map(|t| &t.flat), p.sizes)?;
+    Ok((buffers, tables))
+}
+
 impl Session {
     /// Uploads `scene` for `opts` (the image size, the lattice `opts.spp` and seed, the
     /// depth), prepared as every render is ([`prepare::prepare`]), with room for what a
@@ -187,15 +209,8 @@ impl Session {
         let accel = if opts.accel == Accel::Auto { Accel::Cube } else { opts.accel };
         let opts = RenderOptions { accel, ..opts };
         let mut p = prepare::prepare(&scene, &opts, &gpu.caps, Purpose::Preview { effects }, None)?;
-        let mut tables = p.tables.take().and_then(TableSet::built);
+        let (buffers, tables) = upload_with_room(&gpu, &mut p, &scene)?;
         let wants_tables = tables.is_some();
-        if wants_tables || p.variant.accel == Accel::Bvh {
-            make_room_for_moves(&mut p.packed, &scene);
-        }
-        if let Some(t) = tables.as_mut() {
-            make_room_for_eye_tables(&mut t.flat, gpu.caps.max_binding);
-        }
-        let buffers = gpu.upload(&p.packed, tables.as_ref().map(|t| &t.flat), p.sizes)?;
         let base = p.packed.params;
         let pipelines = compile(&gpu, p.variant, &buffers, &base)?;
         if wants_tables {
@@ -208,8 +223,7 @@ impl Session {
         let accumulator = Accumulator::new(ctx)?;
         let accum_bind = accumulator.bind(ctx, &buffers, &accum);
         let plan = WavePlan::new(p.variant, p.opts.max_depth, p.retries);
-        let pacing = Pacing::Adaptive { target: STEP_TARGET };
-        let schedule = Schedule::new(ctx, total, buffers.tile, Some(plan), pacing, false);
+        let schedule = Schedule::new(ctx, total, buffers.tile, Some(plan), PACING, false);
         let mut s = Session {
             base,
             gpu,
