@@ -86,18 +86,18 @@ impl Kernels {
 
     /// The pipeline of `kernel` (a wavefront kernel or `aov`) for `variant`, compiled on
     /// first use, over the layout with the ray queries' structure (`rq`: the render's
-    /// kernels use ray queries, if not this one) or without.
+    /// kernels use ray queries, if not this one) or without; and whether this call made it.
     pub fn get(
         &self,
         ctx: &GpuContext,
         kernel: Kernel,
         variant: Variant,
         rq: bool,
-    ) -> Result<Arc<wgpu::ComputePipeline>> {
+    ) -> Result<(Arc<wgpu::ComputePipeline>, bool)> {
         let variant = kernel.variant_of(variant);
         let rq = rq || variant.ray_queries();
         if let Some(k) = self.cache.lock().expect("kernel cache lock").get(&(kernel, variant, rq)) {
-            return Ok(k.clone());
+            return Ok((k.clone(), false));
         }
         // Made outside the lock, so that several kernels are made at once (lavapipe turns
         // each into its own IR at this call: tens of milliseconds a kernel).
@@ -111,7 +111,7 @@ impl Kernels {
         let pipeline = Arc::new(compute_pipeline(ctx, kernel, variant, Some(&layouts.pipeline))?);
         self.compiles.fetch_add(1, Ordering::Relaxed);
         let mut cache = self.cache.lock().expect("kernel cache lock");
-        Ok(cache.entry((kernel, variant, rq)).or_insert(pipeline).clone())
+        Ok((cache.entry((kernel, variant, rq)).or_insert(pipeline).clone(), true))
     }
 
     /// Records that the pipeline of `kernel` for `variant` has been dispatched; `true` the

@@ -138,18 +138,25 @@ impl GpuRenderer {
     /// variant ([`Stage::variant`]) on first use, all over the bind group layout of the
     /// render's buffers (with the ray queries' structure where `variant` uses them).
     pub fn pipelines(&self, stages: &[Stage], variant: Variant) -> Result<Vec<StagePipeline>> {
+        Ok(self.make_pipelines(stages, variant)?.0)
+    }
+
+    /// [`GpuRenderer::pipelines`], and whether any of them was made by this call.
+    fn make_pipelines(&self, stages: &[Stage], variant: Variant) -> Result<(Vec<StagePipeline>, bool)> {
         let rq = variant.ray_queries();
         // Each on a thread of its own: making a pipeline is the driver's work on one core.
         std::thread::scope(|scope| {
             let made: Vec<_> = stages
                 .iter()
-                .map(|&s| {
-                    scope.spawn(move || {
-                        Ok((s, self.kernels.get(&self.ctx, s.kernel, s.variant(variant), rq)?))
-                    })
-                })
+                .map(|&s| scope.spawn(move || self.kernels.get(&self.ctx, s.kernel, s.variant(variant), rq)))
                 .collect();
-            made.into_iter().map(|m| m.join().expect("a kernel's thread does not panic")).collect()
+            let (mut pipelines, mut any) = (Vec::with_capacity(stages.len()), false);
+            for (&s, m) in stages.iter().zip(made) {
+                let (p, new) = m.join().expect("a kernel's thread does not panic")?;
+                pipelines.push((s, p));
+                any |= new;
+            }
+            Ok((pipelines, any))
         })
     }
 
@@ -170,15 +177,14 @@ impl GpuRenderer {
         let (variant, stages) = (plan.variant, plan.stages.clone());
         std::thread::scope(|scope| {
             let made = scope.spawn(|| {
-                let (start, before) = (Instant::now(), self.kernels.compiled());
-                let pipelines = self.pipelines(&stages, variant);
+                let start = Instant::now();
                 // Only making a kernel counts: finding every one made before is no compile.
-                let made = self.kernels.compiled() > before;
-                (pipelines, if made { start.elapsed().as_secs_f64() } else { 0.0 })
+                self.make_pipelines(&stages, variant)
+                    .map(|(p, new)| (p, if new { start.elapsed().as_secs_f64() } else { 0.0 }))
             });
             let prepared = prepare::build(scene, plan, &self.caps, stored);
-            let (pipelines, made_s) = made.join().expect("the kernels' thread does not panic");
-            Ok((prepared?, pipelines?, made_s))
+            let (pipelines, made_s) = made.join().expect("the kernels' thread does not panic")?;
+            Ok((prepared?, pipelines, made_s))
         })
     }
 
