@@ -187,9 +187,24 @@ pub struct Plan {
     pub serves: Variant,
 }
 
-/// The plan of a render of `scene` with `opts` for `purpose` on the adapter `caps` describes.
-pub fn plan(scene: &Scene, opts: &RenderOptions, caps: &Capabilities, purpose: Purpose) -> Result<Plan> {
-    let mut opts = resolve(scene, opts, Some(caps))?;
+/// The plan of a render of `scene` with `opts` for `purpose` on the adapter `caps` describes,
+/// from `stored` tables or not.
+pub fn plan(
+    scene: &Scene,
+    opts: &RenderOptions,
+    caps: &Capabilities,
+    purpose: Purpose,
+    stored: bool,
+) -> Result<Plan> {
+    // Stored tables cost no build, and a preview traces frame after frame: for both, every
+    // table pays, and `auto` is `cube`.
+    let every_table = stored || matches!(purpose, Purpose::Preview { .. });
+    let mut opts = match opts.accel {
+        Accel::Auto if every_table => {
+            resolve(scene, &RenderOptions { accel: Accel::Cube, ..opts.clone() }, Some(caps))?
+        }
+        _ => resolve(scene, opts, Some(caps))?,
+    };
     if matches!(purpose, Purpose::Preview { .. }) {
         opts.surface = SurfaceWalk::Bvh;
     }
@@ -218,7 +233,7 @@ pub fn prepare(
     purpose: Purpose,
     stored: Option<StoredTables>,
 ) -> Result<Prepared> {
-    build(scene, plan(scene, opts, caps, purpose)?, caps, stored)
+    build(scene, plan(scene, opts, caps, purpose, stored.is_some())?, caps, stored)
 }
 
 /// Builds what `plan` traces: the scene packed with its final params, the tables (or

@@ -18,7 +18,7 @@ use super::shaders::{Kernel, Stage, Variant};
 use super::GpuContext;
 use crate::coherence::FlatTables;
 use crate::error::{Error, Result};
-use crate::job::{grid_image, simulated_effects, Accel, RenderOptions, Rendered};
+use crate::job::{grid_image, simulated_effects, RenderOptions, Rendered};
 use crate::layout::counters::{decode_counters, decode_lanes, COUNTER_BYTES};
 use crate::layout::Packed;
 use crate::output::{Aov, Image};
@@ -170,10 +170,7 @@ impl GpuRenderer {
         purpose: Purpose,
         stored: Option<StoredTables>,
     ) -> Result<(Prepared, Vec<StagePipeline>, f64)> {
-        // Stored tables cost no build: `auto` takes them all.
-        let cube = RenderOptions { accel: Accel::Cube, ..opts.clone() };
-        let opts = if stored.is_some() && opts.accel == Accel::Auto { &cube } else { opts };
-        let plan = prepare::plan(scene, opts, &self.caps, purpose)?;
+        let plan = prepare::plan(scene, opts, &self.caps, purpose, stored.is_some())?;
         let (variant, stages) = (plan.variant, plan.stages.clone());
         std::thread::scope(|scope| {
             let made = scope.spawn(|| {

@@ -205,9 +205,6 @@ impl Session {
         limit: u32,
     ) -> Result<Session> {
         let effects = toggles.apply(scene.effects());
-        // A preview traces frame after frame, for which every table pays: `auto` is `cube`.
-        let accel = if opts.accel == Accel::Auto { Accel::Cube } else { opts.accel };
-        let opts = RenderOptions { accel, ..opts };
         let mut p = prepare::prepare(&scene, &opts, &gpu.caps, Purpose::Preview { effects }, None)?;
         let (buffers, tables) = upload_with_room(&gpu, &mut p, &scene)?;
         let wants_tables = tables.is_some();
