@@ -6,8 +6,8 @@
 //! The model is linear and deliberately simple (docs/performance.md, "what auto weighs",
 //! has the measurements it is calibrated on, and `cuberay bench` prints the measured build
 //! and kernel times beside its predictions for any scene):
-//! - an origin's build costs [`BUILD_S_PER_PRIM`] of one core per primitive, spread over
-//!   the build's threads;
+//! - an origin's build costs [`BUILD_S_PER_PRIM`] of one core per primitive and
+//!   [`BUILD_S_PER_CELL`] per cell of its cube, spread over the build's threads;
 //! - an eye ray traced through the eye's table instead of the BVH saves [`SAVED_S_PER_EYE_RAY`],
 //!   a shadow ray through its light's table [`SAVED_S_PER_SHADOW_RAY`]; a render traces one
 //!   eye ray per grid point and sample, and a shadow ray per light and hit of its tree
@@ -18,7 +18,7 @@
 //! the saving constant, which errs towards the tables only where both are small.
 
 use crate::coherence::{BuildParams, OriginKey};
-use crate::scene::{LightKind, Scene};
+use crate::scene::{Effects, LightKind, Scene};
 
 /// Seconds of one core an origin's table build costs per primitive and per cell of its
 /// cube (docs/performance.md, "what auto weighs": fitted on the SPD at 512², 4k–1M
@@ -37,8 +37,8 @@ pub const SAVED_S_PER_SHADOW_RAY: f64 = 0.05e-6;
 /// The hits an eye ray's tree makes, each of which traces a shadow ray to every light: one,
 /// and where a share `r` of the primitives reflects or transmits, `r` more at each further
 /// depth (the SPD's mirrored scenes: 2–5 at depth 5).
-fn hits_per_eye_ray(scene: &Scene, max_depth: u32) -> f64 {
-    if scene.primitives.is_empty() || !scene.effects().reflection {
+fn hits_per_eye_ray(scene: &Scene, effects: Effects, max_depth: u32) -> f64 {
+    if scene.primitives.is_empty() || !effects.reflection {
         return 1.0;
     }
     let spawning = scene
@@ -96,14 +96,14 @@ pub struct AutoAccel {
 }
 
 impl AutoAccel {
-    /// Predicts the tables of `scene` for a render tracing `eye_rays` eye rays to
-    /// `max_depth`, with shadow rays if `shadows`, built with `params` (the eye's cells from
-    /// its image, the lights' from their budget) on `threads` build threads.
+    /// Predicts the tables of `scene` (whose effects are `effects`) for a render tracing
+    /// `eye_rays` eye rays to `max_depth`, built with `params` (the eye's cells from its
+    /// image, the lights' from their budget) on `threads` build threads.
     pub fn predict(
         scene: &Scene,
         eye_rays: u64,
         max_depth: u32,
-        shadows: bool,
+        effects: Effects,
         params: &BuildParams,
         threads: usize,
     ) -> AutoAccel {
@@ -113,7 +113,7 @@ impl AutoAccel {
             (BUILD_S_PER_PRIM * scene.primitives.len() as f64 + BUILD_S_PER_CELL * cells)
                 / threads.max(1) as f64
         };
-        let shadow_rays = (eye_rays as f64 * hits_per_eye_ray(scene, max_depth)) as u64;
+        let shadow_rays = (eye_rays as f64 * hits_per_eye_ray(scene, effects, max_depth)) as u64;
         let mut origins = Vec::new();
         if !scene.primitives.is_empty() {
             origins.push(OriginCost {
@@ -122,7 +122,7 @@ impl AutoAccel {
                 build_s: build_s(eye_cells),
                 saved_s: eye_rays as f64 * SAVED_S_PER_EYE_RAY,
             });
-            if shadows {
+            if effects.shadows {
                 for (i, l) in scene.lights.iter().enumerate() {
                     if l.kind != LightKind::Directional {
                         origins.push(OriginCost {
@@ -195,6 +195,11 @@ impl AutoAccel {
 mod tests {
     use super::*;
 
+    /// The effects of a scene without mirrors, with shadows or not.
+    fn lit(shadows: bool) -> Effects {
+        Effects { shadows, ..Effects::default() }
+    }
+
     fn scene_of(prims: usize, lights: usize) -> Scene {
         crate::load::nff::parse(
             &format!(
@@ -215,28 +220,29 @@ mod tests {
         let (small, big) = (scene_of(100, 2), scene_of(20_000, 2));
         // No cells to speak of: the primitives decide.
         let params = BuildParams { image: Some((2, 2)), light_cells: 1, ..BuildParams::default() };
-        let all = AutoAccel::predict(&small, 512 * 512, 5, true, &params, 2);
+        let all = AutoAccel::predict(&small, 512 * 512, 5, lit(true), &params, 2);
         assert_eq!(all.origins.len(), 3);
         assert!(all.untabled().is_empty(), "{}", all.reason());
-        let none = AutoAccel::predict(&big, 64 * 64, 5, true, &params, 2);
+        let none = AutoAccel::predict(&big, 64 * 64, 5, lit(true), &params, 2);
         assert!(!none.any(), "{}", none.reason());
         assert!(none.reason().starts_with("no tables"), "{}", none.reason());
         // The eye's table saves 0.2 s more than its build, which outweighs a mix's cost; the
         // lights' cells make theirs cost more than they save.
         let rays = ((BUILD_S_PER_PRIM * 10_000.0 + 0.2) / SAVED_S_PER_EYE_RAY) as u64;
         let costly = BuildParams { light_cells: 1 << 24, ..params.clone() };
-        let eye = AutoAccel::predict(&big, rays, 5, true, &costly, 2);
+        let eye = AutoAccel::predict(&big, rays, 5, lit(true), &costly, 2);
         assert_eq!(eye.untabled(), vec![OriginKey::Light(0), OriginKey::Light(1)], "{}", eye.reason());
         assert!(eye.reason().starts_with("tables for the eye"), "{}", eye.reason());
         // Where the eye's gain is smaller than a mix's cost, no table at all.
         let rays = ((BUILD_S_PER_PRIM * 10_000.0 + MIXED_S / 2.0) / SAVED_S_PER_EYE_RAY) as u64;
-        let small_gain = AutoAccel::predict(&big, rays, 5, true, &costly, 2);
+        let small_gain = AutoAccel::predict(&big, rays, 5, lit(true), &costly, 2);
         assert!(small_gain.origins[0].pays() && !small_gain.any(), "{}", small_gain.reason());
-        let unlit = AutoAccel::predict(&small, 512 * 512, 5, false, &params, 2);
+        let unlit = AutoAccel::predict(&small, 512 * 512, 5, lit(false), &params, 2);
         assert_eq!(unlit.origins.len(), 1);
         // A light's cells cost its table too.
         let cells = BuildParams { light_cells: 1 << 30, ..params };
-        let lit = AutoAccel::predict(&small, 512 * 512, 5, true, &cells, 2);
-        assert!(lit.origins[0].pays() && lit.origins[1..].iter().all(|o| !o.pays()), "{}", lit.reason());
+        let costly_lights = AutoAccel::predict(&small, 512 * 512, 5, lit(true), &cells, 2);
+        let (eye, lights) = (&costly_lights.origins[0], &costly_lights.origins[1..]);
+        assert!(eye.pays() && lights.iter().all(|o| !o.pays()), "{}", costly_lights.reason());
     }
 }

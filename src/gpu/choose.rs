@@ -58,10 +58,10 @@ pub fn choose(scene: &Scene, opts: &RenderOptions, caps: Option<&Capabilities>) 
         // Without an adapter (`cuberay tables`) every origin gets its table: a stored file
         // is for renders that share one build.
         if caps.is_some() {
-            let shadows = scene.effects().shadows;
-            let params = table_params(scene, &o, scene.effects());
+            let effects = scene.effects();
+            let params = table_params(scene, &o, effects);
             let threads = rayon::current_num_threads();
-            let auto = AutoAccel::predict(scene, eye_rays(&o), o.max_depth, shadows, &params, threads);
+            let auto = AutoAccel::predict(scene, eye_rays(&o), o.max_depth, effects, &params, threads);
             log::info!("accelerator: {}", auto.reason());
             if auto.any() {
                 o.untabled = auto.untabled();
