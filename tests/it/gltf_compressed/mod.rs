@@ -63,7 +63,16 @@ const SPP_AGAINST_ORIGINAL: u32 = 16;
 
 /// Runs one of the npm tools, failing the test with its output when it fails.
 pub fn run_tool(tool: &str, args: &[&std::ffi::OsStr]) {
-    let out = Command::new(npm_bin().join(tool)).args(args).output().expect("the npm tool starts");
+    // The tools' `#!/usr/bin/env node` takes npm's Node.js where `.ci/setup` installed one
+    // beside them (the system's is older than gltf-transform needs, as Debian 12's).
+    let bin = npm_bin();
+    let path = std::env::join_paths(
+        std::iter::once(bin.clone())
+            .chain(std::env::split_paths(&std::env::var_os("PATH").unwrap_or_default())),
+    )
+    .expect("PATH joins");
+    let out =
+        Command::new(bin.join(tool)).args(args).env("PATH", path).output().expect("the npm tool starts");
     assert!(
         out.status.success(),
         "{tool} {args:?} failed: {}{}",
