@@ -161,14 +161,26 @@ struct Material {
     emission_factor: vec3<f32>,
     shadow_cutoff: f32,
     normal_scale: f32,
-    pad0: u32,
-    pad1: u32,
-    pad2: u32,
+    // KHR_materials_clearcoat's strength (0: no coat), roughness and normal map scale.
+    clearcoat: f32,
+    clearcoat_roughness: f32,
+    clearcoat_normal_scale: f32,
     base: TexRef,
     metallic_roughness: TexRef,
     emissive: TexRef,
     transmission_map: TexRef,
     normal: TexRef,
+    // Beer–Lambert coefficient per unit length inside the body (KHR_materials_volume).
+    attenuation: vec3<f32>,
+    // KHR_materials_specular's weight and colour (a MATERIAL_MAPS material's).
+    specular: f32,
+    specular_color: vec3<f32>,
+    pad0: u32,
+    clearcoat_map: TexRef,
+    clearcoat_roughness_map: TexRef,
+    clearcoat_normal: TexRef,
+    specular_map: TexRef,
+    specular_color_map: TexRef,
 }
 
 // kind: LIGHT_POINT, LIGHT_SPOT or LIGHT_DIRECTIONAL. `range` 0 = unlimited.

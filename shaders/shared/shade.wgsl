@@ -77,9 +77,16 @@ struct Shading {
 }
 
 #if MAPS
+// The reflectance at normal incidence of the dielectric with reflectance `f0` through
+// KHR_materials_specular's weight `spec` and colour `tint` (twin: scene::Pbr::dielectric_f0).
+fn dielectric_f0(f0: f32, spec: f32, tint: vec3<f32>) -> vec3<f32> {
+    return min(max(tint, vec3<f32>(0.0)) * f0, vec3<f32>(1.0)) * clamp(spec, 0.0, 1.0);
+}
+
 // The Whitted terms for metallic-roughness inputs, clamped to [0, 1] first (twin:
 // scene::Pbr::whitted).
-fn whitted(base_in: vec3<f32>, metallic: f32, roughness: f32, transmission: f32, ior: f32, emission: vec3<f32>) -> Shading {
+fn whitted(base_in: vec3<f32>, metallic: f32, roughness: f32, transmission: f32, ior: f32, emission: vec3<f32>,
+    spec: f32, tint: vec3<f32>) -> Shading {
     let base = clamp(base_in, vec3<f32>(0.0), vec3<f32>(1.0));
     let m = clamp(metallic, 0.0, 1.0);
     let rough = clamp(roughness, 0.0, 1.0);
@@ -88,14 +95,18 @@ fn whitted(base_in: vec3<f32>, metallic: f32, roughness: f32, transmission: f32,
     // α = 0 gives +∞, which the clamp turns into the largest exponent.
     let shine = clamp(2.0 / (alpha * alpha) - 2.0, 1.0, 10000.0);
     let smoothness = (1.0 - rough) * (1.0 - rough);
+    // The opaque dielectric's F0 is 0.04 (η = 1.5) whatever the ior: metals mix it.
+    let f0 = dielectric_f0(0.04, spec, tint);
     var mirror = vec3<f32>(0.0);
     if m > 0.0 {
-        mirror = smoothness * mix(vec3<f32>(0.04), base, m);
+        mirror = smoothness * mix(f0, base, m);
     } else if transmittance > 0.0 {
         let f = (ior - 1.0) / (ior + 1.0);
-        mirror = vec3<f32>(smoothness * f * f);
+        mirror = smoothness * dielectric_f0(f * f, spec, tint);
     }
-    return Shading(base, (1.0 - m) * (1.0 - transmittance), mirror, (1.0 - rough) * (0.04 + 0.96 * m),
+    // The highlight is white: its weight takes F0's largest channel.
+    let f = max3(f0);
+    return Shading(base, (1.0 - m) * (1.0 - transmittance), mirror, (1.0 - rough) * (f + (1.0 - f) * m),
         max(emission, vec3<f32>(0.0)), shine, transmittance);
 }
 #endif
@@ -109,26 +120,29 @@ fn shading(m: Material, s: Surface) -> Shading {
         let mr = surface_texture(m.metallic_roughness, s, vec4<f32>(1.0));
         let e = surface_texture(m.emissive, s, vec4<f32>(1.0)).rgb;
         let t = surface_texture(m.transmission_map, s, vec4<f32>(1.0)).r;
-        return whitted(base, m.metallic * mr.b, m.roughness * mr.g, m.transmission * t, m.ior, m.emission_factor * e);
+        let spec = surface_texture(m.specular_map, s, vec4<f32>(1.0)).a;
+        let tint = surface_texture(m.specular_color_map, s, vec4<f32>(1.0)).rgb;
+        return whitted(base, m.metallic * mr.b, m.roughness * mr.g, m.transmission * t, m.ior, m.emission_factor * e,
+            m.specular * spec, m.specular_color * tint);
     }
 #endif
     return Shading(base, m.kd, m.mirror, m.ks, m.emission, m.shine, m.transmittance);
 }
 
 #if NORMAL_MAPS
-// The shading normal of material `m` at `s` through its normal map, where it has one and the
+// The normal at `s` through normal map `r` (scale `scale`), where there is one and the
 // triangle a tangent frame, on the side of the geometric normal (twin: reference::texture
-// `normal`).
-fn mapped_normal(m: Material, s: Surface) -> vec3<f32> {
-    if m.normal.texture == 0u || !s.has_frame {
+// `mapped`).
+fn mapped_normal(r: TexRef, scale: f32, s: Surface) -> vec3<f32> {
+    if r.texture == 0u || !s.has_frame {
         return s.ns;
     }
-    let c = surface_texture(m.normal, s, vec4<f32>(-1.0));
+    let c = surface_texture(r, s, vec4<f32>(-1.0));
     if c.x < 0.0 {
         return s.ns;
     }
-    let x = (c.x * 2.0 - 1.0) * m.normal_scale;
-    let y = (c.y * 2.0 - 1.0) * m.normal_scale;
+    let x = (c.x * 2.0 - 1.0) * scale;
+    let y = (c.y * 2.0 - 1.0) * scale;
     let z = c.z * 2.0 - 1.0;
     let b = cross(s.frame_n, s.frame_t) * s.frame_sign;
     let v = s.frame_t * x + b * y + s.frame_n * z;
@@ -138,6 +152,47 @@ fn mapped_normal(m: Material, s: Surface) -> vec3<f32> {
     }
     let u = v / len;
     return select(u, -u, dot(u, s.ng) < 0.0);
+}
+#endif
+
+#if CLEARCOAT
+// Schlick's Fresnel reflectance of a clear coat (IOR 1.5) at `cos` = n·v (twin:
+// scene::coat_fresnel).
+fn coat_fresnel(cos: f32) -> f32 {
+    let x = 1.0 - clamp(cos, 0.0, 1.0);
+    let x2 = x * x;
+    return 0.04 + 0.96 * (x2 * x2 * x);
+}
+
+// A clear coat at a hit: the share of the light it reflects (what the base sends is
+// weighted by 1 − k), its mirror weight, and its normal facing the ray.
+struct Coat {
+    k: f32,
+    mirror: f32,
+    normal: vec3<f32>,
+}
+
+// The clear coat of material `m` at `s` (its interpolated normal, before the base's normal
+// map) for a ray along `d`; k = 0 without one (twin: reference::texture `clearcoat`).
+fn clearcoat_at(m: Material, s: Surface, d: vec3<f32>) -> Coat {
+    if m.clearcoat <= 0.0 {
+        return Coat(0.0, 0.0, s.ns);
+    }
+    var strength = 1.0;
+    var rough = 1.0;
+#if TEXTURES
+    strength = surface_texture(m.clearcoat_map, s, vec4<f32>(1.0)).r;
+    rough = surface_texture(m.clearcoat_roughness_map, s, vec4<f32>(1.0)).g;
+#endif
+    let c = clamp(m.clearcoat * strength, 0.0, 1.0);
+    let r = clamp(m.clearcoat_roughness * rough, 0.0, 1.0);
+    var n = s.ns;
+#if NORMAL_MAPS
+    n = mapped_normal(m.clearcoat_normal, m.clearcoat_normal_scale, s);
+#endif
+    n = select(-n, n, dot(d, s.ng) < 0.0);
+    let k = c * coat_fresnel(dot(n, -d));
+    return Coat(k, k * ((1.0 - r) * (1.0 - r)), n);
 }
 #endif
 
@@ -298,6 +353,23 @@ fn refract_dir(d: vec3<f32>, n: vec3<f32>, ng: vec3<f32>, entering: bool, ior: f
 }
 #endif
 
+#if BLEND
+// What a blended hit of material `mat` on primitive `prim` sends is weighted by its alpha,
+// which this returns; the rest goes straight through it along `d`: a pass-through ray, of
+// kind refraction, one depth deeper than `depth`, carrying (1 − alpha) of `w_in` for tile
+// point `point`.
+fn blend_through(mat: Material, s: Surface, prim: u32, d: vec3<f32>, depth: u32, w_in: vec3<f32>, point: u32) -> f32 {
+    let a = hit_alpha(mat, s.uv);
+    if a < 1.0 && depth < params.max_depth {
+        let flags = select(0u, RAY_SKIP_FROM, leave_skip(prim, d, s.ng) != NO_ID);
+        let child = new_pending(spawn_origin(s, d), RAY_REFRACT | flags | ((depth + 1u) << RAY_DEPTH_SHIFT), d,
+            spawn_offset(s), w_in * (1.0 - a), prim);
+        push_job(pass_desc.next, new_job(child, point));
+    }
+    return a;
+}
+#endif
+
 // Shades hit job `job` (its nearest hit in its walk state, `trace_job` in nearest.wgsl): adds
 // what the hit sends to its point and pushes the rays the hit spawns into the pass's queues.
 fn shade_hit(job: Job) {
@@ -307,35 +379,52 @@ fn shade_hit(job: Job) {
     let prim = prim_at(h.prim);
     let mat = materials[prim.material];
     var s = surface(prim, ray, h.hit);
+    let d = ray.d;
+#if CLEARCOAT
+    // The coat reads the interpolated normal, not the base's normal map.
+    let coat = clearcoat_at(mat, s, d);
+#endif
 #if NORMAL_MAPS
-    s.ns = mapped_normal(mat, s);
+    s.ns = mapped_normal(mat.normal, mat.normal_scale, s);
 #endif
     let m = shading(mat, s);
-    let d = ray.d;
     let entering = dot(d, s.ng) < 0.0;
     let ng = select(-s.ng, s.ng, entering);
     let n = select(-s.ns, s.ns, entering);
-    // What the surface sends is weighted by its alpha where it is blended; the rest goes
-    // straight through it (a pass-through ray, of kind refraction, one depth deeper).
-    var w = pending.weight;
-#if BLEND
-    if (mat.flags & MATERIAL_BLEND) != 0u {
-        let a = hit_alpha(mat, s.uv);
-        w *= a;
-        if a < 1.0 && job_depth(pending) < params.max_depth {
-            let flags = select(0u, RAY_SKIP_FROM, leave_skip(h.prim, d, s.ng) != NO_ID);
-            let child = new_pending(spawn_origin(s, d), RAY_REFRACT | flags | ((job_depth(pending) + 1u) << RAY_DEPTH_SHIFT),
-                d, spawn_offset(s), pending.weight * (1.0 - a), h.prim);
-            push_job(pass_desc.next, new_job(child, job.point));
-        }
+    var w_in = pending.weight;
+#if VOLUME
+    // Light reaching this hit from inside an attenuating body crossed `t` of it.
+    if !entering && max3(mat.attenuation) > 0.0 {
+        w_in *= exp(-mat.attenuation * h.hit.t);
     }
 #endif
-    add_radiance(job.point, w * shade_local(h.prim, m, s, n, -d));
+    var w = w_in;
+#if BLEND
+    if (mat.flags & MATERIAL_BLEND) != 0u {
+        w *= blend_through(mat, s, h.prim, d, job_depth(pending), w_in, job.point);
+    }
+#endif
+    // What the base sends: all of it, or what the clear coat lets through.
+    var w_base = w;
+#if CLEARCOAT
+    w_base *= 1.0 - coat.k;
+#endif
+    add_radiance(job.point, w_base * shade_local(h.prim, m, s, n, -d));
 #if REFLECTION
     let depth = job_depth(pending);
     if depth < params.max_depth {
         let transmits = m.transmittance > 0.0;
         var weight = m.mirror;
+        // One reflected ray: about the coat's normal where the coat reflects.
+        var rn = n;
+        var reflects = max3(m.mirror) > 0.0 || transmits;
+#if CLEARCOAT
+        weight = weight * (1.0 - coat.k) + vec3<f32>(coat.mirror);
+        if coat.mirror > 0.0 {
+            rn = coat.normal;
+            reflects = true;
+        }
+#endif
 #if REFRACTION
         var refracted = Refracted(false, vec3<f32>(0.0));
         var transmitted = vec3<f32>(0.0);
@@ -344,6 +433,9 @@ fn shade_hit(job: Job) {
             if (mat.flags & MATERIAL_TINTED_TRANSMISSION) != 0u {
                 transmitted *= m.color;
             }
+#if CLEARCOAT
+            transmitted *= 1.0 - coat.k;
+#endif
             refracted = refract_dir(d, n, ng, entering, mat.ior);
             if !refracted.ok {
                 // Total internal reflection: what would have been transmitted is reflected.
@@ -358,8 +450,8 @@ fn shade_hit(job: Job) {
             push_job(pass_desc.next, new_job(child, job.point));
         }
 #endif
-        if max3(m.mirror) > 0.0 || transmits {
-            var r = reflect_dir(d, n);
+        if reflects {
+            var r = reflect_dir(d, rn);
             if dot(r, ng) <= 0.0 {
                 r = reflect_dir(d, ng);
             }
@@ -371,6 +463,6 @@ fn shade_hit(job: Job) {
     }
 #endif
 #if SHADOWS
-    push_shadow_rays(h.prim, m, s, n, -d, w, job.point);
+    push_shadow_rays(h.prim, m, s, n, -d, w_base, job.point);
 #endif
 }

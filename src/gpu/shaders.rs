@@ -11,7 +11,8 @@
 //! `REFRACTION`, `TEXTURES`, `EMISSION`, `VERTEX_COLORS`, `MAPS`, `NORMAL_MAPS`, `ALPHA`
 //! (every walk tests alpha on masked materials), `BLEND` (pass-through rays) and `CUTOUTS`
 //! (shadow walks test alpha: `ALPHA` or `BLEND`), `ENVIRONMENT` (rays leaving the scene
-//! read the environment map), `F64`, `SPHERES`, `TRIANGLES` and `CYLINDERS`, `SURFACE_RAYS`
+//! read the environment map), `VOLUME` (attenuation inside transmitting bodies), `CLEARCOAT`
+//! (clear coats over materials), `F64`, `SPHERES`, `TRIANGLES` and `CYLINDERS`, `SURFACE_RAYS`
 //! (rays leave surfaces: reflection, refraction and pass-through rays, shadow rays towards a
 //! directional light; the BVH or ray queries take them), `BVH_SHADOWS` (shadow rays take
 //! that walk too), `SURFACE_RQ` (with the tables, ray queries take them),

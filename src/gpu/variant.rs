@@ -78,7 +78,13 @@ impl Variant {
         let secondary = max_depth >= 2;
         let reflection = e.reflection && secondary;
         Variant {
-            effects: Effects { reflection, refraction: e.refraction && secondary, ..e },
+            effects: Effects {
+                reflection,
+                refraction: e.refraction && secondary,
+                // Attenuation applies on the way out of a body, which only refraction enters.
+                volume: e.volume && e.refraction && secondary,
+                ..e
+            },
             accel: Accel::Cube,
             f64: false,
             shapes: Shapes::ALL,
@@ -144,9 +150,8 @@ impl Variant {
     /// bits, the last of each 32 with every effect), then every other set of kinds (none
     /// included: a scene may hold no primitive) with every effect (42), then shadows without
     /// rays leaving surfaces (lights with tables, no mirror), with and without textures and
-    /// emission (12), then every effect uncounted (6), then maps, normal maps, mask and
-    /// blend each without the others, mirrors lit by point lights alone and an environment
-    /// alone (36), so that
+    /// emission (12), then every effect uncounted (6), then the map and layer effects each
+    /// without the others ([`Variant::apart`], 54), so that
     /// each `#if` is compiled both ways. Vertex colours, maps, normal maps, alpha and blend are off in the 32 effect sets
     /// and on in the rest (each further effect is compiled on and off against a
     /// representative rest, not in the full product); last, every effect with the
@@ -209,23 +214,9 @@ impl Variant {
                 .into_iter()
                 .map(move |accel| Variant { f64, ..Variant::full(accel) }.with_counters(false))
         });
-        // The map effects apart: maps, normal maps, a mask alone, a blend alone (which needs
-        // no texture), so that none leans on another's code.
-        let apart = [false, true].into_iter().flat_map(move |f64| {
-            Accel::GPU.into_iter().flat_map(move |accel| {
-                let lit = Effects { shadows: true, reflection: true, ..none };
-                let base = Variant { effects: lit, accel, f64, ..Variant::default() };
-                let with = |effects: Effects| Variant { effects, ..base };
-                [
-                    with(Effects { textures: true, maps: true, ..lit }),
-                    with(Effects { textures: true, normal_maps: true, ..lit }),
-                    with(Effects { textures: true, alpha: true, ..lit }),
-                    Variant { surface_rays: true, ..with(Effects { blend: true, ..lit }) },
-                    Variant { surface_rays: true, bvh_shadows: false, ..base },
-                    with(Effects { environment: true, ..lit }),
-                ]
-            })
-        });
+        let apart = [false, true]
+            .into_iter()
+            .flat_map(move |f64| Accel::GPU.into_iter().flat_map(move |accel| Variant::apart(accel, f64)));
         // The tables with rays leaving surfaces sent to ray queries: every effect, without
         // directional lights' shadows, without mirrors or glass, uncounted.
         let surface_rq = [false, true].into_iter().flat_map(|f64| {
@@ -250,6 +241,27 @@ impl Variant {
             .collect()
     }
 
+    /// The map and layer effects apart, with `accel` in `f64` or not: maps, normal maps, a
+    /// mask alone, a blend alone (which needs no texture), rays leaving surfaces without BVH
+    /// shadows, an environment, a clear coat alone and over normal maps, a volume, so that
+    /// none leans on another's code.
+    fn apart(accel: Accel, f64: bool) -> [Variant; 9] {
+        let lit = Effects { shadows: true, reflection: true, ..Effects::default() };
+        let base = Variant { effects: lit, accel, f64, ..Variant::default() };
+        let with = |effects: Effects| Variant { effects, ..base };
+        [
+            with(Effects { textures: true, maps: true, ..lit }),
+            with(Effects { textures: true, normal_maps: true, ..lit }),
+            with(Effects { textures: true, alpha: true, ..lit }),
+            Variant { surface_rays: true, ..with(Effects { blend: true, ..lit }) },
+            Variant { surface_rays: true, bvh_shadows: false, ..base },
+            with(Effects { environment: true, ..lit }),
+            with(Effects { clearcoat: true, ..lit }),
+            with(Effects { textures: true, normal_maps: true, clearcoat: true, ..lit }),
+            with(Effects { refraction: true, volume: true, ..lit }),
+        ]
+    }
+
     /// Every effect with `accel`.
     pub fn full(accel: Accel) -> Variant {
         Variant { accel, ..Variant::for_effects(Effects::ALL, crate::layout::MAX_DEPTH) }
@@ -268,6 +280,8 @@ impl Variant {
             "ALPHA" => self.effects.alpha,
             "BLEND" => self.effects.blend,
             "ENVIRONMENT" => self.effects.environment,
+            "VOLUME" => self.effects.volume,
+            "CLEARCOAT" => self.effects.clearcoat,
             // Shadow walks test alpha: masked or blended materials.
             "CUTOUTS" => self.effects.alpha || self.effects.blend,
             "F64" => self.f64,

@@ -320,6 +320,7 @@ fn tex_ref(r: Option<TextureRef>) -> TexRef {
 /// Material `m` as the kernels read it.
 fn gpu_material(m: &SceneMaterial) -> Material {
     let maps = m.maps.as_deref();
+    let coat = m.clearcoat.as_deref();
     let flags = if m.tinted_transmission { MATERIAL_TINTED_TRANSMISSION } else { 0 }
         | if maps.is_some() { MATERIAL_MAPS } else { 0 }
         | if m.alpha == Alpha::Blend { MATERIAL_BLEND } else { 0 };
@@ -348,6 +349,18 @@ fn gpu_material(m: &SceneMaterial) -> Material {
         emissive: tex_ref(maps.and_then(|p| p.emissive)),
         transmission_map: tex_ref(maps.and_then(|p| p.transmission_texture)),
         normal: tex_ref(m.normal_map.map(|n| n.texture)),
+        // Only a transmitting body attenuates; a coefficient beyond f32 is all absorbed anyway.
+        attenuation: if m.attenuates() { v3(m.attenuation.min(DVec3::splat(1e30))) } else { [0.0; 3] },
+        specular: maps.map_or(1.0, |p| p.specular as f32),
+        specular_color: maps.map_or([1.0; 3], |p| v3(p.specular_color)),
+        clearcoat: coat.map_or(0.0, |c| c.factor as f32),
+        clearcoat_roughness: coat.map_or(0.0, |c| c.roughness as f32),
+        clearcoat_normal_scale: coat.and_then(|c| c.normal_map).map_or(1.0, |n| n.scale as f32),
+        clearcoat_map: tex_ref(coat.and_then(|c| c.texture)),
+        clearcoat_roughness_map: tex_ref(coat.and_then(|c| c.roughness_texture)),
+        clearcoat_normal: tex_ref(coat.and_then(|c| c.normal_map.map(|n| n.texture))),
+        specular_map: tex_ref(maps.and_then(|p| p.specular_texture)),
+        specular_color_map: tex_ref(maps.and_then(|p| p.specular_color_texture)),
         ..Material::default()
     }
 }

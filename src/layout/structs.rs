@@ -164,14 +164,26 @@ pub struct Material {
     /// The cutoff for shadow rays.
     pub shadow_cutoff: f32,
     pub normal_scale: f32,
-    pub pad0: u32,
-    pub pad1: u32,
-    pub pad2: u32,
+    /// KHR_materials_clearcoat's strength (0: no coat), roughness and normal map scale.
+    pub clearcoat: f32,
+    pub clearcoat_roughness: f32,
+    pub clearcoat_normal_scale: f32,
     pub base: TexRef,
     pub metallic_roughness: TexRef,
     pub emissive: TexRef,
     pub transmission_map: TexRef,
     pub normal: TexRef,
+    /// Beer–Lambert coefficient per unit length inside the body (KHR_materials_volume).
+    pub attenuation: [f32; 3],
+    /// KHR_materials_specular's weight and colour (a per-hit material's; 1 without).
+    pub specular: f32,
+    pub specular_color: [f32; 3],
+    pub pad0: u32,
+    pub clearcoat_map: TexRef,
+    pub clearcoat_roughness_map: TexRef,
+    pub clearcoat_normal: TexRef,
+    pub specular_map: TexRef,
+    pub specular_color_map: TexRef,
 }
 
 /// A light (WGSL `Light`, keep in sync with `shaders/shared/layout.wgsl`); positions relative

@@ -43,7 +43,7 @@ use glam::DVec3;
 use super::accel::{Intersector, NearestHit, OriginKey, ShadowQuery};
 use super::geometry::{spawn_offset, spawn_origin, surface, Ray, SurfacePoint};
 use super::texture;
-use crate::scene::{Alpha, Light, LightKind, Scene};
+use crate::scene::{Alpha, Light, LightKind, Scene, Shading};
 use crate::stats::{Counters, RayKind};
 
 /// Shadow rays towards a positional light end this much of the light's scale before it
@@ -170,29 +170,29 @@ impl Tracer<'_> {
         }
     }
 
-    fn shade(&self, ray: &Ray, h: &NearestHit, depth: u32, c: &mut Counters) -> DVec3 {
+    /// `l` plus what the lights add at surface point `s` of primitive `prim` with Whitted
+    /// terms `sh`, normal `n` and view `v` (both facing the ray): each light's diffuse and
+    /// Phong terms where its shadow ray is not blocked.
+    #[allow(clippy::too_many_arguments)]
+    fn direct(
+        &self,
+        mut l: DVec3,
+        s: &SurfacePoint,
+        prim: u32,
+        sh: &Shading,
+        n: DVec3,
+        v: DVec3,
+        c: &mut Counters,
+    ) -> DVec3 {
         let scene = self.scene;
-        let prim = &scene.primitives[h.prim as usize];
-        let m = &scene.materials[prim.material() as usize];
-        let mut s: SurfacePoint = surface(prim, ray, &h.hit);
-        s.ns = texture::normal(scene, m, &s);
-        let d = ray.dir;
-        // Normals turned to face the incoming ray.
-        let entering = d.dot(s.ng) < 0.0;
-        let (ng, n) = if entering { (s.ng, s.ns) } else { (-s.ng, -s.ns) };
-        let sh = texture::shading(scene, m, &s);
-        let base = sh.color;
-        let diffuse = base * sh.kd;
-        let v = -d;
-
-        let mut l = sh.emission + scene.ambient * diffuse;
+        let diffuse = sh.color * sh.kd;
         for (i, light) in scene.lights.iter().enumerate() {
             let Some(inc) = incidence(light, s.p) else { continue };
             let n_dot_l = n.dot(inc.dir);
             if n_dot_l <= 0.0 {
                 continue;
             }
-            let o = spawn_origin(&s, inc.dir);
+            let o = spawn_origin(s, inc.dir);
             let t_max = match inc.distance {
                 Some(_) => shadow_t_max(o, light.position, scene.camera.eye),
                 None => f64::INFINITY,
@@ -200,7 +200,7 @@ impl Tracer<'_> {
             let q = ShadowQuery {
                 ray: Ray::new(o, inc.dir),
                 t_max,
-                object: h.prim,
+                object: prim,
                 light: i as u32,
                 light_position: inc.distance.map(|_| light.position),
             };
@@ -210,7 +210,7 @@ impl Tracer<'_> {
                 // A self-hit when something blocks it within SELF_HIT_SPAWNS offsets: a second,
                 // short query from the point, its tests not counted (it is instrumentation).
                 let near = ShadowQuery {
-                    t_max: q.t_max.min(SELF_HIT_SPAWNS * spawn_offset(&s)),
+                    t_max: q.t_max.min(SELF_HIT_SPAWNS * spawn_offset(s)),
                     light_position: None,
                     ..q
                 };
@@ -229,26 +229,57 @@ impl Tracer<'_> {
             }
             l += inc.radiance * local;
         }
+        l
+    }
 
+    fn shade(&self, ray: &Ray, h: &NearestHit, depth: u32, c: &mut Counters) -> DVec3 {
+        let scene = self.scene;
+        let prim = &scene.primitives[h.prim as usize];
+        let m = &scene.materials[prim.material() as usize];
+        let mut s: SurfacePoint = surface(prim, ray, &h.hit);
+        let d = ray.dir;
+        // The coat reads the interpolated normal, not the base's normal map.
+        let coat = texture::clearcoat(scene, m, &s, d);
+        s.ns = texture::normal(scene, m, &s);
+        // Normals turned to face the incoming ray.
+        let entering = d.dot(s.ng) < 0.0;
+        let (ng, n) = if entering { (s.ng, s.ns) } else { (-s.ng, -s.ns) };
+        // Light reaching this hit from inside an attenuating body crossed `t` of it.
+        let through =
+            if !entering && m.attenuates() { attenuated(m.attenuation, h.hit.t) } else { DVec3::ONE };
+        let sh = texture::shading(scene, m, &s);
+        let base = sh.color;
+        let diffuse = base * sh.kd;
+        let v = -d;
+        // What the base sends passes through the coat's 1 − k.
+        let (coat_k, coat_mirror) = coat.as_ref().map_or((0.0, 0.0), |c| (c.k, c.mirror));
+        let under = 1.0 - coat_k;
+
+        let mut l = self.direct(sh.emission + scene.ambient * diffuse, &s, h.prim, &sh, n, v, c);
+        l *= under;
         // A blended surface sends alpha of this, and lets 1 − alpha through.
         let alpha = if m.alpha == Alpha::Blend { texture::alpha(scene, m, s.uv) } else { 1.0 };
         if depth >= self.max_depth {
-            return l * alpha;
+            return l * alpha * through;
         }
         let transmits = sh.transmittance > 0.0;
         let refracted = if transmits { refract(d, n, ng, entering, m.ior) } else { None };
-        let transmitted = sh.transmittance * if m.tinted_transmission { base } else { DVec3::ONE };
-        if sh.mirror.max_element() > 0.0 || transmits {
-            let mut r = reflect(d, n);
+        let transmitted = under * sh.transmittance * if m.tinted_transmission { base } else { DVec3::ONE };
+        if sh.mirror.max_element() > 0.0 || transmits || coat_mirror > 0.0 {
+            // One reflected ray: about the coat's normal where the coat reflects.
+            let rn = match &coat {
+                Some(c) if coat_mirror > 0.0 => c.normal,
+                _ => n,
+            };
+            let mut r = reflect(d, rn);
             if r.dot(ng) <= 0.0 {
                 r = reflect(d, ng);
             }
-            let weight = if transmits && refracted.is_none() {
+            let mut weight = under * sh.mirror + DVec3::splat(coat_mirror);
+            if transmits && refracted.is_none() {
                 // Total internal reflection: what would have been transmitted is reflected.
-                sh.mirror + transmitted
-            } else {
-                sh.mirror
-            };
+                weight += transmitted;
+            }
             let rr = Ray::new(spawn_origin(&s, r), r);
             let spawn = spawn_offset(&s);
             l += weight * self.trace(&rr, OriginKey::Surface(h.prim), RayKind::Reflect, depth + 1, spawn, c);
@@ -266,8 +297,14 @@ impl Tracer<'_> {
             l += (1.0 - alpha)
                 * self.trace(&rp, OriginKey::Surface(h.prim), RayKind::Refract, depth + 1, spawn, c);
         }
-        l
+        l * through
     }
+}
+
+/// What reaches the end of `t` of a body of Beer–Lambert coefficient `sigma`: `exp(−σ·t)`.
+pub fn attenuated(sigma: DVec3, t: f64) -> DVec3 {
+    let f = |s: f64| (-s * t).exp();
+    DVec3::new(f(sigma.x), f(sigma.y), f(sigma.z))
 }
 
 /// Mirror reflection of unit `d` about unit `n`, renormalised.

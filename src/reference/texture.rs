@@ -8,7 +8,10 @@
 use glam::{DVec2, DVec3, DVec4};
 
 use super::geometry::{SurfacePoint, TangentFrame};
-use crate::scene::{bilinear, srgb_to_linear, Material, Pbr, Scene, Shading, Texture, TextureRef, Wrap};
+use crate::scene::{
+    bilinear, coat_fresnel, srgb_to_linear, Material, NormalMap, Pbr, Scene, Shading, Texture, TextureRef,
+    Wrap,
+};
 
 fn wrap(i: i64, n: u32, mode: Wrap) -> usize {
     let n = n as i64;
@@ -82,6 +85,8 @@ pub fn shading(scene: &Scene, m: &Material, s: &SurfacePoint) -> Shading {
     let mr = read(scene, maps.metallic_roughness, s.uv).unwrap_or(DVec4::ONE);
     let e = read(scene, maps.emissive, s.uv).map_or(DVec3::ONE, DVec4::truncate);
     let t = read(scene, maps.transmission_texture, s.uv).map_or(1.0, |c| c.x);
+    let spec = read(scene, maps.specular_texture, s.uv).map_or(1.0, |c| c.w);
+    let spec_color = read(scene, maps.specular_color_texture, s.uv).map_or(DVec3::ONE, DVec4::truncate);
     Pbr {
         base,
         metallic: maps.metallic * mr.z,
@@ -89,14 +94,46 @@ pub fn shading(scene: &Scene, m: &Material, s: &SurfacePoint) -> Shading {
         transmission: maps.transmission * t,
         ior: m.ior,
         emission: maps.emission * e,
+        specular: maps.specular * spec,
+        specular_color: maps.specular_color * spec_color,
     }
     .whitted()
+}
+
+/// The clear coat of material `m` at surface point `s` (its interpolated normal, before any
+/// normal map), for a ray arriving along `d` (unit): the coat's share of the light `k`
+/// (strength × Fresnel), its mirror weight and its normal facing the ray; `None` without one.
+pub fn clearcoat(scene: &Scene, m: &Material, s: &SurfacePoint, d: DVec3) -> Option<Coat> {
+    let c = m.clearcoat.as_deref()?;
+    let strength = read(scene, c.texture, s.uv).map_or(1.0, |t| t.x);
+    let rough = read(scene, c.roughness_texture, s.uv).map_or(1.0, |t| t.y);
+    let (strength, smooth) = c.at(strength, rough);
+    let normal = c.normal_map.map_or(s.ns, |map| mapped(scene, map, s));
+    let normal = if d.dot(s.ng) < 0.0 { normal } else { -normal };
+    let k = strength * coat_fresnel(normal.dot(-d));
+    Some(Coat { k, mirror: k * smooth, normal })
+}
+
+/// A clear coat at one hit ([`clearcoat`]).
+pub struct Coat {
+    /// The share of the light the coat reflects: what the base sends is weighted by 1 − k.
+    pub k: f64,
+    /// The weight of the coat's mirror ray.
+    pub mirror: f64,
+    /// The coat's normal, facing the viewer.
+    pub normal: DVec3,
 }
 
 /// The shading normal of material `m` at `s`, through its normal map where it has one and
 /// the triangle carries a tangent frame, on the side of the geometric normal.
 pub fn normal(scene: &Scene, m: &Material, s: &SurfacePoint) -> DVec3 {
-    let (Some(map), Some(TangentFrame { n, t, sign })) = (m.normal_map, s.frame) else { return s.ns };
+    m.normal_map.map_or(s.ns, |map| mapped(scene, map, s))
+}
+
+/// The normal of `s` through normal map `map` where the triangle carries a tangent frame,
+/// on the side of the geometric normal (the interpolated one elsewhere).
+fn mapped(scene: &Scene, map: NormalMap, s: &SurfacePoint) -> DVec3 {
+    let Some(TangentFrame { n, t, sign }) = s.frame else { return s.ns };
     let Some(c) = read(scene, Some(map.texture), s.uv) else { return s.ns };
     let x = (c.x * 2.0 - 1.0) * map.scale;
     let y = (c.y * 2.0 - 1.0) * map.scale;

@@ -1,9 +1,10 @@
-//! Whitted materials and textures, and the glTF metallic-roughness inputs that a material
-//! with per-hit maps maps onto the Whitted terms at every hit ([`Pbr::whitted`]). The
-//! mapping from NFF and glTF is documented in the parent module.
+//! Whitted materials and textures: what every hit is shaded with, whatever the file
+//! format (a material with per-hit maps or layers holds them, evaluated through
+//! [`super::pbr`]). The mapping from NFF and glTF is documented in the parent module.
 
 use glam::{DAffine2, DVec2, DVec3};
 
+use super::pbr::{Clearcoat, PbrMaps, Shading};
 use crate::error::{Error, Result};
 
 /// A Whitted/Phong material (Whitted 1980, Haines' NFF):
@@ -40,7 +41,7 @@ pub struct Material {
     pub emission: DVec3,
     pub base_color_texture: Option<TextureRef>,
     /// glTF metallic-roughness inputs with textures other than the base colour's, which
-    /// vary the Whitted terms per hit ([`Pbr::whitted`]); boxed, as few materials have them.
+    /// vary the Whitted terms per hit ([`super::Pbr::whitted`]); boxed, as few materials have them.
     pub maps: Option<Box<PbrMaps>>,
     /// A tangent-space normal map (glTF `normalTexture`).
     pub normal_map: Option<NormalMap>,
@@ -51,6 +52,14 @@ pub struct Material {
     pub opacity: f64,
     /// glTF `doubleSided` (recorded; the renderers intersect both sides of triangles).
     pub double_sided: bool,
+    /// Beer–Lambert attenuation per unit length inside a transmitting body, per channel
+    /// (KHR_materials_volume: −ln(attenuationColor) / attenuationDistance; zero: none).
+    /// Radiance reaching a hit from inside the body (the ray met the surface's back) is
+    /// multiplied by `exp(−attenuation·t)` over the ray's length `t`.
+    pub attenuation: DVec3,
+    /// A clear coat over the surface (KHR_materials_clearcoat); boxed, as few materials have
+    /// one.
+    pub clearcoat: Option<Box<Clearcoat>>,
 }
 
 /// glTF `alphaMode`.
@@ -87,148 +96,6 @@ pub struct NormalMap {
     pub scale: f64,
 }
 
-/// glTF metallic-roughness factors and the textures that vary them per hit: metallic is the
-/// metallic-roughness texture's blue channel times `metallic`, roughness its green channel
-/// times `roughness`, transmission the transmission texture's red channel times
-/// `transmission`, emission the emissive texture (sRGB) times `emission`. A texture that is
-/// absent, or whose UV set a triangle lacks, counts as 1.
-#[derive(Clone, Debug, PartialEq)]
-pub struct PbrMaps {
-    pub metallic: f64,
-    pub roughness: f64,
-    pub transmission: f64,
-    /// emissiveFactor × KHR_materials_emissive_strength.
-    pub emission: DVec3,
-    pub metallic_roughness: Option<TextureRef>,
-    pub emissive: Option<TextureRef>,
-    pub transmission_texture: Option<TextureRef>,
-    /// What the textures take over the hits, for [`PbrMaps::bounds`].
-    pub ranges: MapRanges,
-}
-
-/// The extremes a material's map channels take over its hits, in [0, 1] (emission: linear):
-/// over the texels, and 1 where a hit may lack the texture ([`MapRanges::with_fallback`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MapRanges {
-    /// Least and largest metallic (the blue channel).
-    pub metallic: [f64; 2],
-    /// Least roughness (the green channel).
-    pub roughness_min: f64,
-    /// Largest transmission (the red channel).
-    pub transmission_max: f64,
-    /// Largest emission per channel.
-    pub emission_max: DVec3,
-}
-
-impl MapRanges {
-    /// Ranges of maps that are all absent: every channel 1.
-    pub const ONES: MapRanges = MapRanges {
-        metallic: [1.0, 1.0],
-        roughness_min: 1.0,
-        transmission_max: 1.0,
-        emission_max: DVec3::ONE,
-    };
-
-    /// The ranges with the value of an absent texture (1) joined: for a material some of
-    /// whose triangles lack the UV set its maps read.
-    pub fn with_fallback(self) -> MapRanges {
-        MapRanges {
-            metallic: [self.metallic[0].min(1.0), 1.0],
-            roughness_min: self.roughness_min.min(1.0),
-            transmission_max: 1.0,
-            emission_max: DVec3::ONE,
-        }
-    }
-}
-
-impl PbrMaps {
-    /// The Whitted terms whose `mirror`, `transmittance` and `emission` bound every hit's
-    /// (base colour `base`, index `ior`): the mirror of the most metallic and least rough
-    /// texel (a metal's F0 taken at the factor's base colour, at most max(0.04, base)), the
-    /// transmittance of the most transmitting and least metallic, the brightest emission.
-    /// `kd`, `ks` and `shine` are the latter texel's, not bounds: shading never reads them.
-    pub fn bounds(&self, base: DVec3, ior: f64) -> Shading {
-        let r = &self.ranges;
-        let roughness = self.roughness * r.roughness_min;
-        let glass = Pbr {
-            base,
-            metallic: self.metallic * r.metallic[0],
-            roughness,
-            transmission: self.transmission * r.transmission_max,
-            ior,
-            emission: self.emission * r.emission_max,
-        };
-        let metal = Pbr { metallic: self.metallic * r.metallic[1], transmission: 0.0, ..glass };
-        let mut sh = glass.whitted();
-        // F0 = mix(0.04, base, m) lies between 0.04 and the base colour.
-        let f0_max = base.clamp(DVec3::ZERO, DVec3::ONE).max(DVec3::splat(0.04));
-        let metal_mirror = if metal.whitted().mirror.max_element() > 0.0 {
-            f0_max * (1.0 - roughness.clamp(0.0, 1.0)).powi(2)
-        } else {
-            DVec3::ZERO
-        };
-        sh.mirror = sh.mirror.max(metal_mirror);
-        sh
-    }
-}
-
-/// The Whitted terms at one hit (a material's scalars, or its maps evaluated there).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Shading {
-    /// The base colour at the hit (factor × texture × vertex colour).
-    pub color: DVec3,
-    pub kd: f64,
-    pub ks: f64,
-    pub shine: f64,
-    pub mirror: DVec3,
-    pub transmittance: f64,
-    pub emission: DVec3,
-}
-
-/// Metallic-roughness inputs at one point (or their bounds over a material).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Pbr {
-    pub base: DVec3,
-    pub metallic: f64,
-    pub roughness: f64,
-    /// KHR_materials_transmission factor.
-    pub transmission: f64,
-    /// KHR_materials_ior (1.5 when absent).
-    pub ior: f64,
-    pub emission: DVec3,
-}
-
-impl Pbr {
-    /// The Whitted terms for these inputs, exactly as documented in [`crate::scene`]. Inputs
-    /// are clamped to [0, 1] first (the twin in `shaders/shared/shade.wgsl` is `whitted`).
-    pub fn whitted(&self) -> Shading {
-        let base = self.base.clamp(DVec3::ZERO, DVec3::ONE);
-        let m = self.metallic.clamp(0.0, 1.0);
-        let rough = self.roughness.clamp(0.0, 1.0);
-        let transmittance = self.transmission.clamp(0.0, 1.0) * (1.0 - m);
-        let alpha = rough * rough;
-        // α = 0 gives +∞, which the clamp turns into the largest exponent.
-        let shine = (2.0 / (alpha * alpha) - 2.0).clamp(1.0, 10_000.0);
-        let smooth = (1.0 - rough) * (1.0 - rough);
-        let mirror = if m > 0.0 {
-            smooth * DVec3::splat(0.04).lerp(base, m)
-        } else if transmittance > 0.0 {
-            smooth * DVec3::splat(((self.ior - 1.0) / (self.ior + 1.0)).powi(2))
-        } else {
-            DVec3::ZERO
-        };
-        Shading {
-            color: base,
-            kd: (1.0 - m) * (1.0 - transmittance),
-            ks: (1.0 - rough) * (0.04 + 0.96 * m),
-            shine,
-            mirror,
-            transmittance,
-            emission: self.emission.max(DVec3::ZERO),
-        }
-    }
-}
-
 impl Default for Material {
     /// Matte white: what NFF uses before the first `f`, and what glTF primitives without a
     /// material get (see the mapping in the parent module).
@@ -250,13 +117,21 @@ impl Default for Material {
             alpha: Alpha::Opaque,
             opacity: 1.0,
             double_sided: false,
+            attenuation: DVec3::ZERO,
+            clearcoat: None,
         }
     }
 }
 
 impl Material {
+    /// Whether some hit spawns a reflection ray (its mirror, or its clear coat's).
     pub fn reflects(&self) -> bool {
-        self.mirror.max_element() > 0.0
+        self.mirror.max_element() > 0.0 || self.clearcoat.as_ref().is_some_and(|c| c.mirror_bound() > 0.0)
+    }
+
+    /// Whether light travelling inside the body is attenuated (it must transmit for any to).
+    pub fn attenuates(&self) -> bool {
+        self.transmits() && self.attenuation.max_element() > 0.0
     }
 
     pub fn transmits(&self) -> bool {
@@ -289,12 +164,18 @@ impl Material {
     /// Every texture the material reads.
     pub fn texture_refs(&self) -> impl Iterator<Item = TextureRef> + '_ {
         let maps = self.maps.as_deref();
+        let coat = self.clearcoat.as_deref();
         [
             self.base_color_texture,
             maps.and_then(|m| m.metallic_roughness),
             maps.and_then(|m| m.emissive),
             maps.and_then(|m| m.transmission_texture),
+            maps.and_then(|m| m.specular_texture),
+            maps.and_then(|m| m.specular_color_texture),
             self.normal_map.map(|n| n.texture),
+            coat.and_then(|c| c.texture),
+            coat.and_then(|c| c.roughness_texture),
+            coat.and_then(|c| c.normal_map.map(|n| n.texture)),
         ]
         .into_iter()
         .flatten()
@@ -330,17 +211,30 @@ impl Material {
             }
         }
         if let Some(m) = &self.maps {
-            let finite = [m.metallic, m.roughness, m.transmission].iter().all(|v| v.is_finite());
-            if !finite || !m.emission.is_finite() {
+            let finite = [m.metallic, m.roughness, m.transmission, m.specular].iter().all(|v| v.is_finite());
+            if !finite || !m.emission.is_finite() || !m.specular_color.is_finite() {
                 return Err(Error::Scene("a metallic-roughness factor is not finite".into()));
             }
-            if m.metallic_roughness.is_none() && m.emissive.is_none() && m.transmission_texture.is_none() {
+            if !m.has_texture() {
                 return Err(Error::Scene("per-hit maps without a texture".into()));
             }
         }
         if let Some(n) = &self.normal_map {
             if !n.scale.is_finite() {
                 return Err(Error::Scene(format!("normal map scale {} is not finite", n.scale)));
+            }
+        }
+        if !(self.attenuation.is_finite() && self.attenuation.min_element() >= 0.0) {
+            return Err(Error::Scene(format!(
+                "attenuation {} is not finite and non-negative",
+                self.attenuation
+            )));
+        }
+        if let Some(c) = &self.clearcoat {
+            let finite =
+                [c.factor, c.roughness, c.max_strength, c.min_roughness].iter().all(|v| v.is_finite());
+            if !finite || !c.normal_map.is_none_or(|n| n.scale.is_finite()) {
+                return Err(Error::Scene("a clear coat factor is not finite".into()));
             }
         }
         for t in self.texture_refs() {

@@ -53,7 +53,14 @@
 //!   below `alphaCutoff` is no hit, for every ray; BLEND: the surface's radiance counts
 //!   with its alpha and a pass-through ray carries 1 − alpha on, while shadow rays take it
 //!   as a mask at 0.5 ([`Alpha`]);
-//! - `doubleSided` is recorded; occlusion textures are ignored (glTF has no ambient light).
+//! - `doubleSided` is recorded; occlusion textures are ignored (glTF has no ambient light);
+//! - KHR_materials_volume: light inside a transmitting body is attenuated by Beer–Lambert
+//!   along the refracted path's real length ([`Material::attenuation`]); thicknessFactor only
+//!   says whether there is a body (0: thin-walled, no attenuation), as the ray measures the
+//!   path itself;
+//! - KHR_materials_clearcoat: a Fresnel-weighted mirror layer over the base ([`Clearcoat`]);
+//! - KHR_materials_specular: the dielectric reflectance `F0` becomes
+//!   `min(F0·specularColor, 1)·specular`, per hit with its textures ([`Pbr::whitted`]).
 //!
 //! A material without metallic-roughness, emissive or transmission textures has these terms
 //! once, as scalars; one with them keeps its factors and textures ([`PbrMaps`]), and its
@@ -78,6 +85,7 @@ pub mod environment;
 mod light;
 mod material;
 mod origin;
+mod pbr;
 mod primitive;
 mod tonemap;
 
@@ -85,10 +93,10 @@ pub use camera::{Camera, FovSpan, Projection, ViewOverride};
 pub use environment::Environment;
 pub use light::{Light, LightKind, LightSource};
 pub use material::{
-    bilinear, srgb_to_linear, Alpha, MapRanges, Material, NormalMap, Pbr, PbrMaps, Shading, Texture,
-    TextureRef, Wrap, TEXCOORD_SETS,
+    bilinear, srgb_to_linear, Alpha, Material, NormalMap, Texture, TextureRef, Wrap, TEXCOORD_SETS,
 };
 pub use origin::OriginKey;
+pub use pbr::{coat_fresnel, Clearcoat, MapRanges, Pbr, PbrMaps, Shading};
 use primitive::{finite3, validate_primitive};
 pub use primitive::{Aabb, Cylinder, Primitive, Sphere, Triangle};
 pub use tonemap::{Tonemap, Transfer};
@@ -148,6 +156,10 @@ pub struct Effects {
     pub blend: bool,
     /// Rays that leave the scene see an environment map instead of the background colour.
     pub environment: bool,
+    /// Some used material attenuates light inside its body (KHR_materials_volume).
+    pub volume: bool,
+    /// Some used material has a clear coat (KHR_materials_clearcoat).
+    pub clearcoat: bool,
 }
 
 impl Effects {
@@ -164,6 +176,8 @@ impl Effects {
         alpha: true,
         blend: true,
         environment: true,
+        volume: true,
+        clearcoat: true,
     };
 
     /// The names of the effects that are on, in a fixed order.
@@ -181,6 +195,8 @@ impl Effects {
             (self.alpha, "alpha"),
             (self.blend, "blend"),
             (self.environment, "environment"),
+            (self.volume, "volume"),
+            (self.clearcoat, "clearcoat"),
         ] {
             if on {
                 v.push(name);
@@ -286,7 +302,10 @@ impl Scene {
             e.textures |= m.texture_refs().next().is_some();
             e.emission |= m.emits();
             e.maps |= m.maps.is_some();
-            e.normal_maps |= m.normal_map.is_some() && has_tangents[i];
+            let coat_normal = m.clearcoat.as_ref().is_some_and(|c| c.normal_map.is_some());
+            e.normal_maps |= (m.normal_map.is_some() || coat_normal) && has_tangents[i];
+            e.volume |= m.attenuates();
+            e.clearcoat |= m.clearcoat.is_some();
             e.alpha |= matches!(m.alpha, Alpha::Mask { .. });
             e.blend |= m.alpha == Alpha::Blend;
         }

@@ -88,12 +88,20 @@ const KNOWN: &[Known] = &[
     },
     Known {
         name: "KHR_materials_clearcoat",
-        status: Status::Ignored,
-        how: "the base layer is shown without its coat",
+        status: Status::Approximated,
+        how: "a mirror layer weighted by Schlick's Fresnel at IOR 1.5 over the base, with its textures and normal map; one reflected ray, about the coat's normal; no highlight of its own",
     },
     Known { name: "KHR_materials_sheen", status: Status::Ignored, how: "no sheen lobe" },
-    Known { name: "KHR_materials_specular", status: Status::Ignored, how: "the default dielectric F0 of 0.04" },
-    Known { name: "KHR_materials_volume", status: Status::Ignored, how: "refraction without attenuation" },
+    Known {
+        name: "KHR_materials_specular",
+        status: Status::Approximated,
+        how: "the dielectric F0 scaled and tinted, with its textures; the Phong highlight stays white",
+    },
+    Known {
+        name: "KHR_materials_volume",
+        status: Status::Read,
+        how: "Beer–Lambert attenuation along the refracted path's real length; thickness only marks a body",
+    },
     Known {
         name: "KHR_materials_unlit",
         status: Status::Approximated,
@@ -193,8 +201,10 @@ mod tests {
     fn required_and_optional_extensions() {
         assert_eq!(status("KHR_mesh_quantization", true), Status::Read);
         assert_eq!(status("KHR_materials_transmission", false), Status::Approximated);
-        assert_eq!(status("KHR_materials_clearcoat", false), Status::Ignored);
-        assert_eq!(status("KHR_materials_clearcoat", true), Status::Refused);
+        assert_eq!(status("KHR_materials_clearcoat", true), Status::Approximated);
+        assert_eq!(status("KHR_materials_volume", true), Status::Read);
+        assert_eq!(status("KHR_materials_sheen", false), Status::Ignored);
+        assert_eq!(status("KHR_materials_sheen", true), Status::Refused);
         assert_eq!(status("KHR_texture_basisu", true), Status::Refused);
         assert_eq!(status("KHR_texture_basisu", false), Status::Ignored);
         assert_eq!(status("EXT_unknown", false), Status::Ignored);
@@ -202,7 +212,11 @@ mod tests {
         assert!(refusal("KHR_texture_basisu").contains(BASISU_REWRITE));
         let readable = refusal("EXT_unknown").split_once("(it reads ").unwrap().1.to_string();
         assert!(readable.contains("KHR_draco_mesh_compression") && !readable.contains("EXT_unknown"));
-        assert!(!readable.contains("KHR_texture_basisu") && !readable.contains("clearcoat"));
+        assert!(
+            !readable.contains("KHR_texture_basisu")
+                && !readable.contains("sheen")
+                && readable.contains("clearcoat")
+        );
         let l = list(&["A".into()], &["B".into()]);
         assert_eq!((l[0].required, l[1].required, l[1].status), (false, true, Status::Refused));
     }

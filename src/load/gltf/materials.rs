@@ -22,11 +22,12 @@ use rayon::prelude::*;
 use serde::Deserialize;
 
 use super::data::{read_uri, Buffers};
+use super::layers;
 use super::Ctx;
 use crate::error::Error;
 use crate::scene::{
-    srgb_to_linear, Alpha, MapRanges, Material, NormalMap, Pbr, PbrMaps, Primitive, Texture, TextureRef,
-    Wrap, TEXCOORD_SETS,
+    srgb_to_linear, Alpha, Clearcoat, MapRanges, Material, NormalMap, PbrMaps, Primitive, Texture,
+    TextureRef, Wrap, TEXCOORD_SETS,
 };
 
 /// The scene's materials and textures, and how glTF materials map onto them.
@@ -56,7 +57,9 @@ impl MaterialTable {
         for t in m.texture_refs() {
             needs.uv[t.texcoord as usize] = true;
         }
-        needs.tangents = m.normal_map.map(|n| n.texture.texcoord);
+        // The base's normal map, else the coat's, names the UV set of generated tangents.
+        let coat_normal = m.clearcoat.as_ref().and_then(|c| c.normal_map);
+        needs.tangents = m.normal_map.or(coat_normal).map(|n| n.texture.texcoord);
         (i, needs)
     }
 }
@@ -168,6 +171,31 @@ impl<'d> Slot<'d> {
         Ok(Slot { tex_coord: n.tex_coord(), transform, info: n.texture(), loc, srgb: false })
     }
 
+    /// A slot read from a textureInfo's JSON (for extensions the gltf crate does not parse).
+    fn json(doc: &'d Document, v: &serde_json::Value, loc: String, srgb: bool) -> Result<Slot<'d>, String> {
+        #[derive(Deserialize)]
+        #[serde(rename_all = "camelCase")]
+        struct Info {
+            index: usize,
+            #[serde(default)]
+            tex_coord: u32,
+            #[serde(default)]
+            extensions: Option<Extensions>,
+        }
+        #[derive(Deserialize)]
+        struct Extensions {
+            #[serde(rename = "KHR_texture_transform")]
+            transform: Option<Xform>,
+        }
+        let info = Info::deserialize(v).map_err(|e| format!("is not a textureInfo: {e}"))?;
+        let texture = doc
+            .textures()
+            .nth(info.index)
+            .ok_or_else(|| format!("index: textures[{}] does not exist", info.index))?;
+        let transform = info.extensions.and_then(|e| e.transform);
+        Ok(Slot { info: texture, tex_coord: info.tex_coord, transform, loc, srgb })
+    }
+
     fn image(&self) -> usize {
         self.info.source().index()
     }
@@ -248,7 +276,7 @@ pub fn build(
     // Every texture slot of every used material; then the images they need, decoded at once.
     let mut slots: Vec<MaterialSlots> = Vec::new();
     for &i in &used_gltf {
-        slots.push(slots_of(ctx, &materials[i], i)?);
+        slots.push(slots_of(ctx, doc, &materials[i], i)?);
     }
     let needed: BTreeSet<usize> = slots.iter().flat_map(|s| s.all().map(Slot::image)).collect();
     let needed: Vec<usize> = needed.into_iter().collect();
@@ -286,7 +314,12 @@ pub fn build(
 
 /// The texture slots of glTF material `m` (`materials[i]`): the maps it reads, before any
 /// image is decoded.
-fn slots_of<'d>(ctx: &Ctx, m: &gltf::Material<'d>, i: usize) -> Result<MaterialSlots<'d>, Error> {
+fn slots_of<'d>(
+    ctx: &Ctx,
+    doc: &'d Document,
+    m: &gltf::Material<'d>,
+    i: usize,
+) -> Result<MaterialSlots<'d>, Error> {
     let loc = format!("materials[{i}]");
     let pbr = m.pbr_metallic_roughness();
     let emits = m.emissive_factor().iter().any(|&c| c != 0.0) && m.emissive_strength().unwrap_or(1.0) != 0.0;
@@ -296,15 +329,17 @@ fn slots_of<'d>(ctx: &Ctx, m: &gltf::Material<'d>, i: usize) -> Result<MaterialS
     if m.unlit() {
         // KHR_materials_unlit: the base colour's texture is what it emits (and its alpha the
         // coverage); no other map applies.
-        let none = || None;
-        return Ok(MaterialSlots {
-            base: base(),
-            metallic_roughness: none(),
-            emissive: base(),
-            transmission: none(),
-            normal: none(),
-        });
+        return Ok(MaterialSlots { base: base(), emissive: base(), ..MaterialSlots::default() });
     }
+    let specular = m.specular();
+    let spec_loc = format!("{loc}.extensions.KHR_materials_specular");
+    let coat = layers::coat_json(ctx, m, i)?.map(|c| c.raw);
+    let coat_loc = format!("{loc}.extensions.KHR_materials_clearcoat");
+    let coat_slot = |key: &str, srgb: bool| -> Result<Option<Slot<'d>>, Error> {
+        let Some(v) = coat.as_ref().and_then(|c| c.get(key)) else { return Ok(None) };
+        let loc = format!("{coat_loc}.{key}");
+        Slot::json(doc, v, loc.clone(), srgb).map(Some).map_err(|e| ctx.err(loc, e))
+    };
     Ok(MaterialSlots {
         base: base(),
         metallic_roughness: pbr
@@ -327,6 +362,17 @@ fn slots_of<'d>(ctx: &Ctx, m: &gltf::Material<'d>, i: usize) -> Result<MaterialS
                 )
             }
         },
+        specular: specular
+            .as_ref()
+            .and_then(|s| s.specular_texture())
+            .map(|t| Slot::of(t, format!("{spec_loc}.specularTexture"), false)),
+        specular_color: specular
+            .as_ref()
+            .and_then(|s| s.specular_color_texture())
+            .map(|t| Slot::of(t, format!("{spec_loc}.specularColorTexture"), true)),
+        clearcoat: coat_slot("clearcoatTexture", false)?,
+        clearcoat_roughness: coat_slot("clearcoatRoughnessTexture", false)?,
+        clearcoat_normal: coat_slot("clearcoatNormalTexture", false)?,
     })
 }
 
@@ -340,30 +386,10 @@ fn material(
     textures: &mut Textures,
     warnings: &mut Vec<String>,
 ) -> Result<Material, Error> {
-    let loc = format!("materials[{i}]");
     let pbr = m.pbr_metallic_roughness();
-    let f3 = |v: [f32; 3]| DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64);
     let bc = pbr.base_color_factor();
-    let base = f3([bc[0], bc[1], bc[2]]);
-    let factors = match m.unlit() {
-        // KHR_materials_unlit: no diffuse, specular, mirror or transmission (metallic 1 at
-        // roughness 1 has none, whatever the maps), the base colour emitted.
-        true => Pbr { base, metallic: 1.0, roughness: 1.0, transmission: 0.0, ior: 1.5, emission: base },
-        false => Pbr {
-            base,
-            metallic: pbr.metallic_factor() as f64,
-            roughness: pbr.roughness_factor() as f64,
-            transmission: m.transmission().map_or(0.0, |t| t.transmission_factor() as f64),
-            ior: m.ior().map_or(1.5, f64::from),
-            emission: f3(m.emissive_factor()) * m.emissive_strength().map_or(1.0, f64::from),
-        },
-    };
-    if factors.ior.is_nan() || factors.ior < 1.0 {
-        return Err(ctx.err(loc, format!("KHR_materials_ior: ior {} is not at least 1", factors.ior)));
-    }
-    if !(factors.base.is_finite() && factors.emission.is_finite()) {
-        return Err(ctx.err(loc, "baseColorFactor and emissiveFactor must be finite"));
-    }
+    let factors = layers::factors(ctx, m, i)?;
+    let attenuation = if m.unlit() { DVec3::ZERO } else { layers::volume_attenuation(ctx, m, i)? };
     let mut add = |slot: &Option<Slot>| -> Result<Option<TextureRef>, Error> {
         match slot {
             None => Ok(None),
@@ -379,26 +405,32 @@ fn material(
         metallic_roughness: add(&slots.metallic_roughness)?,
         emissive: add(&slots.emissive)?,
         transmission_texture: add(&slots.transmission)?,
+        specular: factors.specular,
+        specular_color: factors.specular_color,
+        specular_texture: add(&slots.specular)?,
+        specular_color_texture: add(&slots.specular_color)?,
         ranges: MapRanges::ONES,
     };
     let normal_map = add(&slots.normal)?
         .map(|texture| NormalMap { texture, scale: m.normal_texture().map_or(1.0, |n| n.scale() as f64) });
+    let clearcoat = match layers::coat_json(ctx, m, i)?.filter(|_| !m.unlit()) {
+        None => None,
+        Some(c) => Some(Box::new(Clearcoat {
+            factor: c.factor,
+            roughness: c.roughness,
+            texture: add(&slots.clearcoat)?,
+            roughness_texture: add(&slots.clearcoat_roughness)?,
+            normal_map: add(&slots.clearcoat_normal)?
+                .map(|texture| NormalMap { texture, scale: c.normal_scale }),
+            max_strength: c.factor,
+            min_roughness: c.roughness,
+        })),
+    };
     // The scalar terms: the factors' where no map varies them; else bounds over the maps
     // ([`PbrMaps::bounds`]), from the extremes of their texels.
-    let mut maps = maps;
-    let image = |r: Option<TextureRef>| r.map(|r| &textures.out[r.texture as usize]);
-    if let Some(t) = image(maps.metallic_roughness) {
-        let (m, rough) = (channel_range(t, 2), channel_range(t, 1));
-        (maps.ranges.metallic, maps.ranges.roughness_min) = ([m.0, m.1], rough.0);
-    }
-    if let Some(t) = image(maps.transmission_texture) {
-        maps.ranges.transmission_max = channel_range(t, 0).1;
-    }
-    if let Some(t) = image(maps.emissive) {
-        maps.ranges.emission_max = max_srgb(t);
-    }
-    let has_maps =
-        maps.metallic_roughness.is_some() || maps.emissive.is_some() || maps.transmission_texture.is_some();
+    let (mut maps, mut clearcoat) = (maps, clearcoat);
+    set_ranges(&mut maps, clearcoat.as_deref_mut(), &textures.out);
+    let has_maps = maps.has_texture();
     let sh = if has_maps { maps.bounds(factors.base, factors.ior) } else { factors.whitted() };
     let alpha = match m.alpha_mode() {
         AlphaMode::Opaque => Alpha::Opaque,
@@ -422,7 +454,40 @@ fn material(
         alpha,
         opacity: (bc[3] as f64).clamp(0.0, 1.0),
         double_sided: m.double_sided(),
+        attenuation,
+        clearcoat,
     })
+}
+
+/// The extremes `maps` and `coat` read from their textures (`textures`, the scene's so far):
+/// what their bounds are made from.
+fn set_ranges(maps: &mut PbrMaps, coat: Option<&mut Clearcoat>, textures: &[Texture]) {
+    let image = |r: Option<TextureRef>| r.map(|r| &textures[r.texture as usize]);
+    let r = &mut maps.ranges;
+    if let Some(t) = image(maps.metallic_roughness) {
+        let (m, rough) = (channel_range(t, 2), channel_range(t, 1));
+        (r.metallic, r.roughness_min) = ([m.0, m.1], rough.0);
+    }
+    if let Some(t) = image(maps.transmission_texture) {
+        r.transmission_max = channel_range(t, 0).1;
+    }
+    if let Some(t) = image(maps.emissive) {
+        r.emission_max = max_srgb(t);
+    }
+    if let Some(t) = image(maps.specular_texture) {
+        r.specular_max = channel_range(t, 3).1;
+    }
+    if let Some(t) = image(maps.specular_color_texture) {
+        r.specular_color_max = max_srgb(t);
+    }
+    if let Some(c) = coat {
+        if let Some(t) = image(c.texture) {
+            c.max_strength *= channel_range(t, 0).1;
+        }
+        if let Some(t) = image(c.roughness_texture) {
+            c.min_roughness *= channel_range(t, 1).0;
+        }
+    }
 }
 
 /// Widens the map bounds of every material some of whose triangles lack a UV set its maps
@@ -431,13 +496,21 @@ pub fn widen_bounds_for_missing_uvs(materials: &mut [Material], primitives: &[Pr
     let mut lacking = vec![false; materials.len()];
     for p in primitives {
         let Primitive::Triangle(t) = p else { continue };
-        let Some(maps) = materials[t.material as usize].maps.as_deref() else { continue };
+        let m = &materials[t.material as usize];
         let has = [t.uv.is_some(), t.uv1.is_some()];
-        let refs = [maps.metallic_roughness, maps.emissive, maps.transmission_texture];
-        lacking[t.material as usize] |= refs.iter().flatten().any(|r| !has[r.texcoord as usize]);
+        let maps = m.maps.as_deref().into_iter().flat_map(PbrMaps::textures);
+        let coat =
+            m.clearcoat.as_deref().into_iter().flat_map(|c| [c.texture, c.roughness_texture]).flatten();
+        lacking[t.material as usize] |= maps.chain(coat).any(|r| !has[r.texcoord as usize]);
     }
     for (m, lacks) in materials.iter_mut().zip(lacking) {
-        let Some(maps) = m.maps.as_deref_mut().filter(|_| lacks) else { continue };
+        if !lacks {
+            continue;
+        }
+        if let Some(c) = m.clearcoat.as_deref_mut() {
+            (c.max_strength, c.min_roughness) = (c.factor, c.min_roughness.min(c.roughness));
+        }
+        let Some(maps) = m.maps.as_deref_mut() else { continue };
         maps.ranges = maps.ranges.with_fallback();
         let sh = maps.bounds(m.color, m.ior);
         (m.mirror, m.transmittance, m.emission) = (sh.mirror, sh.transmittance, sh.emission);
@@ -445,62 +518,42 @@ pub fn widen_bounds_for_missing_uvs(materials: &mut [Material], primitives: &[Pr
 }
 
 /// The texture slots of one material.
+#[derive(Default)]
 struct MaterialSlots<'d> {
     base: Option<Slot<'d>>,
     metallic_roughness: Option<Slot<'d>>,
     emissive: Option<Slot<'d>>,
     transmission: Option<Slot<'d>>,
     normal: Option<Slot<'d>>,
+    specular: Option<Slot<'d>>,
+    specular_color: Option<Slot<'d>>,
+    clearcoat: Option<Slot<'d>>,
+    clearcoat_roughness: Option<Slot<'d>>,
+    clearcoat_normal: Option<Slot<'d>>,
 }
 
 impl MaterialSlots<'_> {
     fn all(&self) -> impl Iterator<Item = &Slot<'_>> {
-        [&self.base, &self.metallic_roughness, &self.emissive, &self.transmission, &self.normal]
-            .into_iter()
-            .flatten()
+        [
+            &self.base,
+            &self.metallic_roughness,
+            &self.emissive,
+            &self.transmission,
+            &self.normal,
+            &self.specular,
+            &self.specular_color,
+            &self.clearcoat,
+            &self.clearcoat_roughness,
+            &self.clearcoat_normal,
+        ]
+        .into_iter()
+        .flatten()
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn inputs() -> Pbr {
-        Pbr {
-            base: DVec3::new(0.8, 0.5, 0.2),
-            metallic: 0.0,
-            roughness: 1.0,
-            transmission: 0.0,
-            ior: 1.5,
-            emission: DVec3::ZERO,
-        }
-    }
-
-    #[test]
-    fn rough_dielectric_is_matte() {
-        let m = inputs().whitted();
-        assert_eq!((m.kd, m.ks, m.shine, m.mirror), (1.0, 0.0, 1.0, DVec3::ZERO));
-        assert_eq!(m.color, DVec3::new(0.8, 0.5, 0.2));
-    }
-
-    #[test]
-    fn smooth_metal_mirrors_its_base_colour() {
-        let m = Pbr { metallic: 1.0, roughness: 0.0, ..inputs() }.whitted();
-        assert_eq!(m.kd, 0.0);
-        assert_eq!(m.ks, 1.0);
-        assert_eq!(m.shine, 10_000.0);
-        assert!((m.mirror - DVec3::new(0.8, 0.5, 0.2)).length() < 1e-12);
-    }
-
-    #[test]
-    fn glass_transmits_with_fresnel_mirror() {
-        let m = Pbr { transmission: 1.0, roughness: 0.0, ..inputs() }.whitted();
-        assert_eq!((m.transmittance, m.kd), (1.0, 0.0));
-        assert!((m.mirror.x - 0.04).abs() < 1e-12, "{}", m.mirror);
-        // Half rough: α = 0.25, shine = 2/α² − 2 = 30, ks = 0.5·0.04.
-        let m = Pbr { roughness: 0.5, ..inputs() }.whitted();
-        assert!((m.shine - 30.0).abs() < 1e-9 && (m.ks - 0.02).abs() < 1e-12);
-    }
 
     #[test]
     fn map_extremes_are_linear() {

@@ -45,6 +45,7 @@ mod draco;
 pub mod extensions;
 mod geometry;
 mod instancing;
+mod layers;
 mod materials;
 mod meshopt;
 mod view;

@@ -12,6 +12,8 @@
 //! - `transforms`: node transforms and the hierarchy (normals, mirroring, instancing);
 //! - `materials`: textures and UV sets, normal and metallic-roughness maps, texture
 //!   transforms;
+//! - `layers`: the material extensions beyond metallic-roughness (volume, clear coat,
+//!   specular) against their closed forms on both backends;
 //! - `cameras_and_lights`: the sample models' cameras and punctual lights, the default light
 //!   and automatic camera, spot and directional lights;
 //! - `bad_input`: each kind of bad input gives an error naming the file and the place.
@@ -29,6 +31,7 @@ use cuberay::Error;
 mod bad_input;
 mod cameras_and_lights;
 mod geometry;
+mod layers;
 mod materials;
 mod transforms;
 
@@ -156,6 +159,12 @@ impl Doc {
         let bytes: Vec<u8> = v.iter().flatten().flat_map(|c| c.to_le_bytes()).collect();
         let view = self.view(&bytes);
         self.accessor(json!({"bufferView": view, "componentType": 5126, "count": v.len(), "type": "VEC2"}))
+    }
+
+    fn vec4(&mut self, v: &[[f32; 4]]) -> usize {
+        let bytes: Vec<u8> = v.iter().flatten().flat_map(|c| c.to_le_bytes()).collect();
+        let view = self.view(&bytes);
+        self.accessor(json!({"bufferView": view, "componentType": 5126, "count": v.len(), "type": "VEC4"}))
     }
 
     fn indices(&mut self, idx: &[u16]) -> usize {

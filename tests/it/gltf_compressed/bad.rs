@@ -185,11 +185,11 @@ fn info_lists_each_extension_with_its_status() {
     // A material extension the Whitted model has no term for is listed as ignored.
     let glb = seed("meshopt.glb");
     let mut doc = glb_json(&glb);
-    doc["extensionsUsed"].as_array_mut().unwrap().push(json!("KHR_materials_clearcoat"));
+    doc["extensionsUsed"].as_array_mut().unwrap().push(json!("KHR_materials_sheen"));
     let dir = tempfile::tempdir().unwrap();
-    let p = dir.path().join("coat.glb");
+    let p = dir.path().join("sheen.glb");
     std::fs::write(&p, with_json(&glb, &doc)).unwrap();
     let out = crate::common::cuberay().arg("info").arg(&p).output().unwrap();
     let text = String::from_utf8_lossy(&out.stdout);
-    assert!(text.contains("KHR_materials_clearcoat (ignored)"), "{text}");
+    assert!(text.contains("KHR_materials_sheen (ignored)"), "{text}");
 }

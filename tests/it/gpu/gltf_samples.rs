@@ -46,5 +46,5 @@ cases!(gltf_models_agree_with_the_cpu: super::gltf_model_agrees_with_the_cpu {
     lights_punctual_lamp_refraction => ("LightsPunctualLamp/LightsPunctualLamp.gltf", "refraction"),
     cameras => ("Cameras/Cameras.gltf", "shadows"),
     suzanne => ("Suzanne/Suzanne.gltf", "shadows"),
-    toy_car_tinted_glass => ("ToyCar/ToyCar.gltf", "refraction"),
+    toy_car_clearcoat_and_tinted_glass => ("ToyCar/ToyCar.gltf", "clearcoat"),
 });

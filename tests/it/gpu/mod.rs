@@ -56,7 +56,7 @@ fn spd(name: &str) -> Scene {
 /// counts by kind within 2% (where two surfaces cross or lie within f32's error bound of
 /// each other, the GPU's tie rule takes the lower id and the CPU's f64 the nearer surface:
 /// measured 1.2 % more shadow rays on LightsPunctualLamp).
-fn agree(name: &str, scene: &Scene, opts: &RenderOptions, max_flip: f64) -> (Rendered, Rendered) {
+pub(crate) fn agree(name: &str, scene: &Scene, opts: &RenderOptions, max_flip: f64) -> (Rendered, Rendered) {
     let g = renderer().render(scene, opts, &hidden()).unwrap_or_else(|e| panic!("{name}: {e}"));
     let c = reference::render(scene, opts, &hidden()).unwrap();
     assert!(g.image.is_finite(), "{name}: non-finite GPU pixel");
