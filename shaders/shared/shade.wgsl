@@ -257,8 +257,10 @@ fn shade_local(id: u32, m: Shading, s: Surface, n: vec3<f32>, v: vec3<f32>) -> v
 // `params.bvh_inline` iterations) is traced at once; a longer one becomes a
 // shadow job (kind RAY_SHADOW, `depth` the light, `weight` what it adds unless blocked) in
 // the pass's shadow queue, traced by the `shadow` kernel, so that no invocation walks more
-// than one long list (a job costs its write and read, so short walks stay inline).
-fn push_shadow_rays(id: u32, m: Shading, s: Surface, n: vec3<f32>, v: vec3<f32>, weight: vec3<f32>, point: u32) {
+// than one long list (a job costs its write and read, so short walks stay inline). What the
+// lights traced inline add is summed into `sum`, which the caller adds once.
+fn push_shadow_rays(id: u32, m: Shading, s: Surface, n: vec3<f32>, v: vec3<f32>, weight: vec3<f32>, point: u32,
+    sum: ptr<function, Fixed>) {
     let diffuse = m.color * m.kd;
     for (var i = 0u; i < params.light_count; i++) {
         count_step();
@@ -280,7 +282,7 @@ fn push_shadow_rays(id: u32, m: Shading, s: Surface, n: vec3<f32>, v: vec3<f32>,
         if r.answer == ANY_BLOCKED {
             count_blocked(spawn, r.blocked_at);
         } else {
-            add_radiance(point, weight * lit.c);
+            *sum = fixed_sum(*sum, to_fixed(weight * lit.c));
         }
     }
 }
@@ -409,7 +411,8 @@ fn shade_hit(job: Job) {
 #if CLEARCOAT
     w_base *= 1.0 - coat.k;
 #endif
-    add_radiance(job.point, w_base * shade_local(h.prim, m, s, n, -d));
+    // What the hit sends to its point, summed before the one addition to the accumulator.
+    var sent = to_fixed(w_base * shade_local(h.prim, m, s, n, -d));
 #if REFLECTION
     let depth = job_depth(pending);
     if depth < params.max_depth {
@@ -463,6 +466,7 @@ fn shade_hit(job: Job) {
     }
 #endif
 #if SHADOWS
-    push_shadow_rays(h.prim, m, s, n, -d, w_base, job.point);
+    push_shadow_rays(h.prim, m, s, n, -d, w_base, job.point, &sent);
 #endif
+    add_fixed(job.point, sent);
 }

@@ -212,7 +212,11 @@ fn push_job(q: u32, job: Job) {
         return;
     }
     jobs[queue_base(q) + i] = job;
-    atomicMax(&queues[QUEUE_ARGS + 3u * q], i / WORKGROUP + 1u);
+    // The jobs' slots are handed out densely from 0, so the dispatch covers them all once
+    // each job that opens a workgroup widens it: one atomic in WORKGROUP pushes, not each.
+    if i % WORKGROUP == 0u {
+        atomicMax(&queues[QUEUE_ARGS + 3u * q], i / WORKGROUP + 1u);
+    }
 }
 
 // A new job for ray `ray` of tile point `point` (its walk not started).
@@ -228,23 +232,43 @@ fn new_job(ray: Pending, point: u32) -> Job {
 // The radiance scale of `accum`: 2^32 fixed-point units per unit.
 const ACCUM_ONE: f32 = 4294967296.0;
 
-// Adds `v` to channel `c` of tile point `point`'s radiance, in 64-bit fixed point with 32
-// fractional bits: exact, so the sum does not depend on the order of the additions (the
-// wavefront's order is not the ray trees'). `v` is split into whole and fractional parts,
+// Radiance in the accumulator's units, per channel: the 64-bit fixed-point value with 32
+// fractional bits as its low and high words. `v` is split into whole and fractional parts,
 // both exact in f32; values under 2^-8 lose their bits below 2^-32.
-fn add_channel(point: u32, c: u32, v: f32) {
-    let whole = floor(v);
-    let hi = bitcast<u32>(i32(whole));
-    let lo = u32((v - whole) * ACCUM_ONE);
-    let w = 6u * (point & ~POINT_UNOWNED) + 2u * c;
-    let old = atomicAdd(&accum[w], lo);
-    atomicAdd(&accum[w + 1u], hi + select(0u, 1u, old + lo < old));
+struct Fixed {
+    lo: vec3<u32>,
+    hi: vec3<u32>,
 }
 
-fn add_radiance(point: u32, v: vec3<f32>) {
+// `v` in the accumulator's units.
+fn to_fixed(v: vec3<f32>) -> Fixed {
+    let whole = floor(v);
+    return Fixed(vec3<u32>((v - whole) * ACCUM_ONE), bitcast<vec3<u32>>(vec3<i32>(whole)));
+}
+
+// `a + b`, exact (the 64-bit sums wrap as the accumulator's atomics do, so any order of
+// additions gives the same words).
+fn fixed_sum(a: Fixed, b: Fixed) -> Fixed {
+    let lo = a.lo + b.lo;
+    return Fixed(lo, a.hi + b.hi + select(vec3<u32>(0u), vec3<u32>(1u), lo < a.lo));
+}
+
+// Adds `f` to tile point `point`'s radiance: two atomics per channel that is not zero. A
+// kernel that adds several values to one point sums them first (`fixed_sum`): the
+// accumulator's sum is exact, so the result is the same to the bit, for fewer atomics.
+fn add_fixed(point: u32, f: Fixed) {
     for (var c = 0u; c < 3u; c++) {
-        if v[c] != 0.0 {
-            add_channel(point, c, v[c]);
+        if f.lo[c] != 0u || f.hi[c] != 0u {
+            let w = 6u * (point & ~POINT_UNOWNED) + 2u * c;
+            let old = atomicAdd(&accum[w], f.lo[c]);
+            atomicAdd(&accum[w + 1u], f.hi[c] + select(0u, 1u, old + f.lo[c] < old));
         }
     }
+}
+
+// Adds `v` to tile point `point`'s radiance, in 64-bit fixed point with 32 fractional bits:
+// exact, so the sum does not depend on the order of the additions (the wavefront's order is
+// not the ray trees').
+fn add_radiance(point: u32, v: vec3<f32>) {
+    add_fixed(point, to_fixed(v));
 }

@@ -436,6 +436,7 @@ const WGSL_ONLY_STRUCTS: &[&str] = &[
     "Lit",
     "Refracted",
     "Coat",
+    "Fixed",
     "Walk",
     "AnyHit",
     "Occlusion",
