@@ -151,7 +151,7 @@ impl Variant {
     /// included: a scene may hold no primitive) with every effect (42), then shadows without
     /// rays leaving surfaces (lights with tables, no mirror), with and without textures and
     /// emission (12), then every effect uncounted (6), then the map and layer effects each
-    /// without the others ([`Variant::apart`], 54), so that
+    /// without the others (`Variant::apart`, 54), so that
     /// each `#if` is compiled both ways. Vertex colours, maps, normal maps, alpha and blend are off in the 32 effect sets
     /// and on in the rest (each further effect is compiled on and off against a
     /// representative rest, not in the full product); last, every effect with the

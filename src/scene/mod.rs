@@ -87,18 +87,18 @@ mod material;
 mod origin;
 mod pbr;
 mod primitive;
+mod texture;
 mod tonemap;
 
 pub use camera::{Camera, FovSpan, Projection, ViewOverride};
 pub use environment::Environment;
 pub use light::{Light, LightKind, LightSource};
-pub use material::{
-    bilinear, srgb_to_linear, Alpha, Material, NormalMap, Texture, TextureRef, Wrap, TEXCOORD_SETS,
-};
+pub use material::{Alpha, Material};
 pub use origin::OriginKey;
 pub use pbr::{coat_fresnel, Clearcoat, MapRanges, Pbr, PbrMaps, Shading};
 use primitive::{finite3, validate_primitive};
 pub use primitive::{Aabb, Cylinder, Primitive, Sphere, Triangle};
+pub use texture::{bilinear, srgb_to_linear, NormalMap, Texture, TextureRef, Wrap, TEXCOORD_SETS};
 pub use tonemap::{Tonemap, Transfer};
 
 /// Which kinds of primitive a scene holds. Renderers compile intersection and surface code

@@ -5,7 +5,7 @@
 
 use glam::DVec3;
 
-use super::material::{NormalMap, TextureRef};
+use super::texture::{NormalMap, TextureRef};
 
 /// glTF metallic-roughness factors and the textures that vary them per hit: metallic is the
 /// metallic-roughness texture's blue channel times `metallic`, roughness its green channel
