@@ -303,8 +303,7 @@ impl Tracer<'_> {
 
 /// What reaches the end of `t` of a body of Beer–Lambert coefficient `sigma`: `exp(−σ·t)`.
 pub fn attenuated(sigma: DVec3, t: f64) -> DVec3 {
-    let f = |s: f64| (-s * t).exp();
-    DVec3::new(f(sigma.x), f(sigma.y), f(sigma.z))
+    (-sigma * t).exp()
 }
 
 /// Mirror reflection of unit `d` about unit `n`, renormalised.

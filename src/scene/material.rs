@@ -119,7 +119,7 @@ impl Default for Material {
 impl Material {
     /// Whether some hit spawns a reflection ray (its mirror, or its clear coat's).
     pub fn reflects(&self) -> bool {
-        self.mirror.max_element() > 0.0 || self.clearcoat.as_ref().is_some_and(|c| c.mirror_bound() > 0.0)
+        self.mirror.max_element() > 0.0 || self.clearcoat.as_ref().is_some_and(|c| c.reflects())
     }
 
     /// Whether light travelling inside the body is attenuated (it must transmit for any to).

@@ -69,7 +69,7 @@ impl MapRanges {
             transmission_max: 1.0,
             emission_max: DVec3::ONE,
             specular_max: 1.0,
-            specular_color_max: DVec3::ONE.max(self.specular_color_max),
+            specular_color_max: DVec3::ONE,
         }
     }
 }
@@ -256,15 +256,10 @@ impl Clearcoat {
         (c, (1.0 - r) * (1.0 - r))
     }
 
-    /// An upper bound of the mirror weight the coat adds at any hit (which decides whether
-    /// reflection rays are spawned): 0 where it never reflects.
-    pub fn mirror_bound(&self) -> f64 {
-        let smooth = (1.0 - self.min_roughness.clamp(0.0, 1.0)).powi(2);
-        if self.max_strength > 0.0 && smooth > 0.0 {
-            1.0
-        } else {
-            0.0
-        }
+    /// Whether some hit's coat reflects (which decides whether reflection rays are spawned):
+    /// somewhere it has strength, and somewhere it is not fully rough.
+    pub fn reflects(&self) -> bool {
+        self.max_strength > 0.0 && self.min_roughness < 1.0
     }
 }
 

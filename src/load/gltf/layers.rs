@@ -83,20 +83,30 @@ pub(super) fn volume_attenuation(ctx: &Ctx, m: &gltf::Material, i: usize) -> Res
     Ok(-DVec3::new(ln(color.x), ln(color.y), ln(color.z)) / distance)
 }
 
-/// KHR_materials_clearcoat as written (the gltf crate does not parse it): its factors, and
-/// its JSON for the texture slots.
-pub(super) struct CoatJson {
+/// KHR_materials_clearcoat's factors, checked.
+#[derive(Clone, Copy)]
+pub(super) struct CoatFactors {
     pub factor: f64,
     pub roughness: f64,
     pub normal_scale: f64,
-    pub raw: serde_json::Map<String, serde_json::Value>,
+}
+
+/// KHR_materials_clearcoat as written (the gltf crate does not parse it): its factors, and
+/// its JSON, which the texture slots are read from.
+pub(super) struct CoatJson<'m> {
+    pub factors: CoatFactors,
+    pub raw: &'m serde_json::Map<String, serde_json::Value>,
 }
 
 /// Material `m`'s (`materials[i]`) clear coat, if it has one.
-pub(super) fn coat_json(ctx: &Ctx, m: &gltf::Material, i: usize) -> Result<Option<CoatJson>, Error> {
+pub(super) fn coat_json<'m>(
+    ctx: &Ctx,
+    m: &'m gltf::Material,
+    i: usize,
+) -> Result<Option<CoatJson<'m>>, Error> {
     let Some(v) = m.extension_value("KHR_materials_clearcoat") else { return Ok(None) };
     let loc = format!("materials[{i}].extensions.KHR_materials_clearcoat");
-    let raw = v.as_object().ok_or_else(|| ctx.err(&loc, "is not an object"))?.clone();
+    let raw = v.as_object().ok_or_else(|| ctx.err(&loc, "is not an object"))?;
     let number = |key: &str, default: f64, range: std::ops::RangeInclusive<f64>| -> Result<f64, Error> {
         match raw.get(key) {
             None => Ok(default),
@@ -117,5 +127,5 @@ pub(super) fn coat_json(ctx: &Ctx, m: &gltf::Material, i: usize) -> Result<Optio
             ctx.err(format!("{loc}.clearcoatNormalTexture.scale"), format!("{v} is not a finite number"))
         })?,
     };
-    Ok(Some(CoatJson { factor, roughness, normal_scale, raw }))
+    Ok(Some(CoatJson { factors: CoatFactors { factor, roughness, normal_scale }, raw }))
 }

@@ -333,10 +333,10 @@ fn slots_of<'d>(
     }
     let specular = m.specular();
     let spec_loc = format!("{loc}.extensions.KHR_materials_specular");
-    let coat = layers::coat_json(ctx, m, i)?.map(|c| c.raw);
+    let coat = layers::coat_json(ctx, m, i)?;
     let coat_loc = format!("{loc}.extensions.KHR_materials_clearcoat");
     let coat_slot = |key: &str, srgb: bool| -> Result<Option<Slot<'d>>, Error> {
-        let Some(v) = coat.as_ref().and_then(|c| c.get(key)) else { return Ok(None) };
+        let Some(v) = coat.as_ref().and_then(|c| c.raw.get(key)) else { return Ok(None) };
         let loc = format!("{coat_loc}.{key}");
         Slot::json(doc, v, loc.clone(), srgb).map(Some).map_err(|e| ctx.err(loc, e))
     };
@@ -373,6 +373,7 @@ fn slots_of<'d>(
         clearcoat: coat_slot("clearcoatTexture", false)?,
         clearcoat_roughness: coat_slot("clearcoatRoughnessTexture", false)?,
         clearcoat_normal: coat_slot("clearcoatNormalTexture", false)?,
+        coat: coat.as_ref().map(|c| c.factors),
     })
 }
 
@@ -389,7 +390,8 @@ fn material(
     let pbr = m.pbr_metallic_roughness();
     let bc = pbr.base_color_factor();
     let factors = layers::factors(ctx, m, i)?;
-    let attenuation = if m.unlit() { DVec3::ZERO } else { layers::volume_attenuation(ctx, m, i)? };
+    // Unlit materials do not transmit, so their attenuation is never applied.
+    let attenuation = layers::volume_attenuation(ctx, m, i)?;
     let mut add = |slot: &Option<Slot>| -> Result<Option<TextureRef>, Error> {
         match slot {
             None => Ok(None),
@@ -413,7 +415,7 @@ fn material(
     };
     let normal_map = add(&slots.normal)?
         .map(|texture| NormalMap { texture, scale: m.normal_texture().map_or(1.0, |n| n.scale() as f64) });
-    let clearcoat = match layers::coat_json(ctx, m, i)?.filter(|_| !m.unlit()) {
+    let clearcoat = match slots.coat {
         None => None,
         Some(c) => Some(Box::new(Clearcoat {
             factor: c.factor,
@@ -507,8 +509,10 @@ pub fn widen_bounds_for_missing_uvs(materials: &mut [Material], primitives: &[Pr
         if !lacks {
             continue;
         }
+        // Where the strength texture counts as 1 the strength is the factor. (The least
+        // roughness is already at most the factor's, a texel being at most 1.)
         if let Some(c) = m.clearcoat.as_deref_mut() {
-            (c.max_strength, c.min_roughness) = (c.factor, c.min_roughness.min(c.roughness));
+            c.max_strength = c.factor;
         }
         let Some(maps) = m.maps.as_deref_mut() else { continue };
         maps.ranges = maps.ranges.with_fallback();
@@ -530,6 +534,8 @@ struct MaterialSlots<'d> {
     clearcoat: Option<Slot<'d>>,
     clearcoat_roughness: Option<Slot<'d>>,
     clearcoat_normal: Option<Slot<'d>>,
+    /// KHR_materials_clearcoat's factors, read with its slots (none for an unlit material).
+    coat: Option<layers::CoatFactors>,
 }
 
 impl MaterialSlots<'_> {
