@@ -1,23 +1,12 @@
 // The `nearest` kernel: traces each job of queue `pass_desc.src` (SRC_EYE: the eye ray of
 // sample `pass_desc.sample` of each point of the tile, made here) for its nearest hit (a long
 // walk a chunk per pass, the rest through the retry queue). A miss adds the background to
-// its point (the environment's radiance with ENVIRONMENT); a hit goes, in the job's walk state, into the hit queue, which the `shade`
+// its point (`background`); a hit goes, in the job's walk state, into the hit queue, which the `shade`
 // kernel works through (src/gpu/schedule.rs runs the passes). Shading here cost every
 // invocation, hit or not: lavapipe runs both sides of a branch for a group of lanes that
 // disagree (tetra_s6, 513² corners: 0.050 s of which 0.025 s with the shading code absent).
 #include "shared/trace.wgsl"
-#include "shared/sampling.wgsl"
-#if ENVIRONMENT
-#include "shared/environment.wgsl"
-#endif
-
-// The job of tile point `k`'s eye ray, for sample `pass_desc.sample`.
-fn eye_job(k: u32) -> Job {
-    let point = window_point(params.first_point + k);
-    let eye = camera_ray(sample_position(point.x, point.y, pass_desc.sample));
-    let ray = new_pending(eye.o, RAY_EYE | (1u << RAY_DEPTH_SHIFT), eye.d, 0.0, vec3<f32>(1.0), NO_ID);
-    return new_job(ray, k | select(POINT_UNOWNED, 0u, point.z != 0u));
-}
+#include "shared/primary.wgsl"
 
 // Traces job `job` (or the next part of its walk; an unfinished walk goes to the pass's
 // retry queue); once its nearest hit is known, a miss adds the background to its point and
@@ -34,11 +23,7 @@ fn trace_job(job: Job) {
     if stepped.done {
         count(C_RAYS + kind);
         if !h.found {
-#if ENVIRONMENT
-            add_radiance(job.point, pending.weight * environment(ray.d));
-#else
-            add_radiance(job.point, pending.weight * params.background);
-#endif
+            add_radiance(job.point, pending.weight * background(ray.d));
             return;
         }
         if kind == RAY_EYE {

@@ -14,7 +14,7 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocatio
     let busy = i < queue_len(pass_desc.src);
     if busy {
         let job = jobs[queue_base(pass_desc.src) + i];
-        shade_hit(job);
+        shade_hit(job.ray, restored_closest(job.walk, WALK_RESUME), job.point);
         if (job.point & POINT_UNOWNED) != 0u {
             drop_counts();
         }

@@ -52,6 +52,9 @@ pub struct SceneInfo {
     pub surface_rays: bool,
     /// What those rays take on this adapter: `bvh` or `rayquery` (`auto` without an adapter).
     pub surface_walk: &'static str,
+    /// How the GPU kernels trace the ray trees on this adapter: `wavefront` or `tree`
+    /// (`auto` without an adapter; `--kernel-form`).
+    pub kernel_form: &'static str,
     /// The GPU adapter the choices were made for (`null`: none found).
     pub adapter: Option<String>,
     /// Why a GPU render of the scene would be refused (`null`: it would not be).
@@ -162,6 +165,7 @@ impl SceneInfo {
             accel_auto: resolved.auto_accel.as_ref().map(|a| a.reason()),
             surface_rays: crate::coherence::traces_surface_rays(scene, &Default::default()),
             surface_walk: resolved.surface.name(),
+            kernel_form: resolved.form.name(),
             adapter,
             gpu_refuses: None,
             extensions: Vec::new(),
@@ -240,6 +244,7 @@ impl SceneInfo {
         }
         s += "\n";
         s += &format!("rays:       {}\n", self.surface_text());
+        s += &format!("kernels:    {}\n", self.form_text());
         if let Some(why) = &self.gpu_refuses {
             s += &format!("GPU:        refuses this scene: {why}\n");
         }
@@ -253,6 +258,16 @@ impl SceneInfo {
 }
 
 impl SceneInfo {
+    /// How the kernels trace the ray trees, in words.
+    fn form_text(&self) -> String {
+        let how = match self.kernel_form {
+            "tree" => "the tree form, each invocation tracing its point's whole ray tree depth first",
+            "wavefront" => "the wavefront form, breadth first over queues of rays (this driver limits loops)",
+            _ => "the tree form where the driver allows it, else the wavefront",
+        };
+        format!("{how} (--kernel-form)")
+    }
+
     /// What the rays leaving surfaces take, in words.
     fn surface_text(&self) -> String {
         if !self.surface_rays {

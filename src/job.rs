@@ -78,6 +78,32 @@ impl SurfaceWalk {
     }
 }
 
+/// How the GPU kernels trace a tile's ray trees (`--kernel-form`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum KernelForm {
+    /// The faster form on the adapter, as measured (`gpu::choose::resolve`).
+    #[default]
+    Auto,
+    /// Breadth first, a kernel per step (trace, shade, shadow) over queues of rays in
+    /// memory: the form of SIMT GPUs, and the one whose walks are cut into passes within
+    /// lavapipe's loop limit.
+    Wavefront,
+    /// Depth first, one kernel per sample, each invocation tracing its point's whole ray
+    /// tree with its pending rays on a private stack (the register form): no queue traffic,
+    /// but unbounded loops, so only on drivers without a loop limit.
+    Tree,
+}
+
+impl KernelForm {
+    pub fn name(self) -> &'static str {
+        match self {
+            KernelForm::Auto => "auto",
+            KernelForm::Wavefront => "wavefront",
+            KernelForm::Tree => "tree",
+        }
+    }
+}
+
 /// The arithmetic of the GPU kernels' intersection tests and hit points (`--precision`):
 /// f32, f64 where the adapter has `SHADER_F64` (a kernel variant; `cuberay accuracy`
 /// measures its cost), or, by default, whichever the scene calls for
@@ -120,6 +146,9 @@ pub struct RenderOptions {
     /// the GPU renderer resolves [`SurfaceWalk::Auto`] for its adapter; unresolved, it is the
     /// BVH.
     pub surface: SurfaceWalk,
+    /// How the GPU kernels trace the ray trees ([`KernelForm`]): the GPU renderer resolves
+    /// [`KernelForm::Auto`] for its adapter; unresolved, it is the wavefront.
+    pub form: KernelForm,
     /// How far the GPU kernels move spawned rays off their surfaces (the candidate tables
     /// are built for it). The CPU reference keeps its own, much smaller f64 offset.
     pub spawn: SpawnPolicy,
@@ -189,6 +218,7 @@ impl RenderOptions {
             max_depth: 5,
             accel: Accel::Auto,
             surface: SurfaceWalk::Auto,
+            form: KernelForm::Auto,
             spawn: SpawnPolicy::Scaled,
             precision: Precision::Auto,
             auto_precision: None,
@@ -289,6 +319,7 @@ impl RenderOptions {
             backend: backend.into(),
             accel: accel.into(),
             surface_walk: None,
+            kernel_form: None,
             size: [self.width, self.height],
             spp: self.spp,
             sampling: match self.sampling {

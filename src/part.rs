@@ -534,6 +534,7 @@ fn add_times(a: Times, b: &Times) -> Times {
             shadow: sum(a.gpu_kernel_s.shadow, b.gpu_kernel_s.shadow),
             resolve: sum(a.gpu_kernel_s.resolve, b.gpu_kernel_s.resolve),
             aov: sum(a.gpu_kernel_s.aov, b.gpu_kernel_s.aov),
+            tree: sum(a.gpu_kernel_s.tree, b.gpu_kernel_s.tree),
         },
         gpu_depth_s: match (&a.gpu_depth_s, &b.gpu_depth_s) {
             (Some(x), Some(y)) => {

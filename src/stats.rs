@@ -232,6 +232,9 @@ pub struct KernelTimes {
     pub shadow: Option<f64>,
     pub resolve: Option<f64>,
     pub aov: Option<f64>,
+    /// The `tree` kernel (the register form), which does all of nearest, shade and shadow.
+    #[serde(default)]
+    pub tree: Option<f64>,
 }
 
 /// The settings a render ran with.
@@ -245,6 +248,10 @@ pub struct Settings {
     /// (`null` where no ray left a surface, with other accelerators, and on the CPU).
     #[serde(default)]
     pub surface_walk: Option<String>,
+    /// On the GPU, how the kernels traced the ray trees: `wavefront` or `tree` (`null` on
+    /// the CPU and for AOVs).
+    #[serde(default)]
+    pub kernel_form: Option<String>,
     /// `[width, height]` of the image.
     pub size: [u32; 2],
     /// Samples per pixel (`corners`: 1, each pixel averaging its four corner rays).
@@ -393,6 +400,11 @@ impl Stats {
             s.max_depth,
             s.transfer.name()
         );
+        if let Some(form) = &s.kernel_form {
+            let how =
+                if form == "tree" { "a point's whole ray tree per invocation" } else { "queues of rays" };
+            o += &format!("kernels:  {form} form ({how})\n");
+        }
         if let Some(w) = s.window {
             o += &format!("window:   pixels x {}..{}, y {}..{} of the image\n", w.x0, w.x1, w.y0, w.y1);
         }
@@ -463,6 +475,7 @@ impl Stats {
                 ("nearest", k.nearest),
                 ("shade", k.shade),
                 ("shadow", k.shadow),
+                ("tree", k.tree),
                 ("resolve", k.resolve),
                 ("aov", k.aov),
             ];

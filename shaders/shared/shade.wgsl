@@ -1,8 +1,11 @@
 // Whitted shading and the ray trees, as the CPU reference shades (src/reference/shade.rs,
-// written independently in f64). The trees are traced breadth first by the wavefront
-// kernels: a hit (shaded by the `shade` kernel) adds its radiance to its point and pushes
-// the rays it spawns (secondary rays, and shadow rays whose walks are long) into the queues
-// of the current pass, each carrying the weight its radiance contributes with.
+// written independently in f64). A hit sends its radiance to its point and spawns rays, each
+// carrying the weight its radiance contributes with, through three hooks that are the only
+// difference between the two kernel forms (src/gpu/plan.rs, `Form`): `spawn_ray` and
+// `send` push into the current pass's queues and add to the accumulator in the wavefront
+// kernels, and keep the rays on the invocation's own stack and the radiance in its own sum
+// in the `tree` kernel (TREE, tree.wgsl); a shadow walk too long to trace at its hit becomes
+// a job in the wavefront and is walked on at once in the tree.
 
 struct Incidence {
     ok: bool,
@@ -257,8 +260,9 @@ fn shade_local(id: u32, m: Shading, s: Surface, n: vec3<f32>, v: vec3<f32>) -> v
 // `params.bvh_inline` iterations) is traced at once; a longer one becomes a
 // shadow job (kind RAY_SHADOW, `depth` the light, `weight` what it adds unless blocked) in
 // the pass's shadow queue, traced by the `shadow` kernel, so that no invocation walks more
-// than one long list (a job costs its write and read, so short walks stay inline). What the
-// lights traced inline add is summed into `sum`, which the caller adds once.
+// than one long list (a job costs its write and read, so short walks stay inline); the tree
+// kernel walks it on to its answer (`occluded_rest`, tree.wgsl). What the lights traced
+// here add is summed into `sum`, which the caller adds once.
 fn push_shadow_rays(id: u32, m: Shading, s: Surface, n: vec3<f32>, v: vec3<f32>, weight: vec3<f32>, point: u32,
     sum: ptr<function, Fixed>) {
     let diffuse = m.color * m.kd;
@@ -271,12 +275,16 @@ fn push_shadow_rays(id: u32, m: Shading, s: Surface, n: vec3<f32>, v: vec3<f32>,
         let o = spawn_origin(s, lit.dir);
         let spawn = spawn_offset(s);
         let skip = leave_skip(id, lit.dir, s.ng);
-        let r = occluded_short(o, lit.dir, i, id, skip);
+        var r = occluded_short(o, lit.dir, i, id, skip);
         if r.answer == ANY_UNFINISHED {
+#if TREE
+            r = occluded_rest(o, lit.dir, i, id, skip, r.state);
+#else
             let flags = select(0u, RAY_SKIP_FROM, skip != NO_ID);
             let ray = new_pending(o, RAY_SHADOW | flags | (i << RAY_DEPTH_SHIFT), lit.dir, spawn, weight * lit.c, id);
             push_job(pass_desc.shadow, new_job(ray, point));
             continue;
+#endif
         }
         count(C_RAYS + RAY_SHADOW);
         if r.answer == ANY_BLOCKED {
@@ -366,18 +374,36 @@ fn blend_through(mat: Material, s: Surface, prim: u32, d: vec3<f32>, depth: u32,
         let flags = select(0u, RAY_SKIP_FROM, leave_skip(prim, d, s.ng) != NO_ID);
         let child = new_pending(spawn_origin(s, d), RAY_REFRACT | flags | ((depth + 1u) << RAY_DEPTH_SHIFT), d,
             spawn_offset(s), w_in * (1.0 - a), prim);
-        push_job(pass_desc.next, new_job(child, point));
+        spawn_ray(child, point);
     }
     return a;
 }
 #endif
 
-// Shades hit job `job` (its nearest hit in its walk state, `trace_job` in nearest.wgsl): adds
-// what the hit sends to its point and pushes the rays the hit spawns into the pass's queues.
-fn shade_hit(job: Job) {
-    let pending = job.ray;
+// Where a ray a hit of tile point `point` spawns goes: the next depth's queue, or in the
+// tree kernel the invocation's own stack.
+fn spawn_ray(child: Pending, point: u32) {
+#if TREE
+    tree_push(child);
+#else
+    push_job(pass_desc.next, new_job(child, point));
+#endif
+}
+
+// Adds `f` to tile point `point`'s radiance: at once to the accumulator, or in the tree
+// kernel to the invocation's own sum, which it adds once its tree is done.
+fn send(point: u32, f: Fixed) {
+#if TREE
+    tree_sum = fixed_sum(tree_sum, f);
+#else
+    add_fixed(point, f);
+#endif
+}
+
+// Shades `h`, the nearest hit of ray `pending` of tile point `point`: sends what the hit
+// sends to its point and spawns the rays it spawns.
+fn shade_hit(pending: Pending, h: Closest, point: u32) {
     let ray = make_ray(pending.o, pending.d);
-    let h = restored_closest(job.walk, WALK_RESUME);
     let prim = prim_at(h.prim);
     let mat = materials[prim.material];
     var s = surface(prim, ray, h.hit);
@@ -403,7 +429,7 @@ fn shade_hit(job: Job) {
     var w = w_in;
 #if BLEND
     if (mat.flags & MATERIAL_BLEND) != 0u {
-        w *= blend_through(mat, s, h.prim, d, job_depth(pending), w_in, job.point);
+        w *= blend_through(mat, s, h.prim, d, job_depth(pending), w_in, point);
     }
 #endif
     // What the base sends: all of it, or what the clear coat lets through.
@@ -450,7 +476,7 @@ fn shade_hit(job: Job) {
             let child = new_pending(spawn_origin(s, refracted.dir),
                 RAY_REFRACT | flags | ((depth + 1u) << RAY_DEPTH_SHIFT), refracted.dir, spawn_offset(s),
                 w * transmitted, h.prim);
-            push_job(pass_desc.next, new_job(child, job.point));
+            spawn_ray(child, point);
         }
 #endif
         if reflects {
@@ -461,12 +487,12 @@ fn shade_hit(job: Job) {
             let flags = select(0u, RAY_SKIP_FROM, leave_skip(h.prim, r, s.ng) != NO_ID);
             let child = new_pending(spawn_origin(s, r), RAY_REFLECT | flags | ((depth + 1u) << RAY_DEPTH_SHIFT), r,
                 spawn_offset(s), w * weight, h.prim);
-            push_job(pass_desc.next, new_job(child, job.point));
+            spawn_ray(child, point);
         }
     }
 #endif
 #if SHADOWS
-    push_shadow_rays(h.prim, m, s, n, -d, w_base, job.point, &sent);
+    push_shadow_rays(h.prim, m, s, n, -d, w_base, point, &sent);
 #endif
-    add_fixed(job.point, sent);
+    send(point, sent);
 }

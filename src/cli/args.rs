@@ -8,7 +8,7 @@ use clap::{Args, ValueEnum};
 use glam::DVec3;
 
 use cuberay::accuracy::Parameter;
-use cuberay::job::{Accel, Precision, SurfaceWalk};
+use cuberay::job::{Accel, KernelForm, Precision, SurfaceWalk};
 use cuberay::load::{EnvChoice, Setup};
 use cuberay::output::Aov;
 use cuberay::sampling::Sampling;
@@ -63,6 +63,28 @@ impl From<SurfaceWalkArg> for SurfaceWalk {
             SurfaceWalkArg::Auto => SurfaceWalk::Auto,
             SurfaceWalkArg::Bvh => SurfaceWalk::Bvh,
             SurfaceWalkArg::Rayquery => SurfaceWalk::RayQuery,
+        }
+    }
+}
+
+/// `--kernel-form`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum KernelFormArg {
+    /// The form measured faster on the adapter: the tree on drivers without a loop limit,
+    /// where it won; the wavefront on Mesa's lavapipe before 24.
+    Auto,
+    /// Breadth first over queues of rays (a kernel per step).
+    Wavefront,
+    /// Depth first, each invocation tracing its point's whole ray tree (one kernel).
+    Tree,
+}
+
+impl From<KernelFormArg> for KernelForm {
+    fn from(a: KernelFormArg) -> KernelForm {
+        match a {
+            KernelFormArg::Auto => KernelForm::Auto,
+            KernelFormArg::Wavefront => KernelForm::Wavefront,
+            KernelFormArg::Tree => KernelForm::Tree,
         }
     }
 }
@@ -307,6 +329,7 @@ mod tests {
         }
         distinct(|a: &AccelArg| Accel::from(*a), 5);
         distinct(|a: &SurfaceWalkArg| SurfaceWalk::from(*a), 3);
+        distinct(|a: &KernelFormArg| KernelForm::from(*a), 3);
         distinct(|a: &PrecisionArg| Precision::from(*a), 3);
         distinct(|a: &SamplingArg| Sampling::from(*a), 2);
         distinct(|a: &AovArg| Aov::from(*a), 3);

@@ -23,7 +23,7 @@ use cuberay::phases::Phases;
 use cuberay::reference;
 use cuberay::stats::{Stats, TestsPerRay};
 
-use super::args::{AccelArg, PrecisionArg, SamplingArg, SceneArgs, SurfaceWalkArg};
+use super::args::{AccelArg, KernelFormArg, PrecisionArg, SamplingArg, SceneArgs, SurfaceWalkArg};
 use super::render::progress_bar;
 
 /// The SPD canonical scenes (Haines' sizes of 1987), the default set.
@@ -51,6 +51,10 @@ pub struct BenchArgs {
     /// them, except lavapipe, else the BVH).
     #[arg(long, value_enum, default_value_t = SurfaceWalkArg::Auto)]
     pub surface_walk: SurfaceWalkArg,
+    /// How the GPU kernels trace the ray trees (auto: the form measured faster on the
+    /// adapter).
+    #[arg(long, value_enum, default_value_t = KernelFormArg::Auto)]
+    pub kernel_form: KernelFormArg,
     /// Backends, comma-separated.
     #[arg(long, value_enum, value_delimiter = ',', default_value = "gpu")]
     pub backend: Vec<BenchBackend>,
@@ -120,6 +124,8 @@ struct Row {
     /// With `cube` on the GPU, what the rays leaving surfaces took (`bvh` or `rayquery`);
     /// `null` where none left a surface, and for the other accelerators.
     surface_walk: Option<String>,
+    /// GPU: how the kernels traced the ray trees (`wavefront` or `tree`); `null` on the CPU.
+    kernel_form: Option<String>,
     /// GPU: the longest single dispatch over the timed runs (`null` on the CPU).
     longest_dispatch_s: Option<f64>,
     /// GPU: the kernel time by depth (index depth − 1; nearest, shade and shadow passes of
@@ -349,6 +355,7 @@ impl Bench<'_> {
             max_depth: args.max_depth,
             accel,
             surface: args.surface_walk.into(),
+            form: args.kernel_form.into(),
             count,
             precision: args.precision.into(),
             ..RenderOptions::new(args.width, args.height)
@@ -441,7 +448,8 @@ impl Bench<'_> {
         let eye_nearest = med(&|t| t.depths[0].1);
         let surface_nearest = med(&|t| t.depths[1..].iter().map(|d| d.1).sum());
         let surface_shade = med(&|t| t.depths[1..].iter().map(|d| d.2).sum());
-        let per = |secs: f64, rays: u64| (gpu && rays > 0).then(|| secs * 1e6 / rays as f64);
+        // The tree form times no depth apart: it has no per-depth or per-ray-kind figures.
+        let per = |secs: f64, rays: u64| (gpu && ran > 0 && rays > 0).then(|| secs * 1e6 / rays as f64);
         let first = timed[0].phases;
         let phases = Phases {
             build_s: med(&|t| t.phases.build_s),
@@ -476,6 +484,7 @@ impl Bench<'_> {
             ratio_to_rayquery: None,
             rayquery_range: None,
             surface_walk: s.settings.surface_walk.clone(),
+            kernel_form: s.settings.kernel_form.clone(),
             longest_dispatch_s: timed.iter().filter_map(|t| t.longest_dispatch_s).reduce(f64::max),
             depth_kernel_s,
             surface_depths_s,
@@ -503,10 +512,13 @@ fn table(rows: &[Row], args: &BenchArgs, adapter: Option<&str>) -> String {
     out += "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for r in rows {
         let t = &r.tests_per_ray;
-        // `cube`'s rays leaving surfaces go to the BVH or to ray queries: say which.
-        let accel = match &r.surface_walk {
-            Some(w) => format!("{} ({w})", r.accel),
-            None => r.accel.clone(),
+        // `cube`'s rays leaving surfaces go to the BVH or to ray queries: say which,
+        // and in which kernel form the GPU traced.
+        let accel = match (&r.surface_walk, &r.kernel_form) {
+            (Some(w), Some(f)) => format!("{} ({w}, {f})", r.accel),
+            (Some(w), None) => format!("{} ({w})", r.accel),
+            (None, Some(f)) => format!("{} ({f})", r.accel),
+            (None, None) => r.accel.clone(),
         };
         let p = &r.phases;
         out += &format!(

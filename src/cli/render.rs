@@ -17,7 +17,9 @@ use cuberay::part::{self, PartInfo, SceneId};
 use cuberay::reference;
 use cuberay::scene::{Tonemap, Transfer};
 
-use super::args::{AccelArg, AovArg, DisplayArgs, PrecisionArg, SamplingArg, SceneArgs, SurfaceWalkArg};
+use super::args::{
+    AccelArg, AovArg, DisplayArgs, KernelFormArg, PrecisionArg, SamplingArg, SceneArgs, SurfaceWalkArg,
+};
 use cuberay::tablefile;
 
 /// Which renderer to run.
@@ -145,6 +147,12 @@ pub struct TraceArgs {
     /// slower than the BVH), else the BVH; `--stats` says which it took.
     #[arg(long, value_enum, default_value_t = SurfaceWalkArg::Auto)]
     pub surface_walk: SurfaceWalkArg,
+    /// GPU: how the kernels trace the ray trees. auto: the form measured faster on the
+    /// adapter (`cuberay info` says which); wavefront: breadth first over queues of rays, a
+    /// kernel per step; tree: depth first, each invocation its point's whole tree (not on
+    /// drivers with a loop limit: lavapipe before Mesa 24).
+    #[arg(long, value_enum, default_value_t = KernelFormArg::Auto)]
+    pub kernel_form: KernelFormArg,
     /// The GPU kernels' intersection arithmetic. auto: f64 where f32 cannot resolve the
     /// scene at this image size (`cuberay info` says which, and why), else f32; f32; f64,
     /// where the adapter has 64-bit floats in shaders (lavapipe has; slower). The CPU
@@ -206,6 +214,7 @@ impl TraceArgs {
             max_depth: self.max_depth,
             accel: self.accel.into(),
             surface: self.surface_walk.into(),
+            form: self.kernel_form.into(),
             precision: self.precision.into(),
             eye_cells: self.eye_cells,
             transfer: self.display.transfer.map(Transfer::from),

@@ -9,7 +9,7 @@ use crate::arith::precision::f32_need;
 use crate::coherence::BuildParams;
 use crate::cost::AutoAccel;
 use crate::error::{Error, Result};
-use crate::job::{Accel, Precision, RenderOptions, SurfaceWalk};
+use crate::job::{Accel, KernelForm, Precision, RenderOptions, SurfaceWalk};
 use crate::layout::budget::MAX_DEPTH;
 use crate::sampling::Sampling;
 use crate::scene::{Effects, LightKind, Scene};
@@ -93,7 +93,26 @@ pub fn choose(scene: &Scene, opts: &RenderOptions, caps: Option<&Capabilities>) 
             SurfaceWalk::Bvh
         };
     }
+    let limited = loop_limited(caps);
+    if o.form == KernelForm::Tree && limited {
+        return Err(Error::Options(format!(
+            "--kernel-form tree traces each ray tree in one go, which {} cannot: its driver (lavapipe before \
+             Mesa 24) ends every loop after 65535 iterations; use --kernel-form wavefront, or a newer \
+             lavapipe (docs/drivers-and-faults.md)",
+            caps.adapter
+        )));
+    }
+    if o.form == KernelForm::Auto {
+        o.form = if limited { KernelForm::Wavefront } else { KernelForm::Tree };
+    }
     Ok(o)
+}
+
+/// Whether the adapter's driver ends loops after a number of iterations: lavapipe before
+/// Mesa 24 (65535 per group of lanes, `layout::budget`). Ray queries came to lavapipe in
+/// 24.1, after the limit went, so a lavapipe with them has none.
+pub fn loop_limited(caps: &Capabilities) -> bool {
+    caps.lavapipe && !caps.ray_queries
 }
 
 /// The eye rays a render with `opts` traces over its whole image (a ray per grid point and

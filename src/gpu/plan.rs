@@ -2,13 +2,16 @@
 //! order, over which queues ([`WavePlan::passes`]). Plain data, apart from wgpu: the
 //! schedule ([`super::schedule`]) encodes the passes and dispatches them.
 //!
-//! A wave traces one sample of every point of a tile: depth by depth, passes of `nearest`
+//! A wave traces one sample of every point of a tile. In the register form
+//! ([`KernelForm::Tree`]) it is one pass of the `tree` kernel, each invocation tracing its
+//! point's whole ray tree. In the wavefront form: depth by depth, passes of `nearest`
 //! (the first of them making the eye rays; retry passes for walks longer than a pass), one
 //! of `shade` over the depth's hits, then passes of `shadow` for the shadow rays too long to
 //! trace at their hit. Queues alternate between depths, and each is emptied before the pass
 //! that fills it.
 
 use super::shaders::{Kernel, Variant};
+pub use crate::job::KernelForm;
 use crate::layout::{
     PassDesc, QUEUE_COUNT, QUEUE_HIT, QUEUE_RAY0, QUEUE_RAY1, QUEUE_RETRY0, QUEUE_RETRY1, QUEUE_SHADOW,
     QUEUE_SRETRY0, QUEUE_SRETRY1, SRC_EYE,
@@ -20,12 +23,14 @@ pub const NO_QUEUE: u32 = QUEUE_COUNT;
 
 /// What the waves of one render do: rays to `max_depth` (the eye ray is depth 1), shadow
 /// passes when `shadows`, and `retries` more passes of `nearest` (and of `shadow`) per depth
-/// for walks longer than one.
+/// for walks longer than one; or, in the register form (`form` [`KernelForm::Tree`]), one
+/// pass of the `tree` kernel.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct WavePlan {
     pub max_depth: u32,
     pub shadows: bool,
     pub retries: u32,
+    pub form: KernelForm,
 }
 
 /// One pass of a wave: its kernel and descriptor, the queues to empty before it, and the
@@ -43,17 +48,32 @@ impl WavePlan {
     /// depth. Only a variant that spawns rays from its hits (mirrors, glass or blended
     /// surfaces) traces past the eye's depth: the passes of an empty depth still cost
     /// lavapipe about 50 µs each, and at depth 5 they took 13–15 % of tetra_s6's kernel time.
-    pub fn new(variant: Variant, max_depth: u32, retries: u32) -> WavePlan {
+    /// `form` is the resolved one (not [`KernelForm::Auto`]).
+    pub fn new(variant: Variant, max_depth: u32, retries: u32, form: KernelForm) -> WavePlan {
         let spawns = variant.effects.reflection || variant.effects.refraction || variant.effects.blend;
         WavePlan {
             max_depth: if spawns { max_depth } else { max_depth.min(1) },
             shadows: variant.effects.shadows,
             retries,
+            form,
         }
     }
 
     /// The passes of the wave of sample `sample`.
     pub fn passes(&self, sample: u32) -> Vec<Pass> {
+        if self.form == KernelForm::Tree {
+            let desc = PassDesc {
+                src: SRC_EYE,
+                next: NO_QUEUE,
+                shadow: NO_QUEUE,
+                retry: NO_QUEUE,
+                sample,
+                hit: NO_QUEUE,
+                depth: 1,
+                ..PassDesc::default()
+            };
+            return vec![Pass { kernel: Kernel::Tree, desc, resets: Vec::new(), over: None }];
+        }
         let mut v = Vec::new();
         // Retry queues in turn; the last pass of a depth has none left.
         let retry =
@@ -126,10 +146,10 @@ mod tests {
     #[test]
     fn passes_read_what_earlier_passes_wrote() {
         for plan in [
-            WavePlan { max_depth: 1, shadows: false, retries: 0 },
-            WavePlan { max_depth: 5, shadows: true, retries: 0 },
-            WavePlan { max_depth: 5, shadows: true, retries: 3 },
-            WavePlan { max_depth: 16, shadows: false, retries: 1 },
+            WavePlan { max_depth: 1, shadows: false, retries: 0, form: KernelForm::Wavefront },
+            WavePlan { max_depth: 5, shadows: true, retries: 0, form: KernelForm::Wavefront },
+            WavePlan { max_depth: 5, shadows: true, retries: 3, form: KernelForm::Wavefront },
+            WavePlan { max_depth: 16, shadows: false, retries: 1, form: KernelForm::Wavefront },
         ] {
             let passes = plan.passes(7);
             // The first pass makes the eye rays: one invocation per point, no queue read.
@@ -180,14 +200,33 @@ mod tests {
     fn a_plan_traces_past_the_eye_only_where_hits_spawn_rays() {
         let lit = Effects { shadows: true, ..Effects::default() };
         let matte = Variant { effects: lit, ..Variant::default() };
-        let plan = WavePlan::new(matte, 5, 2);
-        assert_eq!(plan, WavePlan { max_depth: 1, shadows: true, retries: 2 });
+        let plan = WavePlan::new(matte, 5, 2, KernelForm::Wavefront);
+        assert_eq!(plan, WavePlan { max_depth: 1, shadows: true, retries: 2, form: KernelForm::Wavefront });
         assert!(plan.passes(0).iter().all(|p| p.desc.next == NO_QUEUE || p.kernel == Kernel::Shade));
         let mirror = Effects { reflection: true, ..lit };
         let glass = Effects { refraction: true, ..lit };
         for v in [Variant { effects: mirror, ..matte }, Variant { effects: glass, ..matte }] {
-            assert_eq!(WavePlan::new(v, 5, 2).max_depth, 5, "{v:?}");
+            assert_eq!(WavePlan::new(v, 5, 2, KernelForm::Wavefront).max_depth, 5, "{v:?}");
         }
-        assert_eq!(WavePlan::new(matte, 0, 0).max_depth, 0);
+        assert_eq!(WavePlan::new(matte, 0, 0, KernelForm::Wavefront).max_depth, 0);
+    }
+
+    /// The register form's wave is one pass of the `tree` kernel, over the tile's points,
+    /// that makes its own eye rays and pushes into no queue, whatever the depth and lights.
+    #[test]
+    fn a_tree_wave_is_one_pass_that_makes_its_eye_rays() {
+        let mirror = Variant {
+            effects: Effects { shadows: true, reflection: true, ..Effects::default() },
+            ..Variant::default()
+        };
+        let plan = WavePlan::new(mirror, 5, 3, KernelForm::Tree);
+        let passes = plan.passes(7);
+        assert_eq!(passes.len(), 1);
+        let p = &passes[0];
+        assert_eq!((p.kernel, p.over, p.resets.len()), (Kernel::Tree, None, 0));
+        assert_eq!((p.desc.src, p.desc.sample, p.desc.depth), (SRC_EYE, 7, 1));
+        for q in [p.desc.next, p.desc.shadow, p.desc.retry, p.desc.hit] {
+            assert_eq!(q, NO_QUEUE);
+        }
     }
 }

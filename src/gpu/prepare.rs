@@ -217,8 +217,7 @@ pub fn plan(
     };
     let stages = match purpose {
         Purpose::Aov(_) => vec![Stage { kernel: Kernel::Aov, depths: Depths::All }],
-        _ if eye_untabled(scene, &opts) => Kernel::wavefront_untabled_eye(variant),
-        _ => Kernel::wavefront(variant),
+        _ => Kernel::traced(opts.form, variant, eye_untabled(scene, &opts)),
     };
     Ok(Plan { opts, purpose, variant, stages, serves })
 }

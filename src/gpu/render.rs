@@ -18,7 +18,7 @@ use super::shaders::{Kernel, Stage, Variant};
 use super::GpuContext;
 use crate::coherence::FlatTables;
 use crate::error::{Error, Result};
-use crate::job::{grid_image, simulated_effects, RenderOptions, Rendered};
+use crate::job::{grid_image, simulated_effects, KernelForm, RenderOptions, Rendered};
 use crate::layout::counters::{decode_counters, decode_lanes, COUNTER_BYTES};
 use crate::layout::Packed;
 use crate::output::{Aov, Image};
@@ -42,7 +42,7 @@ struct RunOutput {
     values: Vec<[f32; 4]>,
     counters: Counters,
     gpu_s: Option<f64>,
-    kernel_s: Option<[f64; 4]>,
+    kernel_s: Option<[f64; 5]>,
     /// The wavefront kernels' time by depth (nearest, shade, shadow), when timed.
     depth_s: Option<[[f64; 3]; crate::layout::MAX_DEPTH as usize]>,
     /// Lane coherence, when the kernels counted.
@@ -79,8 +79,11 @@ impl RunOutput {
     /// `trace_s`; `aov`: the kernel was the AOV pass, `shadows`: the shadow kernel ran.
     fn times(&self, preprocess_s: f64, trace_s: f64, aov: bool, shadows: bool) -> stats::Times {
         let k = self.kernel_s;
+        let tree = k.is_some_and(|k| k[4] > 0.0);
         let kernel = if aov {
             stats::KernelTimes { aov: k.map(|k| k[3]), ..Default::default() }
+        } else if tree {
+            stats::KernelTimes { tree: k.map(|k| k[4]), resolve: k.map(|k| k[3]), ..Default::default() }
         } else {
             stats::KernelTimes {
                 nearest: k.map(|k| k[0]),
@@ -88,6 +91,7 @@ impl RunOutput {
                 shadow: k.filter(|_| shadows).map(|k| k[2]),
                 resolve: k.map(|k| k[3]),
                 aov: None,
+                tree: None,
             }
         };
         let depths = self.depth_s.filter(|_| !aov).map(|d| {
@@ -276,6 +280,7 @@ impl GpuRenderer {
             run.times(preprocess_s, trace_s, false, variant.effects.shadows),
         );
         stats.settings.surface_walk = surface_walk_name(variant);
+        stats.settings.kernel_form = Some(opts.form.name().into());
         stats.time.phases = run.phases(&p);
         stats.accel_bytes = accel_bytes(&p.packed, p.tables.as_ref());
         stats.texture_bytes = std::mem::size_of_val(p.packed.texels.as_slice()) as u64;
@@ -347,7 +352,7 @@ impl GpuRenderer {
         let params = p.packed.params;
         let compile_s = made_s + self.warm_up(variant, pipelines, &buffers, &params)?;
         let wavefront = p.queues.is_some();
-        let plan = wavefront.then(|| WavePlan::new(variant, p.opts.max_depth, p.retries));
+        let plan = wavefront.then(|| WavePlan::new(variant, p.opts.max_depth, p.retries, p.opts.form));
         let kernels = match pipelines.iter().find(|p| p.0.kernel == Kernel::Aov) {
             Some((_, aov)) => Pipelines::Single(aov),
             None => Pipelines::Wavefront(pipelines),
@@ -385,7 +390,8 @@ impl GpuRenderer {
             gpu_s: schedule.gpu_s(),
             kernel_s: schedule.kernel_s(),
             depth_s: schedule.depth_s(),
-            lanes: (variant.counters && wavefront).then_some(lanes),
+            // The lane coherence is the wavefront kernels' (by kernel and depth).
+            lanes: (variant.counters && wavefront && p.opts.form != KernelForm::Tree).then_some(lanes),
             compile_s,
             upload_s,
             loop_s,

@@ -126,8 +126,8 @@ pub struct Schedule {
     timed: bool,
     timer: Option<Timer>,
     gpu_s: f64,
-    /// Kernel time by kernel: nearest, shade, shadow, resolve (or the single kernel).
-    kernel_s: [f64; 4],
+    /// Kernel time by kernel: nearest, shade, shadow, resolve (or the single kernel), tree.
+    kernel_s: [f64; 5],
     /// The wavefront kernels' time by depth (index depth − 1): nearest, shade, shadow.
     depth_s: [[f64; 3]; MAX_DEPTH as usize],
     last_submit: Duration,
@@ -147,6 +147,7 @@ fn kernel_slot(k: Kernel) -> usize {
         Kernel::Nearest => 0,
         Kernel::Shade => 1,
         Kernel::Shadow => 2,
+        Kernel::Tree => 4,
         _ => 3,
     }
 }
@@ -218,7 +219,7 @@ impl Schedule {
             timed,
             timer: None,
             gpu_s: 0.0,
-            kernel_s: [0.0; 4],
+            kernel_s: [0.0; 5],
             depth_s: [[0.0; 3]; MAX_DEPTH as usize],
             last_submit: Duration::ZERO,
             longest_submit: Duration::ZERO,
@@ -291,9 +292,9 @@ impl Schedule {
         self.timer.as_ref().map(|_| self.gpu_s)
     }
 
-    /// Kernel time by kernel (nearest, shade, shadow, resolve; a single kernel counts as
-    /// resolve), when timed.
-    pub fn kernel_s(&self) -> Option<[f64; 4]> {
+    /// Kernel time by kernel (nearest, shade, shadow, resolve, tree; a single kernel counts
+    /// as resolve), when timed.
+    pub fn kernel_s(&self) -> Option<[f64; 5]> {
         self.timer.as_ref().map(|_| self.kernel_s)
     }
 

@@ -27,6 +27,7 @@
 
 pub use super::variant::{Accel, Variant};
 use crate::error::{Error, Result};
+use crate::job::KernelForm;
 
 /// The shader sources, by their path under `shaders/`.
 const SOURCES: &[(&str, &str)] = &[
@@ -35,6 +36,7 @@ const SOURCES: &[(&str, &str)] = &[
     ("shadow.wgsl", include_str!("../../shaders/shadow.wgsl")),
     ("resolve.wgsl", include_str!("../../shaders/resolve.wgsl")),
     ("aov.wgsl", include_str!("../../shaders/aov.wgsl")),
+    ("tree.wgsl", include_str!("../../shaders/tree.wgsl")),
     ("accumulate.wgsl", include_str!("../../shaders/accumulate.wgsl")),
     ("display.wgsl", include_str!("../../shaders/display.wgsl")),
     ("shared/layout.wgsl", include_str!("../../shaders/shared/layout.wgsl")),
@@ -49,6 +51,7 @@ const SOURCES: &[(&str, &str)] = &[
     ("shared/bvh.wgsl", include_str!("../../shaders/shared/bvh.wgsl")),
     ("shared/rayquery.wgsl", include_str!("../../shaders/shared/rayquery.wgsl")),
     ("shared/sampling.wgsl", include_str!("../../shaders/shared/sampling.wgsl")),
+    ("shared/primary.wgsl", include_str!("../../shaders/shared/primary.wgsl")),
     ("shared/bilinear.wgsl", include_str!("../../shaders/shared/bilinear.wgsl")),
     ("shared/texture.wgsl", include_str!("../../shaders/shared/texture.wgsl")),
     ("shared/environment.wgsl", include_str!("../../shaders/shared/environment.wgsl")),
@@ -72,6 +75,9 @@ pub enum Kernel {
     Resolve,
     /// Writes depth, normal or object id from the eye ray through each pixel centre.
     Aov,
+    /// The register form ([`KernelForm::Tree`]): traces each point's whole ray tree
+    /// of one sample, depth first, and adds its radiance once.
+    Tree,
     /// The preview's accumulation of a finished tile.
     Accumulate,
     /// The preview's display pass (vertex `vs_main`, fragment `fs_main`).
@@ -79,12 +85,13 @@ pub enum Kernel {
 }
 
 impl Kernel {
-    pub const ALL: [Kernel; 7] = [
+    pub const ALL: [Kernel; 8] = [
         Kernel::Nearest,
         Kernel::Shade,
         Kernel::Shadow,
         Kernel::Resolve,
         Kernel::Aov,
+        Kernel::Tree,
         Kernel::Accumulate,
         Kernel::Display,
     ];
@@ -109,6 +116,25 @@ impl Kernel {
         k
     }
 
+    /// The kernels a render of `variant` runs in `form` (resolved), `untabled_eye` where the
+    /// tables left the eye without one: [`Kernel::wavefront`] or
+    /// [`Kernel::wavefront_untabled_eye`]; in the register form the `tree` kernel, one
+    /// module for every depth (in the variant of [`Depths::Untabled`] where the eye has no
+    /// table), and `resolve`.
+    pub fn traced(form: KernelForm, variant: Variant, untabled_eye: bool) -> Vec<Stage> {
+        match (form, untabled_eye) {
+            (KernelForm::Tree, _) => {
+                let depths = if untabled_eye { Depths::Untabled } else { Depths::All };
+                vec![
+                    Stage { kernel: Kernel::Tree, depths },
+                    Stage { kernel: Kernel::Resolve, depths: Depths::All },
+                ]
+            }
+            (_, true) => Kernel::wavefront_untabled_eye(variant),
+            (_, false) => Kernel::wavefront(variant),
+        }
+    }
+
     /// [`Kernel::wavefront`] for a render with the tables whose eye has none (`--accel
     /// auto` left it without): the eye's rays walk what the later depths' rays walk, so one
     /// `nearest` module, the later depths', serves every depth.
@@ -131,6 +157,7 @@ impl Kernel {
             Kernel::Shadow => "shadow",
             Kernel::Resolve => "resolve",
             Kernel::Aov => "aov",
+            Kernel::Tree => "tree",
             Kernel::Accumulate => "accumulate",
             Kernel::Display => "display",
         }
@@ -220,14 +247,32 @@ fn compose_from(sources: &[(&str, &str)], root: &str, variant: Variant) -> Resul
     // WGSL wants its `enable` directives before any declaration.
     let mut out = if variant.ray_queries() { "enable wgpu_ray_query;\n".to_string() } else { String::new() };
     let mut included = Vec::new();
-    expand(sources, root, variant, &mut out, &mut included)?;
+    let flags = Flags { variant, tree: root == Kernel::Tree.file() };
+    expand(sources, root, flags, &mut out, &mut included)?;
     Ok(out)
+}
+
+/// The preprocessor's flags: the variant's, and `TREE`, set in the `tree` kernel's module
+/// (the hooks of `shared/shade.wgsl` that differ between the kernel forms).
+#[derive(Clone, Copy)]
+struct Flags {
+    variant: Variant,
+    tree: bool,
+}
+
+impl Flags {
+    fn get(self, name: &str) -> Option<bool> {
+        match name {
+            "TREE" => Some(self.tree),
+            _ => self.variant.flag(name),
+        }
+    }
 }
 
 fn expand(
     sources: &[(&str, &str)],
     file: &str,
-    variant: Variant,
+    flags: Flags,
     out: &mut String,
     included: &mut Vec<String>,
 ) -> Result<()> {
@@ -249,7 +294,7 @@ fn expand(
         let t = line.trim();
         if let Some(name) = t.strip_prefix("#if ") {
             let name = name.trim();
-            let on = variant.flag(name).ok_or_else(|| err(n, format!("unknown flag {name}")))?;
+            let on = flags.get(name).ok_or_else(|| err(n, format!("unknown flag {name}")))?;
             let outer = active(&stack);
             stack.push((on, outer, false));
         } else if t == "#else" {
@@ -263,7 +308,7 @@ fn expand(
         } else if let Some(rest) = t.strip_prefix("#include ") {
             if active(&stack) {
                 let name = rest.trim().trim_matches('"');
-                expand(sources, name, variant, out, included)?;
+                expand(sources, name, flags, out, included)?;
             }
         } else if t.starts_with('#') {
             return Err(err(n, format!("unknown directive {t}")));

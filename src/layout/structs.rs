@@ -252,6 +252,12 @@ pub struct Pending64 {
 /// The deepest ray tree the kernels trace (WGSL `MAX_DEPTH`).
 pub const MAX_DEPTH: u32 = 16;
 
+/// The `tree` kernel's private stack of pending rays (WGSL `TREE_STACK`, `shaders/tree.wgsl`):
+/// a ray spawns at most three rays one depth deeper (a pass-through, a refraction, a
+/// reflection), so a depth-first walk of a tree of at most [`MAX_DEPTH`] depths keeps at most
+/// two unexplored siblings of each depth above the ray traced, and three of the deepest.
+pub const TREE_STACK: u32 = 2 * MAX_DEPTH + 1;
+
 /// A walk interrupted between passes (WGSL `WalkState`, keep in sync with
 /// `shaders/shared/wavefront.wgsl`): where the walk stands, and for a nearest-hit walk the
 /// winner so far with the tie rule's window and least t ([`crate::arith::closest`]).

@@ -53,7 +53,8 @@ fn all_used(family: &[Binding], used: &[u32], what: &str) {
 fn the_tracing_kernels_bind_the_scene_family() {
     let family: Vec<Binding> = SceneBinding::ALL.iter().map(|b| b.binding()).collect();
     let mut used = Vec::new();
-    let tracing = [Kernel::Nearest, Kernel::Shade, Kernel::Shadow, Kernel::Resolve, Kernel::Aov];
+    let tracing =
+        [Kernel::Nearest, Kernel::Shade, Kernel::Shadow, Kernel::Resolve, Kernel::Aov, Kernel::Tree];
     for f64 in [false, true] {
         let variants = Accel::GPU.map(|a| Variant { f64, ..Variant::full(a) }).into_iter().chain([
             Variant { f64, ..Variant::full(Accel::Cube) }.with_surface_rq(true),

@@ -1,13 +1,15 @@
-//! The platform's ray queries give the bytes of brute force: `--accel rayquery` (every ray)
-//! and `cube` with `--surface-walk rayquery` (the rays leaving surfaces), in f32 and f64, with
-//! the same ray counts, on the SPD databases at size 1, DamagedHelmet under the studio
-//! environment (whose sixteen directional lights send every shadow ray to the ray queries),
-//! every scene in `scenes/hard/`, and the project's maps scenes (alpha mask and blend
-//! included).
+//! The platform's ray queries and the register form of the kernels give the bytes of brute
+//! force's wavefront: `--accel rayquery` (every ray) and `cube` with `--surface-walk
+//! rayquery` (the rays leaving surfaces), and the tables with the BVH in `--kernel-form
+//! tree`, in f32 and f64, with the same ray counts, on the SPD
+//! databases at size 1, DamagedHelmet under the studio environment (whose sixteen directional
+//! lights send every shadow ray to the ray queries), every scene in `scenes/hard/`, and the
+//! project's maps scenes (alpha mask and blend included).
 //!
 //! They need an adapter with ray queries: a GPU with ray tracing, or Mesa's lavapipe from 24.1
-//! on. On Debian 12, whose Mesa 22.3 has none, `bash .ci/setup` unpacks bookworm-backports'
-//! Mesa into `target/lavapipe-rq` beside the system's (`.ci/lavapipe-rq.sh`). Each test here
+//! on, which also has no loop limit, so that it runs the tree form. On Debian 12, whose Mesa
+//! 22.3 has neither, `bash .ci/setup` unpacks bookworm-backports' Mesa into
+//! `target/lavapipe-rq` beside the system's (`.ci/lavapipe-rq.sh`). Each test here
 //! runs its renders in a child process of this test binary (the ignored tests of `child`)
 //! whose Vulkan loader that file's variables point at that lavapipe; elsewhere the child uses
 //! the system's driver. A child that finds no ray queries fails, saying how to get them.
@@ -15,7 +17,7 @@
 use std::path::{Path, PathBuf};
 
 use cuberay::gpu::GpuRenderer;
-use cuberay::job::{Accel, Precision, RenderOptions, SurfaceWalk};
+use cuberay::job::{Accel, KernelForm, Precision, RenderOptions, SurfaceWalk};
 use cuberay::load;
 use cuberay::scene::Scene;
 
@@ -78,28 +80,37 @@ fn scene(path: &Path) -> Scene {
     loaded.scene
 }
 
-/// Renders `scene` at `size`² by brute force and with ray queries (every ray, and in f32 the
-/// rays leaving surfaces under the tables), in f32 and f64, and returns every difference: a
-/// pixel's bits or a ray count. (The BVH and the tables with it give brute force's bytes in
-/// `gpu::accels::accels_match_brute_force` and its kin; each further accelerator here would
-/// cost a cold compile of every kernel on CI's first run.)
+/// Renders `scene` at `size`² by brute force in the wavefront form, with ray queries (every
+/// ray, and in f32 the rays leaving surfaces under the tables) and with the tables and the
+/// BVH in the tree form, in f32 and f64, and returns every difference: a pixel's bits, a ray
+/// count, or the form or walk a render says it took. (The BVH and the tables give brute
+/// force's bytes in the wavefront form in `gpu::accels::accels_match_brute_force` and its
+/// kin, on the system's driver; the tree form's one loop is the same whatever the
+/// accelerator, and `matrix` renders it with each in every command. Each further
+/// accelerator here would cost a cold compile of its kernels on CI's first run.)
 fn differences(r: &GpuRenderer, name: &str, scene: &Scene, size: u32) -> Vec<String> {
+    use KernelForm::{Tree, Wavefront};
     let mut found = Vec::new();
     for precision in [Precision::F32, Precision::F64] {
-        let opts =
-            |accel, surface| RenderOptions { accel, surface, precision, ..RenderOptions::new(size, size) };
-        let render = |accel, surface| {
-            r.render(scene, &opts(accel, surface), &indicatif::ProgressBar::hidden())
+        let render = |accel, surface, form| {
+            let opts = RenderOptions { accel, surface, precision, form, ..RenderOptions::new(size, size) };
+            r.render(scene, &opts, &indicatif::ProgressBar::hidden())
                 .unwrap_or_else(|e| panic!("{name}: {e}"))
         };
-        let brute = render(Accel::Brute, SurfaceWalk::Bvh);
-        let mut others = vec![("rayquery", Accel::RayQuery, SurfaceWalk::Bvh)];
+        let brute = render(Accel::Brute, SurfaceWalk::Bvh, Wavefront);
+        let mut others = vec![
+            ("rayquery", Accel::RayQuery, SurfaceWalk::Bvh, Wavefront),
+            ("cube with the BVH", Accel::Cube, SurfaceWalk::Bvh, Tree),
+        ];
         if precision == Precision::F32 {
-            others.push(("cube with ray queries", Accel::Cube, SurfaceWalk::RayQuery));
+            others.push(("cube with ray queries", Accel::Cube, SurfaceWalk::RayQuery, Wavefront));
         }
-        for (label, accel, surface) in others {
-            let a = render(accel, surface);
-            let what = format!("{name} {}, {label}", precision.name());
+        for (label, accel, surface, form) in others {
+            let a = render(accel, surface, form);
+            let what = format!("{name} {}, {label}, {} form", precision.name(), form.name());
+            if a.stats.settings.kernel_form.as_deref() != Some(form.name()) {
+                found.push(format!("{what}: the kernels say {:?}", a.stats.settings.kernel_form));
+            }
             let expect_surface = (accel == Accel::Cube && a.stats.rays.reflect + a.stats.rays.refract > 0)
                 .then(|| surface.name().to_string());
             if accel == Accel::Cube
@@ -203,6 +214,35 @@ fn rayquery_is_refused_clearly_where_the_adapter_has_none() {
     assert!(walked == Some("bvh") || (r.ctx.ray_queries && walked == Some("rayquery")), "{walked:?}");
 }
 
+/// `--kernel-form tree` on a driver that ends long loops (this process's: on Debian 12 the
+/// system's Mesa 22.3) is refused naming the adapter, the limit and what to use instead, and
+/// `auto` takes the wavefront there; on a driver without the limit both forms render, to
+/// the same bytes.
+#[test]
+fn the_tree_form_is_refused_clearly_where_the_driver_limits_loops() {
+    let r = crate::common::renderer();
+    let s = scene(&hard("parallel_mirrors.nff"));
+    let render = |form| {
+        let opts = RenderOptions { form, ..RenderOptions::new(16, 16) };
+        r.render(&s, &opts, &indicatif::ProgressBar::hidden())
+    };
+    let auto = render(KernelForm::Auto).unwrap();
+    let tree = render(KernelForm::Tree);
+    if cuberay::gpu::choose::loop_limited(&r.caps) {
+        let e = tree.err().expect("the tree form is refused").to_string();
+        assert!(
+            e.contains("--kernel-form tree") && e.contains(&r.ctx.info.name) && e.contains("65535"),
+            "{e}"
+        );
+        assert_eq!(auto.stats.settings.kernel_form.as_deref(), Some("wavefront"));
+    } else {
+        let tree = tree.unwrap();
+        let wavefront = render(KernelForm::Wavefront).unwrap();
+        assert_eq!(tree.stats.settings.kernel_form.as_deref(), Some("tree"));
+        assert!(first_difference(&tree.image, &wavefront.image).is_none(), "the forms' images differ");
+    }
+}
+
 /// The renders, each in a process whose adapter has ray queries (see the module doc); ignored
 /// on their own.
 mod child {
@@ -215,7 +255,7 @@ mod child {
             "balls", "gears", "jacks", "lattice", "mount", "rings", "shells", "sombrero", "teapot", "tetra",
             "tree",
         ];
-        assert_identical(&named(dbs.map(|db| shared(&format!("spd/nff/{db}_s1.nff")))), 40);
+        assert_identical(&named(dbs.map(|db| shared(&format!("spd/nff/{db}_s1.nff")))), 128);
     }
 
     #[test]

@@ -3,7 +3,7 @@
 //! module. (The twins of the shared structs and constants are checked in `twins.rs`.)
 
 use cuberay::gpu::shaders::{compose, Accel, Kernel, Variant};
-use cuberay::job::RenderOptions;
+use cuberay::job::{KernelForm, RenderOptions};
 use cuberay::load;
 use cuberay::scene::Shapes;
 use naga::valid::{Capabilities, ValidationFlags, Validator};
@@ -13,14 +13,15 @@ fn module_of(k: Kernel, v: Variant) -> naga::Module {
     naga::front::wgsl::parse_str(&src).unwrap_or_else(|e| panic!("{k:?} {v:?}: {}", e.emit_to_string(&src)))
 }
 
-/// The modules of the kernels that trace and shade a render of variant `v` (`nearest`,
-/// `shade` and, with shadows, `shadow`).
+/// The modules of the kernels that trace and shade a render of variant `v` in either form
+/// (`nearest`, `shade` and, with shadows, `shadow`; `tree`).
 struct Wavefront(Vec<naga::Module>);
 
 fn module(v: Variant) -> Wavefront {
     Wavefront(
         Kernel::wavefront(v)
             .into_iter()
+            .chain(Kernel::traced(KernelForm::Tree, v, false))
             .filter(|s| s.kernel != Kernel::Resolve)
             .map(|s| module_of(s.kernel, s.variant(v)))
             .collect(),
@@ -57,7 +58,7 @@ fn every_kernel_and_variant_validates() {
             assert_eq!(n, 1, "{v:?}: depth {depth}");
         }
         let stages = wavefront.into_iter().map(|s| (s.kernel, s.variant(v)));
-        for (k, v) in stages.chain([(Kernel::Aov, v)]) {
+        for (k, v) in stages.chain([(Kernel::Aov, v), (Kernel::Tree, v)]) {
             let m = module_of(k, v);
             let mut caps = Capabilities::default();
             caps.set(Capabilities::FLOAT64, v.f64);

@@ -239,6 +239,7 @@ fn rust_constants() -> BTreeMap<&'static str, Value> {
     use Value::*;
     BTreeMap::from([
         ("MAX_DEPTH", U32(MAX_DEPTH)),
+        ("TREE_STACK", U32(TREE_STACK)),
         ("QUEUE_RAY0", U32(QUEUE_RAY0)),
         ("QUEUE_RAY1", U32(QUEUE_RAY1)),
         ("QUEUE_RETRY0", U32(QUEUE_RETRY0)),

@@ -66,6 +66,7 @@ impl Session {
             variant(&self.scene, &self.opts, self.toggles, self.opts.max_depth, self.accel),
             depth,
             retry_passes(&self.scene, self.walks.as_ref()),
+            self.opts.form,
         );
         if self.coarse.as_ref().is_none_or(|c| c.grid != grid) {
             let (w, h) = (self.opts.width, self.opts.height);

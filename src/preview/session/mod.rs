@@ -41,7 +41,7 @@ use crate::gpu::prepare::{self, queue_sizes, Prepared, Purpose, TableSet};
 use crate::gpu::schedule::{Pacing, Schedule, WavePlan};
 use crate::gpu::shaders::{Accel, Kernel, Variant};
 use crate::gpu::{GpuRenderer, SceneBuffers};
-use crate::job::{grid_image, Precision, RenderOptions};
+use crate::job::{grid_image, KernelForm, Precision, RenderOptions};
 use crate::layout::budget::{check_loop_budget, retry_passes, MAX_DEPTH};
 use crate::layout::{pack, pack_moved, Packed, Params};
 use crate::output::Image;
@@ -209,17 +209,18 @@ impl Session {
         let (buffers, tables) = upload_with_room(&gpu, &mut p, &scene)?;
         let wants_tables = tables.is_some();
         let base = p.packed.params;
-        let pipelines = compile(&gpu, p.variant, &buffers, &base)?;
+        let pipelines = compile(&gpu, p.variant, p.opts.form, &buffers, &base)?;
         if wants_tables {
             // The kernels a camera move traces with while the eye's table is rebuilt.
-            compile(&gpu, variant(&scene, &p.opts, toggles, p.opts.max_depth, Accel::Bvh), &buffers, &base)?;
+            let bvh = variant(&scene, &p.opts, toggles, p.opts.max_depth, Accel::Bvh);
+            compile(&gpu, bvh, p.opts.form, &buffers, &base)?;
         }
         let (ctx, grid) = (&gpu.ctx, p.opts.grid());
         let total = grid.0 as u64 * grid.1 as u64;
         let accum = accumulation(ctx, "preview accumulation", total)?;
         let accumulator = Accumulator::new(ctx)?;
         let accum_bind = accumulator.bind(ctx, &buffers, &accum);
-        let plan = WavePlan::new(p.variant, p.opts.max_depth, p.retries);
+        let plan = WavePlan::new(p.variant, p.opts.max_depth, p.retries, p.opts.form);
         let schedule = Schedule::new(ctx, total, buffers.tile, Some(plan), PACING, false);
         let mut s = Session {
             base,
@@ -378,7 +379,7 @@ impl Session {
             check_loop_budget(&self.scene, walks.as_ref(), Some(MAX_DEPTH))?;
         }
         let v = variant(&self.scene, &self.opts, self.toggles, self.opts.max_depth, accel);
-        let pipelines = compile(&self.gpu, v, &self.buffers, &self.base)?;
+        let pipelines = compile(&self.gpu, v, self.opts.form, &self.buffers, &self.base)?;
         let ctx = &self.gpu.ctx;
         let in_place = tables.as_ref().is_none_or(|t| self.buffers.rewrite_tables(ctx, &t.flat))
             && self.buffers.rewrite_moved(ctx, &packed);
@@ -395,7 +396,7 @@ impl Session {
         self.accel = accel;
         self.walks = walks;
         let retries = retry_passes(&self.scene, self.walks.as_ref());
-        self.schedule.set_plan(&self.gpu.ctx, WavePlan::new(v, self.opts.max_depth, retries));
+        self.schedule.set_plan(&self.gpu.ctx, WavePlan::new(v, self.opts.max_depth, retries, self.opts.form));
         self.set_base(&packed.params);
         Ok(())
     }
@@ -432,7 +433,7 @@ impl Session {
         }
         self.base.set_max_depth(max_depth);
         let retries = retry_passes(&self.scene, self.walks.as_ref());
-        let plan = WavePlan::new(v, max_depth, retries);
+        let plan = WavePlan::new(v, max_depth, retries, self.opts.form);
         self.schedule.set_plan(&self.gpu.ctx, plan);
         self.restart();
         Ok(())
@@ -441,7 +442,7 @@ impl Session {
     /// Traces with the wavefront kernels of `v` from now on, compiled and warmed up on first
     /// use.
     fn use_kernel(&mut self, v: Variant) -> Result<()> {
-        self.pipelines = compile(&self.gpu, v, &self.buffers, &self.base)?;
+        self.pipelines = compile(&self.gpu, v, self.opts.form, &self.buffers, &self.base)?;
         Ok(())
     }
 
@@ -534,10 +535,11 @@ impl Session {
 fn compile(
     gpu: &GpuRenderer,
     v: Variant,
+    form: KernelForm,
     buffers: &SceneBuffers,
     base: &Params,
 ) -> Result<Vec<StagePipeline>> {
-    let pipelines = gpu.pipelines(&Kernel::wavefront(v), v)?;
+    let pipelines = gpu.pipelines(&Kernel::traced(form, v, false), v)?;
     gpu.warm_up(v, &pipelines, buffers, base)?;
     Ok(pipelines)
 }
