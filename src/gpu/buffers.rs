@@ -155,7 +155,7 @@ fn work_buffer(b: SceneBinding, sizes: BufferSizes, job_bytes: u64) -> Option<(u
         Queues => (4 * QUEUE_WORDS as u64, U::STORAGE | U::COPY_SRC | U::COPY_DST),
         PassDesc => (std::mem::size_of::<crate::layout::PassDesc>() as u64, U::STORAGE | U::COPY_DST),
         // Each tile point's radiance in fixed point (6 words a point).
-        Accum => (if sizes.wavefront { sizes.tile * 24 } else { 24 }, U::STORAGE | U::COPY_DST),
+        Accum => (if sizes.sums { sizes.tile * 24 } else { 24 }, U::STORAGE | U::COPY_DST),
         _ => return None,
     })
 }
@@ -309,21 +309,30 @@ pub struct BufferSizes {
     pub ray_queue: u32,
     pub shadow_queue: u32,
     pub jobs_bytes: u64,
-    /// Whether the buffers hold the wavefront's queues (else the `aov` kernel's buffers).
-    pub wavefront: bool,
+    /// Whether the buffers hold each tile point's radiance sum (the wavefront's and the tree
+    /// form's; else the `aov` kernel's buffers).
+    pub sums: bool,
 }
 
 impl BufferSizes {
     /// The sizes for tiles of up to `tile` points, with the wavefront's queues of `queues`
-    /// per point (`None`: the `aov` kernel's buffers) of jobs of `job_bytes`, on an adapter
-    /// whose bindings hold `max_binding` bytes (fewer points where it calls for it).
-    pub fn fit(tile: u64, queues: Option<QueueSizes>, job_bytes: u64, max_binding: u64) -> BufferSizes {
-        let per_point = queues.map_or(16, |q| (q.jobs_per_point() * job_bytes).max(24));
+    /// per point (`None`: none, for the tree form or the `aov` kernel) of jobs of
+    /// `job_bytes`, and with the points' radiance sums where `sums`, on an adapter whose
+    /// bindings hold `max_binding` bytes (fewer points where it calls for it).
+    pub fn fit(
+        tile: u64,
+        queues: Option<QueueSizes>,
+        sums: bool,
+        job_bytes: u64,
+        max_binding: u64,
+    ) -> BufferSizes {
+        let bare = if sums { 24 } else { 16 };
+        let per_point = queues.map_or(bare, |q| (q.jobs_per_point() * job_bytes).max(24));
         let tile = fit_tile(tile, per_point, max_binding);
         let ray_queue = queues.map_or(0, |q| tile * q.rays_per_point as u64) as u32;
         let shadow_queue = queues.map_or(0, |q| ray_queue as u64 * q.shadows_per_ray as u64) as u32;
         let jobs_bytes = (QUEUE_SHADOW as u64 * ray_queue as u64 + 3 * shadow_queue as u64) * job_bytes;
-        BufferSizes { tile, ray_queue, shadow_queue, jobs_bytes, wavefront: queues.is_some() }
+        BufferSizes { tile, ray_queue, shadow_queue, jobs_bytes, sums }
     }
 }
 

@@ -351,8 +351,9 @@ impl GpuRenderer {
         let upload_s = start.elapsed().as_secs_f64();
         let params = p.packed.params;
         let compile_s = made_s + self.warm_up(variant, pipelines, &buffers, &params)?;
-        let wavefront = p.queues.is_some();
-        let plan = wavefront.then(|| WavePlan::new(variant, p.opts.max_depth, p.retries, p.opts.form));
+        // Every render but an AOV's runs waves, of either form.
+        let waves = p.sizes.sums;
+        let plan = waves.then(|| WavePlan::new(variant, p.opts.max_depth, p.retries, p.opts.form));
         let kernels = match pipelines.iter().find(|p| p.0.kernel == Kernel::Aov) {
             Some((_, aov)) => Pipelines::Single(aov),
             None => Pipelines::Wavefront(pipelines),
@@ -391,7 +392,7 @@ impl GpuRenderer {
             kernel_s: schedule.kernel_s(),
             depth_s: schedule.depth_s(),
             // The lane coherence is the wavefront kernels' (by kernel and depth).
-            lanes: (variant.counters && wavefront && p.opts.form != KernelForm::Tree).then_some(lanes),
+            lanes: (variant.counters && waves && p.opts.form != KernelForm::Tree).then_some(lanes),
             compile_s,
             upload_s,
             loop_s,

@@ -236,6 +236,14 @@ enum Value {
 
 /// Every shared constant's Rust twin.
 fn rust_constants() -> BTreeMap<&'static str, Value> {
+    let mut all = wavefront_constants();
+    all.extend(layout_constants());
+    all
+}
+
+/// The twins of the wavefront's and the walks' constants (`wavefront.wgsl`, the walks, the
+/// tie rule, the tree form's stack).
+fn wavefront_constants() -> BTreeMap<&'static str, Value> {
     use Value::*;
     BTreeMap::from([
         ("MAX_DEPTH", U32(MAX_DEPTH)),
@@ -267,6 +275,13 @@ fn rust_constants() -> BTreeMap<&'static str, Value> {
         ("ANY_CLEAR", U32(AnyHit::Clear as u32)),
         ("ANY_BLOCKED", U32(AnyHit::Blocked as u32)),
         ("ANY_UNFINISHED", U32(AnyHit::Unfinished as u32)),
+    ])
+}
+
+/// The twins of the layout's, the counters', the BVH's and the display's constants.
+fn layout_constants() -> BTreeMap<&'static str, Value> {
+    use Value::*;
+    BTreeMap::from([
         ("WORKGROUP", U32(WORKGROUP)),
         ("KIND_SPHERE", U32(KIND_SPHERE)),
         ("KIND_TRIANGLE", U32(KIND_TRIANGLE)),

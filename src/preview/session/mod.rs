@@ -409,11 +409,12 @@ impl Session {
     }
 
     /// Uploads `packed` (with `tables`) into buffers with the queues of the scene's every
-    /// effect, for tiles as large as the current ones.
+    /// effect (the wavefront form's), for tiles as large as the current ones.
     fn upload(&self, packed: &Packed, tables: Option<&FlatTables>) -> Result<SceneBuffers> {
-        let queues = queue_sizes(&self.scene, Variant::for_effects(self.scene.effects(), MAX_DEPTH));
-        let sizes =
-            BufferSizes::fit(self.buffers.tile, Some(queues), packed.job_bytes(), self.gpu.caps.max_binding);
+        let every = Variant::for_effects(self.scene.effects(), MAX_DEPTH);
+        let queues = (self.opts.form != KernelForm::Tree).then(|| queue_sizes(&self.scene, every));
+        let max_binding = self.gpu.caps.max_binding;
+        let sizes = BufferSizes::fit(self.buffers.tile, queues, true, packed.job_bytes(), max_binding);
         self.gpu.upload(packed, tables, sizes)
     }
 
