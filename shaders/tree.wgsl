@@ -1,4 +1,4 @@
-// The `tree` kernel, the register form of the kernels (src/gpu/plan.rs, `Form::Tree`): each
+// The `tree` kernel, the register form of the kernels (`KernelForm::Tree`, src/job.rs): each
 // invocation traces the whole ray tree of one sample of one tile point, depth first, its
 // pending rays on a private stack and its radiance in a private sum, which it adds to the
 // point once. The walks, the shading, the spawned rays and the tie rule are the wavefront's

@@ -1,11 +1,11 @@
 // Whitted shading and the ray trees, as the CPU reference shades (src/reference/shade.rs,
 // written independently in f64). A hit sends its radiance to its point and spawns rays, each
-// carrying the weight its radiance contributes with, through three hooks that are the only
-// difference between the two kernel forms (src/gpu/plan.rs, `Form`): `spawn_ray` and
-// `send` push into the current pass's queues and add to the accumulator in the wavefront
-// kernels, and keep the rays on the invocation's own stack and the radiance in its own sum
-// in the `tree` kernel (TREE, tree.wgsl); a shadow walk too long to trace at its hit becomes
-// a job in the wavefront and is walked on at once in the tree.
+// carrying the weight its radiance contributes with, through two hooks that, with the long
+// shadow walks, are the only difference between the two kernel forms (`KernelForm`,
+// src/job.rs): `spawn_ray` and `send` push into the current pass's queues and add to the
+// accumulator in the wavefront kernels, and keep the rays on the invocation's own stack and
+// the radiance in its own sum in the `tree` kernel (TREE, tree.wgsl); a shadow walk too long
+// to trace at its hit becomes a job in the wavefront and is walked on at once in the tree.
 
 struct Incidence {
     ok: bool,

@@ -334,6 +334,11 @@ impl BufferSizes {
         let jobs_bytes = (QUEUE_SHADOW as u64 * ray_queue as u64 + 3 * shadow_queue as u64) * job_bytes;
         BufferSizes { tile, ray_queue, shadow_queue, jobs_bytes, sums }
     }
+
+    /// The same tiles without the queues (the tree form's buffers).
+    pub fn without_queues(self) -> BufferSizes {
+        BufferSizes { ray_queue: 0, shadow_queue: 0, jobs_bytes: 0, ..self }
+    }
 }
 
 /// Uploads `packed` (with its BVH, if any, and the candidate tables, when traced) and creates the kernels'

@@ -89,8 +89,6 @@ pub struct Prepared {
     pub retries: u32,
     /// The buffers' tile and queues.
     pub sizes: BufferSizes,
-    /// The wavefront's queues per point (`None`: the tree form and the `aov` kernel have none).
-    pub queues: Option<QueueSizes>,
     /// Seconds the preparation took (packing, the tables and the BVH).
     pub preprocess_s: f64,
     /// Of those, the tables' build (0 with stored ones) and the BVH's.
@@ -270,9 +268,7 @@ pub fn build(
         check_loop_budget(scene, walks.as_ref(), wavefront)?;
     }
     let traces = !matches!(purpose, Purpose::Aov(_));
-    let wave_queues = traces.then(|| queue_sizes(scene, serves));
-    // The tree form keeps its rays in its invocations: no queues.
-    let queues = wave_queues.filter(|_| opts.form != KernelForm::Tree);
+    let queues = traces.then(|| queue_sizes(scene, serves));
     // No larger than the grid it traces: a small image allocates (and zeroes) no queues it
     // cannot fill, which cost a 64² render a third of its time.
     let points = match purpose {
@@ -281,11 +277,13 @@ pub fn build(
         Purpose::Preview { .. } => opts.grid().0 as u64 * opts.grid().1 as u64,
     };
     let tile = budget::tile_points(scene, walks.as_ref(), TESTS_PER_DISPATCH).min(whole_groups(points));
-    // Tiles as the wavefront's queues allow, in either form: the tree form's larger tiles
-    // without them measured slower (mount_s6 on Mesa 25.0: 1.07×, its longest dispatch 76 ms
-    // against 47).
-    let tile = BufferSizes::fit(tile, wave_queues, traces, packed.job_bytes(), caps.max_binding).tile;
-    let sizes = BufferSizes::fit(tile, queues, traces, packed.job_bytes(), caps.max_binding);
+    let mut sizes = BufferSizes::fit(tile, queues, traces, packed.job_bytes(), caps.max_binding);
+    // The tree form keeps its rays in its invocations: no queues. Its tiles stay as the
+    // queues allow: larger ones measured slower (mount_s6 on Mesa 25.0: 1.07×, its longest
+    // dispatch 76 ms against 47).
+    if opts.form == KernelForm::Tree {
+        sizes = sizes.without_queues();
+    }
     let job = match purpose {
         Purpose::Aov(_) => RenderOptions { spp: 1, sampling: Sampling::Pixels, max_depth: 1, ..opts.clone() },
         _ => opts.clone(),
@@ -310,7 +308,6 @@ pub fn build(
         tables,
         walks,
         sizes,
-        queues,
         preprocess_s: start.elapsed().as_secs_f64(),
     })
 }

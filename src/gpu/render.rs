@@ -36,11 +36,13 @@ pub struct GpuRenderer {
 }
 
 /// What a run over the grid returns: one `vec4<f32>` per grid point, the counters, the
-/// kernel time (in all and by kernel: nearest, shade, shadow, resolve or the single kernel),
-/// the warm-up (compilation) time and the longest submission.
+/// kernel time (in all and by kernel: nearest, shade, shadow, resolve or the single kernel,
+/// tree), the warm-up (compilation) time and the longest submission.
 struct RunOutput {
     values: Vec<[f32; 4]>,
     counters: Counters,
+    /// The form the kernels traced in.
+    form: KernelForm,
     gpu_s: Option<f64>,
     kernel_s: Option<[f64; 5]>,
     /// The wavefront kernels' time by depth (nearest, shade, shadow), when timed.
@@ -79,10 +81,9 @@ impl RunOutput {
     /// `trace_s`; `aov`: the kernel was the AOV pass, `shadows`: the shadow kernel ran.
     fn times(&self, preprocess_s: f64, trace_s: f64, aov: bool, shadows: bool) -> stats::Times {
         let k = self.kernel_s;
-        let tree = k.is_some_and(|k| k[4] > 0.0);
         let kernel = if aov {
             stats::KernelTimes { aov: k.map(|k| k[3]), ..Default::default() }
-        } else if tree {
+        } else if self.form == KernelForm::Tree {
             stats::KernelTimes { tree: k.map(|k| k[4]), resolve: k.map(|k| k[3]), ..Default::default() }
         } else {
             stats::KernelTimes {
@@ -388,6 +389,7 @@ impl GpuRenderer {
         Ok(RunOutput {
             values,
             counters,
+            form: p.opts.form,
             gpu_s: schedule.gpu_s(),
             kernel_s: schedule.kernel_s(),
             depth_s: schedule.depth_s(),
